@@ -1,0 +1,25 @@
+//! GEMA2 segmentation (paper section 4): a scan becomes samples with error bounds (eqs. 1-2),
+//! lines inferred with the *line visibility* estimator (eq. 3, Codes 1-2), filtered lines
+//! (section 4.3) and corners ranked by quality (eq. 4).
+//!
+//! Internally the paper's (u, v) sensor frame is replaced by the REP 103 sensor frame (x
+//! forward, y left): the geometry is the same up to a rotation, and everything this crate
+//! returns is in the frame the rest of the project uses.
+
+pub mod corner;
+pub mod filter;
+pub mod fit;
+pub mod inference;
+pub mod line;
+pub mod sample;
+pub mod segmenter;
+pub mod visibility;
+
+pub use corner::{Arm, Corner, CornerConfig, CornerRanking};
+pub use filter::FilterConfig;
+pub use line::Line;
+pub use sample::{ErrorModel, Sample};
+pub use segmenter::{
+    LineVisibilitySegmenter, SegmentTimes, Segmentation, Segmenter, SegmenterConfig,
+};
+pub use visibility::LineVisibility;

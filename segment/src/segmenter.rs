@@ -1,0 +1,114 @@
+//! The segmentation stage as one object: scan in, lines and corners out, buffers reused.
+
+use crate::corner::{extract_corners, Corner, CornerConfig};
+use crate::filter::{filter_lines, FilterConfig};
+use crate::inference::infer_lines;
+use crate::line::Line;
+use crate::sample::{build_samples, ErrorModel, Sample};
+use laser::ScanView;
+use serde::{Deserialize, Serialize};
+use std::time::{Duration, Instant};
+
+/// Everything the segmentation stage needs to know.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct SegmenterConfig {
+    /// e(d) of the sensor (section 3).
+    pub error: ErrorModel,
+    /// Readings averaged into one sample (section 4.1); 1 keeps every reading.
+    pub averaging: usize,
+    pub filter: FilterConfig,
+    pub corner: CornerConfig,
+}
+
+impl Default for SegmenterConfig {
+    fn default() -> Self {
+        SegmenterConfig {
+            error: ErrorModel::default(),
+            averaging: 1,
+            filter: FilterConfig::default(),
+            corner: CornerConfig::default(),
+        }
+    }
+}
+
+/// What segmentation produced for one scan.
+#[derive(Clone, Debug, Default)]
+pub struct Segmentation {
+    pub samples: Vec<Sample>,
+    /// L: lines as line visibility inferred them (lines of one sample are not kept).
+    pub raw_lines: Vec<Line>,
+    /// L': lines after filtering (section 4.3).
+    pub lines: Vec<Line>,
+    /// C: corners, best quality first.
+    pub corners: Vec<Corner>,
+    /// Time spent building samples, inferring lines, and filtering + extracting corners.
+    pub times: SegmentTimes,
+}
+
+/// Per-step compute time of one segmentation.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct SegmentTimes {
+    pub samples: Duration,
+    pub inference: Duration,
+    pub corners: Duration,
+}
+
+/// A segmentation implementation, chosen by name at start-up.
+pub trait Segmenter: Send {
+    /// The implementation's name, as published in message headers.
+    fn name(&self) -> &'static str;
+    /// Segments one scan; the result borrows the segmenter's reusable buffers.
+    fn segment(&mut self, scan: &ScanView<'_>) -> &Segmentation;
+}
+
+/// The paper's segmentation: line visibility (Codes 1-2), filtering, corners.
+#[derive(Clone, Debug)]
+pub struct LineVisibilitySegmenter {
+    pub config: SegmenterConfig,
+    out: Segmentation,
+}
+
+impl LineVisibilitySegmenter {
+    pub fn new(config: SegmenterConfig) -> Self {
+        LineVisibilitySegmenter {
+            config,
+            out: Segmentation::default(),
+        }
+    }
+}
+
+impl Segmenter for LineVisibilitySegmenter {
+    fn name(&self) -> &'static str {
+        "line-visibility"
+    }
+
+    fn segment(&mut self, scan: &ScanView<'_>) -> &Segmentation {
+        let c = &self.config;
+        let out = &mut self.out;
+        let t0 = Instant::now();
+        build_samples(scan, &c.error, c.averaging, &mut out.samples);
+        let t1 = Instant::now();
+        infer_lines(
+            &out.samples,
+            scan.geometry.angle_increment,
+            &c.error,
+            &mut out.raw_lines,
+        );
+        let t2 = Instant::now();
+        filter_lines(
+            &out.raw_lines,
+            &out.samples,
+            &c.error,
+            &c.filter,
+            &mut out.lines,
+        );
+        extract_corners(&out.lines, &c.corner, &mut out.corners);
+        let t3 = Instant::now();
+        out.times = SegmentTimes {
+            samples: t1 - t0,
+            inference: t2 - t1,
+            corners: t3 - t2,
+        };
+        out
+    }
+}

@@ -1,0 +1,345 @@
+//! The line visibility estimator (section 4.2, eq. 3, Code 2).
+//!
+//! For the samples of the line being grown, `V_min` and `V_max` are the extreme lines that
+//! cross every sample's uncertainty range `[near, far]`. Where they cross the next beam gives
+//! the visibility `[d_min, d_max]`; a sample belongs to the line iff its own range overlaps it
+//! (eq. 3).
+//!
+//! `V_max` always passes through the far bound of the sample that last forced an update (the
+//! pivot) and the near bound of the most restrictive earlier sample; `V_min` the other way
+//! round. When a new sample forces an update, the new most restrictive sample is searched only
+//! from the previous one onwards (Code 2's `pos_min`): samples before it can never become more
+//! restrictive, so there are no rescans.
+
+use crate::sample::Sample;
+use nalgebra::{Point2, Vector2};
+
+/// A bound line through `pivot`'s bound and `constraint`'s opposite bound (indices into the
+/// sample slice).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+struct Bound {
+    pivot: usize,
+    constraint: usize,
+}
+
+/// The line visibility `V_l = (d_min, d_max)` of the line being inferred.
+#[derive(Clone, Debug)]
+pub struct LineVisibility {
+    start: usize,
+    len: usize,
+    v_max: Option<Bound>,
+    v_min: Option<Bound>,
+    /// Most restrictive sample for `V_max` (Code 2's `pos_min`, kept across calls).
+    restrictive_max: usize,
+    /// Most restrictive sample for `V_min`.
+    restrictive_min: usize,
+    /// +1 when beams turn counter-clockwise, -1 otherwise: which side earlier samples lie on.
+    turn: f64,
+}
+
+impl LineVisibility {
+    /// A visibility for an empty line; `angle_increment` gives the beams' turning direction.
+    pub fn new(angle_increment: f64) -> Self {
+        LineVisibility {
+            start: 0,
+            len: 0,
+            v_max: None,
+            v_min: None,
+            restrictive_max: 0,
+            restrictive_min: 0,
+            turn: if angle_increment < 0.0 { -1.0 } else { 1.0 },
+        }
+    }
+
+    /// Starts a new line whose first sample is `samples[j]`.
+    pub fn restart(&mut self, j: usize) {
+        self.start = j;
+        self.len = 1;
+        self.v_max = None;
+        self.v_min = None;
+        self.restrictive_max = j;
+        self.restrictive_min = j;
+    }
+
+    /// Number of samples in the line.
+    pub fn len(&self) -> usize {
+        self.len
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.len == 0
+    }
+
+    /// `[d_min, d_max]` along the beam of `s`: where `V_min` and `V_max` cross it. Unbounded
+    /// sides (a line of one sample, or a bound line that never reaches the beam) are 0 / +inf.
+    pub fn bounds(&self, samples: &[Sample], s: &Sample) -> (f64, f64) {
+        let d_min = self
+            .v_min
+            .and_then(|b| {
+                hit(
+                    samples[b.pivot].near_point(),
+                    samples[b.constraint].far_point(),
+                    s.dir,
+                )
+            })
+            .unwrap_or(0.0);
+        let d_max = self
+            .v_max
+            .and_then(|b| {
+                hit(
+                    samples[b.pivot].far_point(),
+                    samples[b.constraint].near_point(),
+                    s.dir,
+                )
+            })
+            .unwrap_or(f64::INFINITY);
+        (d_min, d_max)
+    }
+
+    /// Eq. 3: whether `s` can join the line, `[near, far]` overlapping `[d_min, d_max]`.
+    pub fn admits(&self, samples: &[Sample], s: &Sample) -> bool {
+        if self.len == 0 {
+            return true;
+        }
+        let (d_min, d_max) = self.bounds(samples, s);
+        s.near <= d_max && s.far >= d_min
+    }
+
+    /// Adds `samples[j]` (which must follow the line's last sample) and updates `V_min` and
+    /// `V_max` as in Code 2.
+    pub fn include(&mut self, samples: &[Sample], j: usize) {
+        if self.len == 0 {
+            self.restart(j);
+            return;
+        }
+        let s = &samples[j];
+        let (d_min, d_max) = self.bounds(samples, s);
+        if s.far < d_max {
+            // Case B for V_max: pivot on s's far bound, constrained by an earlier near bound.
+            let p = self.most_restrictive(samples, j, s.far_point(), self.restrictive_max, true);
+            self.v_max = Some(Bound {
+                pivot: j,
+                constraint: p,
+            });
+            self.restrictive_max = p;
+        }
+        if s.near > d_min {
+            // The symmetric update of V_min: pivot on s's near bound, constrained by an
+            // earlier far bound.
+            let p = self.most_restrictive(samples, j, s.near_point(), self.restrictive_min, false);
+            self.v_min = Some(Bound {
+                pivot: j,
+                constraint: p,
+            });
+            self.restrictive_min = p;
+        }
+        self.len += 1;
+    }
+
+    /// Code 2's loop: among samples `from..j`, the one whose bound (near for `V_max`, far for
+    /// `V_min`) makes the line through `pivot` most restrictive. Measured as the angle between
+    /// the line and the direction from `pivot` back to the sensor: `V_max` takes the largest,
+    /// `V_min` the smallest. Compared with cross products, no trigonometry.
+    fn most_restrictive(
+        &self,
+        samples: &[Sample],
+        j: usize,
+        pivot: Point2<f64>,
+        from: usize,
+        for_max: bool,
+    ) -> usize {
+        let bound = |k: usize| -> Vector2<f64> {
+            let q = if for_max {
+                samples[k].near_point()
+            } else {
+                samples[k].far_point()
+            };
+            q - pivot
+        };
+        let mut best = from;
+        let mut best_dir = bound(from);
+        for k in from + 1..j {
+            let dir = bound(k);
+            // Earlier samples lie on one side of the beam; on that side, `dir` makes a larger
+            // angle with the direction to the sensor than `best_dir` iff it is turned further
+            // against the beams' turning direction.
+            let turned = self.turn * cross(&best_dir, &dir);
+            let larger = turned > 0.0;
+            if larger == for_max && turned != 0.0 {
+                best = k;
+                best_dir = dir;
+            }
+        }
+        best
+    }
+}
+
+#[inline]
+fn cross(a: &Vector2<f64>, b: &Vector2<f64>) -> f64 {
+    a.x * b.y - a.y * b.x
+}
+
+/// Distance along the unit beam `dir` (from the sensor) at which the line through `a` and `b`
+/// crosses it; `None` when it is parallel or crosses behind the sensor.
+#[inline]
+pub(crate) fn hit(a: Point2<f64>, b: Point2<f64>, dir: Vector2<f64>) -> Option<f64> {
+    let e = b - a;
+    let den = cross(&dir, &e);
+    if den.abs() < 1e-12 * e.norm().max(1e-12) {
+        return None;
+    }
+    let t = cross(&a.coords, &e) / den;
+    (t > 0.0 && t.is_finite()).then_some(t)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sample::{build_samples, ErrorModel};
+    use laser::{ScanGeometry, ScanView};
+    use proptest::prelude::*;
+
+    /// Samples of a straight wall `n . p = c` seen by beams `first..first + n` of `g`, plus
+    /// deterministic noise (`noise[k]` in metres, or in error bands when `in_bands`).
+    fn wall_samples(
+        g: &ScanGeometry,
+        first: usize,
+        n: usize,
+        normal_angle: f64,
+        c: f64,
+        e: &ErrorModel,
+        noise: &[f64],
+        in_bands: bool,
+    ) -> Vec<Sample> {
+        let nv = Vector2::new(normal_angle.cos(), normal_angle.sin());
+        let ranges: Vec<f32> = (first..first + n)
+            .map(|i| {
+                let a = g.angle(i);
+                let t = c / nv.dot(&Vector2::new(a.cos(), a.sin()));
+                let k = noise[i % noise.len()];
+                (t + if in_bands { k * e.at(t) } else { k }) as f32
+            })
+            .collect();
+        let geometry = ScanGeometry {
+            angle_min: g.angle(first),
+            range_max: 100.0,
+            ..*g
+        };
+        let mut samples = Vec::new();
+        build_samples(
+            &ScanView {
+                geometry,
+                ranges: &ranges,
+            },
+            e,
+            1,
+            &mut samples,
+        );
+        assert_eq!(samples.len(), n);
+        samples
+    }
+
+    /// Brute force: every line through two bounds that crosses every sample's range; the
+    /// smallest and largest distance at which they cross the next beam.
+    fn brute_bounds(samples: &[Sample], next: &Sample) -> Option<(f64, f64)> {
+        let mut pts = Vec::new();
+        for s in samples {
+            pts.push(s.near_point());
+            pts.push(s.far_point());
+        }
+        let mut lo = f64::INFINITY;
+        let mut hi = f64::NEG_INFINITY;
+        for a in 0..pts.len() {
+            for b in a + 1..pts.len() {
+                if (pts[a] - pts[b]).norm() < 1e-9 {
+                    continue;
+                }
+                let stabs = samples.iter().all(|s| match hit(pts[a], pts[b], s.dir) {
+                    Some(t) => t >= s.near - 1e-9 && t <= s.far + 1e-9,
+                    None => false,
+                });
+                if stabs {
+                    if let Some(t) = hit(pts[a], pts[b], next.dir) {
+                        lo = lo.min(t);
+                        hi = hi.max(t);
+                    }
+                }
+            }
+        }
+        (lo <= hi).then_some((lo, hi))
+    }
+
+    #[test]
+    fn accepts_every_sample_of_a_noisy_straight_wall() {
+        let g = ScanGeometry::urg04lx();
+        // noise of 80 % of e(d) at every reading, alternating sign: the worst zig-zag
+        let e = ErrorModel::default();
+        let seen = wall_samples(&g, 200, 300, 0.3, 2.0, &e, &[0.8, -0.8], true);
+        let mut v = LineVisibility::new(g.angle_increment);
+        for (j, s) in seen.iter().enumerate() {
+            assert!(v.admits(&seen, s), "sample {j} of a straight wall rejected");
+            v.include(&seen, j);
+        }
+        assert_eq!(v.len(), 300);
+    }
+
+    #[test]
+    fn rejects_a_sample_whose_band_misses_every_line_through_the_wall() {
+        let g = ScanGeometry::urg04lx();
+        let e = ErrorModel::PAPER;
+        let seen = wall_samples(&g, 300, 30, 0.0, 1.5, &e, &[0.0], false);
+        let mut v = LineVisibility::new(g.angle_increment);
+        for j in 0..20 {
+            v.include(&seen, j);
+        }
+        let on = seen[20];
+        assert!(v.admits(&seen, &on));
+        // every line through the previous bands lies within about one band of the wall, so a
+        // sample whose own band starts more than a band away (and a little wedge) is rejected
+        for off in [-2.2, 2.2] {
+            let d = on.d + off * e.at(on.d);
+            let moved = Sample {
+                d,
+                near: d - e.at(d),
+                far: d + e.at(d),
+                ..on
+            };
+            assert!(
+                !v.admits(&seen, &moved),
+                "a sample {off} error bands off was admitted"
+            );
+            let (lo, hi) = brute_bounds(&seen[..20], &moved).unwrap();
+            assert!(moved.far < lo || moved.near > hi, "brute force disagrees");
+        }
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(256))]
+        /// The incremental bounds of Code 2 (with the stored most-restrictive index) equal the
+        /// brute-force extremes of all lines through the samples' ranges.
+        #[test]
+        fn incremental_bounds_equal_brute_force(
+            normal_angle in -0.6f64..0.6,
+            c in 0.5f64..4.0,
+            first in 250usize..400,
+            n in 3usize..12,
+            noise in proptest::collection::vec(-0.012f64..0.012, 16),
+        ) {
+            let g = ScanGeometry::urg04lx();
+            let e = ErrorModel::PAPER;
+            let seen = wall_samples(&g, first, n + 1, normal_angle, c, &e, &noise, false);
+            let mut v = LineVisibility::new(g.angle_increment);
+            for j in 0..n {
+                prop_assert!(v.admits(&seen, &seen[j]));
+                v.include(&seen, j);
+                if j >= 1 {
+                    let next = &seen[j + 1];
+                    let (lo, hi) = v.bounds(&seen, next);
+                    let (blo, bhi) = brute_bounds(&seen[..=j], next).expect("a wall has stabbing lines");
+                    prop_assert!((lo - blo).abs() < 1e-6, "d_min {} vs brute {}", lo, blo);
+                    prop_assert!((hi - bhi).abs() < 1e-6, "d_max {} vs brute {}", hi, bhi);
+                }
+            }
+        }
+    }
+}
