@@ -1,1 +1,8 @@
-pub fn x() {}
+//! GEMA2 laser sources: CARMEN log replay and a laser simulator (the Hokuyo SCIP 2.0 driver
+//! comes in its own module).
+
+pub mod carmen;
+pub mod sim;
+
+pub use carmen::{write_robotlaser1, CarmenReader, FlaserLayout, LogError, LogScan};
+pub use sim::{Obstacles, Scenario, SensorModel, Simulator};

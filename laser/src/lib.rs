@@ -10,6 +10,7 @@
 
 mod geometry;
 mod pose;
+pub mod rng;
 
 pub use geometry::{Reading, ScanGeometry, MIN_VALID_RANGE};
 pub use pose::{angle_diff, pose, pose_theta, wrap_angle, Pose};

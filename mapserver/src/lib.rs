@@ -1,1 +1,17 @@
-pub fn x() {}
+//! GEMA2 maps: the JSON wall map, its corners sorted by inner angle (section 5.1), and the
+//! spatial structures the localizer needs: ray casting for eq. 7's expected ranges, a
+//! truncated distance field, and nearest-wall queries.
+
+pub mod corners;
+pub mod field;
+pub mod grid;
+pub mod map;
+pub mod nearest;
+pub mod procedural;
+pub mod raycast;
+
+pub use corners::{CornerIndex, MapArm, MapCorner, MapCornerConfig};
+pub use field::DistanceField;
+pub use map::{MapError, Wall, WallMap};
+pub use nearest::{NearestWall, NearestWalls};
+pub use raycast::{RayCaster, RayScratch};

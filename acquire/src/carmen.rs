@@ -1,0 +1,427 @@
+//! CARMEN text logs (the format of the public Radish data sets): `ROBOTLASER1` and `FLASER`
+//! lines become scans; every other line (PARAM, ODOM, comments...) is skipped. Files ending in
+//! `.gz` are decompressed on the fly. A malformed laser line is an error naming the file and
+//! line; nothing is guessed.
+//!
+//! `ROBOTLASER1 laser_type start_angle fov angular_resolution max_range accuracy
+//! remission_mode n r1..rn m rem1..remm laser_x laser_y laser_theta robot_x robot_y
+//! robot_theta tv rv forward_safety side_safety turn_axis timestamp host logger_timestamp`.
+//! Lines without the leading `laser_type` are accepted too: the layout is recognised by where
+//! the counts fall. The laser pose is the truth (corrected logs, the simulator).
+//!
+//! `FLASER n r1..rn x y theta odom_x odom_y odom_theta timestamp host logger_timestamp`: a 180
+//! degree scan from -pi/2, step pi/(n-1) for n in {181, 361}, pi/n for n in {180, 360}
+//! (overridable with [`FlaserLayout`]).
+
+use laser::{LaserScan, Pose, ScanGeometry};
+use std::fmt::Write as _;
+use std::io::{BufRead, BufReader, Read, Write};
+use std::path::{Path, PathBuf};
+use thiserror::Error;
+
+#[derive(Debug, Error)]
+pub enum LogError {
+    #[error("{path}: cannot read the log: {source}")]
+    Io {
+        path: PathBuf,
+        source: std::io::Error,
+    },
+    #[error("{path}:{line}: {message}")]
+    Line {
+        path: PathBuf,
+        line: usize,
+        message: String,
+    },
+}
+
+/// How FLASER lines (which carry no angles) are laid out.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FlaserLayout {
+    /// Angle of the first beam; -pi/2 by default.
+    pub start_angle: f64,
+    /// Beam spacing; `None` derives it from n as described in the module docs.
+    pub increment: Option<f64>,
+    /// Readings at or beyond this are "no return" (SICK logs use 50-82 m for that).
+    pub range_max: f64,
+}
+
+impl Default for FlaserLayout {
+    fn default() -> Self {
+        FlaserLayout {
+            start_angle: -std::f64::consts::FRAC_PI_2,
+            increment: None,
+            range_max: 50.0,
+        }
+    }
+}
+
+/// One laser line of a log.
+#[derive(Clone, Debug, PartialEq)]
+pub struct LogScan {
+    /// 1-based line number in the file.
+    pub line: usize,
+    pub scan: LaserScan,
+}
+
+/// Streams the laser lines of a CARMEN log.
+pub struct CarmenReader {
+    reader: Box<dyn BufRead + Send>,
+    path: PathBuf,
+    line: usize,
+    buf: String,
+    layout: FlaserLayout,
+}
+
+impl CarmenReader {
+    /// Opens a log file (`.gz` is decompressed).
+    pub fn open(path: &Path, layout: FlaserLayout) -> Result<Self, LogError> {
+        let file = std::fs::File::open(path).map_err(|source| LogError::Io {
+            path: path.to_owned(),
+            source,
+        })?;
+        let inner: Box<dyn Read + Send> = if path.extension().is_some_and(|e| e == "gz") {
+            Box::new(flate2::read::MultiGzDecoder::new(file))
+        } else {
+            Box::new(file)
+        };
+        Ok(Self::from_reader(
+            Box::new(BufReader::with_capacity(1 << 16, inner)),
+            path,
+            layout,
+        ))
+    }
+
+    /// Reads from any source; `path` names it in errors.
+    pub fn from_reader(reader: Box<dyn BufRead + Send>, path: &Path, layout: FlaserLayout) -> Self {
+        CarmenReader {
+            reader,
+            path: path.to_owned(),
+            line: 0,
+            buf: String::new(),
+            layout,
+        }
+    }
+
+    fn error(&self, message: impl Into<String>) -> LogError {
+        LogError::Line {
+            path: self.path.clone(),
+            line: self.line,
+            message: message.into(),
+        }
+    }
+}
+
+impl Iterator for CarmenReader {
+    type Item = Result<LogScan, LogError>;
+
+    fn next(&mut self) -> Option<Self::Item> {
+        loop {
+            self.buf.clear();
+            match self.reader.read_line(&mut self.buf) {
+                Ok(0) => return None,
+                Ok(_) => {}
+                Err(source) => {
+                    return Some(Err(LogError::Io {
+                        path: self.path.clone(),
+                        source,
+                    }))
+                }
+            }
+            self.line += 1;
+            let mut tokens = self.buf.split_ascii_whitespace();
+            let parsed = match tokens.next() {
+                Some("ROBOTLASER1") => parse_robotlaser1(&tokens.collect::<Vec<_>>()),
+                Some("FLASER") => parse_flaser(&tokens.collect::<Vec<_>>(), &self.layout),
+                _ => continue,
+            };
+            return Some(match parsed {
+                Ok(scan) => Ok(LogScan {
+                    line: self.line,
+                    scan,
+                }),
+                Err(message) => Err(self.error(message)),
+            });
+        }
+    }
+}
+
+fn num(tokens: &[&str], k: usize, what: &str) -> Result<f64, String> {
+    let t = tokens
+        .get(k)
+        .ok_or_else(|| format!("line ends before {what} (token {})", k + 1))?;
+    let v: f64 = t
+        .parse()
+        .map_err(|_| format!("{what}: {t:?} is not a number"))?;
+    if v.is_nan() && what != "range" {
+        return Err(format!("{what} is NaN"));
+    }
+    Ok(v)
+}
+
+fn count(tokens: &[&str], k: usize, what: &str) -> Result<usize, String> {
+    let t = tokens
+        .get(k)
+        .ok_or_else(|| format!("line ends before {what}"))?;
+    t.parse::<usize>()
+        .map_err(|_| format!("{what}: {t:?} is not a count"))
+}
+
+fn ranges(tokens: &[&str], first: usize, n: usize) -> Result<Vec<f32>, String> {
+    if n > 100_000 {
+        return Err(format!("{n} readings is not a laser scan"));
+    }
+    (first..first + n)
+        .map(|k| num(tokens, k, "range").map(|v| v as f32))
+        .collect()
+}
+
+fn finite_pose(x: f64, y: f64, t: f64) -> Result<Pose, String> {
+    if x.is_finite() && y.is_finite() && t.is_finite() {
+        Ok(laser::pose(x, y, t))
+    } else {
+        Err("pose is not finite".into())
+    }
+}
+
+fn parse_robotlaser1(t: &[&str]) -> Result<LaserScan, String> {
+    // with laser_type first the reading count is token 7, without it token 6
+    let with_type = t.len() > 7 && t[0].parse::<u32>().is_ok() && layout_fits(t, 7);
+    let base = if with_type {
+        1
+    } else if layout_fits(t, 6) {
+        0
+    } else {
+        return Err(
+            "ROBOTLASER1: the reading and remission counts do not match the line's length".into(),
+        );
+    };
+    let start = num(t, base, "start_angle")?;
+    let fov = num(t, base + 1, "fov")?;
+    let res = num(t, base + 2, "angular_resolution")?;
+    let max_range = num(t, base + 3, "max_range")?;
+    let n = count(t, base + 6, "reading count")?;
+    let r = ranges(t, base + 7, n)?;
+    let m = count(t, base + 7 + n, "remission count")?;
+    let p = base + 8 + n + m;
+    let truth = finite_pose(
+        num(t, p, "laser_x")?,
+        num(t, p + 1, "laser_y")?,
+        num(t, p + 2, "laser_theta")?,
+    )?;
+    let increment = if res > 0.0 {
+        res
+    } else if n > 1 {
+        fov / (n - 1) as f64
+    } else {
+        0.0
+    };
+    let geometry = ScanGeometry {
+        angle_min: start,
+        angle_increment: increment,
+        range_min: laser::MIN_VALID_RANGE,
+        range_max: max_range,
+    };
+    if !geometry.is_well_formed() {
+        return Err(format!("ROBOTLASER1: unusable scan layout (start {start}, resolution {res}, max range {max_range})"));
+    }
+    let stamp = t
+        .get(p + 11)
+        .and_then(|s| s.parse::<f64>().ok())
+        .unwrap_or(f64::NAN);
+    Ok(LaserScan {
+        geometry,
+        ranges: r,
+        stamp,
+        truth: Some(truth),
+    })
+}
+
+/// Whether the reading count at `k` and the remission count after the readings leave room for
+/// the two poses.
+fn layout_fits(t: &[&str], k: usize) -> bool {
+    let Some(n) = t.get(k).and_then(|s| s.parse::<usize>().ok()) else {
+        return false;
+    };
+    let Some(m) = t.get(k + 1 + n).and_then(|s| s.parse::<usize>().ok()) else {
+        return false;
+    };
+    t.len() >= k + 2 + n + m + 6
+}
+
+fn parse_flaser(t: &[&str], layout: &FlaserLayout) -> Result<LaserScan, String> {
+    let n = count(t, 0, "FLASER reading count")?;
+    if n < 2 {
+        return Err("FLASER: fewer than two readings".into());
+    }
+    let r = ranges(t, 1, n)?;
+    let truth = finite_pose(
+        num(t, n + 1, "x")?,
+        num(t, n + 2, "y")?,
+        num(t, n + 3, "theta")?,
+    )?;
+    let pi = std::f64::consts::PI;
+    let increment = layout.increment.unwrap_or(match n {
+        180 | 360 => pi / n as f64,
+        _ => pi / (n - 1) as f64,
+    });
+    let geometry = ScanGeometry {
+        angle_min: layout.start_angle,
+        angle_increment: increment,
+        range_min: laser::MIN_VALID_RANGE,
+        range_max: layout.range_max,
+    };
+    let stamp = t
+        .get(n + 7)
+        .and_then(|s| s.parse::<f64>().ok())
+        .unwrap_or(f64::NAN);
+    Ok(LaserScan {
+        geometry,
+        ranges: r,
+        stamp,
+        truth: Some(truth),
+    })
+}
+
+/// Writes a scan as a `ROBOTLASER1` line (laser pose = truth, or zeros when unknown).
+pub fn write_robotlaser1(w: &mut impl Write, scan: &LaserScan) -> std::io::Result<()> {
+    let g = &scan.geometry;
+    let n = scan.ranges.len();
+    let fov = g.angle_increment * n.saturating_sub(1) as f64;
+    let mut s = String::with_capacity(16 + 8 * n);
+    let _ = write!(
+        s,
+        "ROBOTLASER1 0 {:.9} {:.9} {:.9} {:.3} 0.01 0 {n}",
+        g.angle_min, fov, g.angle_increment, g.range_max
+    );
+    for r in &scan.ranges {
+        let _ = write!(s, " {r:.4}");
+    }
+    let (x, y, th) = match &scan.truth {
+        Some(p) => (p.translation.x, p.translation.y, laser::pose_theta(p)),
+        None => (0.0, 0.0, 0.0),
+    };
+    let stamp = if scan.stamp.is_finite() {
+        scan.stamp
+    } else {
+        0.0
+    };
+    let _ = writeln!(
+        s,
+        " 0 {x:.6} {y:.6} {th:.6} {x:.6} {y:.6} {th:.6} 0 0 0 0 0 {stamp:.6} gema2 {stamp:.6}"
+    );
+    w.write_all(s.as_bytes())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    fn read(text: &str) -> Vec<Result<LogScan, LogError>> {
+        let r = CarmenReader::from_reader(
+            Box::new(std::io::Cursor::new(text.as_bytes().to_vec())),
+            Path::new("t.log"),
+            FlaserLayout::default(),
+        );
+        r.collect()
+    }
+
+    #[test]
+    fn robotlaser1_round_trips_through_the_writer() {
+        let scan = LaserScan {
+            geometry: ScanGeometry::urg04lx(),
+            ranges: (0..682).map(|i| 0.5 + i as f32 * 0.001).collect(),
+            stamp: 12.5,
+            truth: Some(laser::pose(1.0, -2.0, 0.5)),
+        };
+        let mut out = Vec::new();
+        write_robotlaser1(&mut out, &scan).unwrap();
+        let text = format!("PARAM x 1\n# comment\n{}", String::from_utf8(out).unwrap());
+        let got = read(&text);
+        assert_eq!(got.len(), 1);
+        let got = got.into_iter().next().unwrap().unwrap();
+        assert_eq!(got.line, 3);
+        assert_eq!(got.scan.ranges.len(), 682);
+        assert!((got.scan.geometry.angle_min - scan.geometry.angle_min).abs() < 1e-8);
+        assert!((got.scan.geometry.angle_increment - scan.geometry.angle_increment).abs() < 1e-8);
+        let t = got.scan.truth.unwrap();
+        assert!((t.translation.x - 1.0).abs() < 1e-9 && (laser::pose_theta(&t) - 0.5).abs() < 1e-9);
+        assert!((got.scan.stamp - 12.5).abs() < 1e-9);
+    }
+
+    #[test]
+    fn robotlaser1_without_laser_type_is_recognised() {
+        let line = "ROBOTLASER1 -1.57 3.14 1.57 80 0.01 0 3 1.0 2.0 3.0 0 1 2 0.3 1 2 0.3 0 0 0 0 0 5.0 h 5.0\n";
+        let got = read(line).remove(0).unwrap();
+        assert_eq!(got.scan.ranges, vec![1.0, 2.0, 3.0]);
+        assert!((got.scan.geometry.angle_increment - 1.57).abs() < 1e-12);
+    }
+
+    #[test]
+    fn flaser_layouts_follow_the_reading_count() {
+        for (n, inc) in [(181usize, 1f64), (180, 1.0), (361, 0.5), (360, 0.5)] {
+            let ranges = vec!["1.5"; n].join(" ");
+            let got = read(&format!(
+                "FLASER {n} {ranges} 1 2 0.1 1 2 0.1 7.0 host 7.0\n"
+            ))
+            .remove(0)
+            .unwrap();
+            assert!(
+                (got.scan.geometry.angle_increment.to_degrees() - inc).abs() < 1e-9,
+                "{n}"
+            );
+            assert!((got.scan.geometry.angle_min + std::f64::consts::FRAC_PI_2).abs() < 1e-12);
+        }
+    }
+
+    #[test]
+    fn malformed_lines_name_the_file_and_line() {
+        let cases = [
+            ("FLASER 3 1 2\n", "t.log:1: line ends before range"),
+            ("FLASER 2 1 2 0.5\n", "t.log:1: line ends before y"),
+            ("ODOM 1 2 3\nFLASER x\n", "t.log:2: FLASER reading count"),
+            (
+                "FLASER 3 1 a 2 0 0 0 0 0 0 1 h 1\n",
+                "t.log:1: range: \"a\"",
+            ),
+            ("FLASER 3 1 1 2 0 nan 0 0 0 0 1 h 1\n", "t.log:1: y is NaN"),
+            (
+                "ROBOTLASER1 0 -1 2 0.5 80 0.01 0 9 1 1\n",
+                "t.log:1: ROBOTLASER1: the reading",
+            ),
+            (
+                "ROBOTLASER1 0 -1 2 0 80 0.01 0 1 1 0 0 0 0 0 0 0 0 0 0 0 0 1 h 1\n",
+                "t.log:1: ROBOTLASER1: unusable",
+            ),
+        ];
+        for (text, want) in cases {
+            let err = read(text).remove(0).unwrap_err().to_string();
+            assert!(err.starts_with(want), "{err:?} vs {want:?}");
+        }
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(2000))]
+        /// Any text: the reader never panics, and every line it reports is a real line.
+        #[test]
+        fn arbitrary_text_never_panics(text in "(ROBOTLASER1|FLASER|ODOM| |[0-9]{1,3}|-?[0-9]\\.[0-9]|nan|inf|x|\n){0,60}") {
+            let lines = text.lines().count().max(1);
+            for item in read(&text) {
+                match item {
+                    Ok(s) => prop_assert!(s.line <= lines),
+                    Err(LogError::Line { line, .. }) => prop_assert!(line <= lines),
+                    Err(e) => prop_assert!(false, "{e}"),
+                }
+            }
+        }
+
+        /// Well-formed FLASER lines with arbitrary numbers parse to the readings written.
+        #[test]
+        fn flaser_numbers_survive(rs in proptest::collection::vec(0.0f32..80.0, 2..400), x in -1e3f64..1e3) {
+            let body: Vec<String> = rs.iter().map(|r| format!("{r}")).collect();
+            let text = format!("FLASER {} {} {x} 0 0 0 0 0 1 h 1\n", rs.len(), body.join(" "));
+            let got = read(&text).remove(0).unwrap();
+            prop_assert_eq!(got.scan.ranges, rs);
+        }
+    }
+}

@@ -1,0 +1,458 @@
+//! A laser simulator: a wall map plus obstacles the map does not know (people, furniture), seen
+//! by a sensor model with range noise, dropouts and mixed pixels at depth jumps.
+//!
+//! Poses are drawn uniformly over the building's free space: at least `clearance` from every
+//! wall, and enclosed (rays in most directions meet a wall), so the robot is never outside.
+
+use laser::rng::Rng;
+use laser::{pose, LaserScan, Pose, ScanGeometry};
+use mapserver::{DistanceField, RayCaster, RayScratch, Wall, WallMap};
+use nalgebra::{Point2, Vector2};
+use std::f64::consts::TAU;
+use std::str::FromStr;
+
+/// Which obstacles the map lacks.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Scenario {
+    /// Walls only.
+    Clean,
+    /// 1-4 people (cylinders of 0.2-0.4 m) within 0.6-3 m of the robot, in view.
+    People,
+    /// 2-5 boxes (0.4-1.6 x 0.3-0.8 m) against walls the robot sees.
+    Furniture,
+}
+
+impl FromStr for Scenario {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "clean" => Ok(Scenario::Clean),
+            "people" => Ok(Scenario::People),
+            "furniture" => Ok(Scenario::Furniture),
+            _ => Err(format!(
+                "unknown scenario {s:?}: clean, people or furniture"
+            )),
+        }
+    }
+}
+
+impl std::fmt::Display for Scenario {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            Scenario::Clean => "clean",
+            Scenario::People => "people",
+            Scenario::Furniture => "furniture",
+        })
+    }
+}
+
+/// How the simulated sensor errs.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SensorModel {
+    pub geometry: ScanGeometry,
+    pub beams: usize,
+    /// Range noise standard deviation: `noise_constant + noise_proportional * range`.
+    pub noise_constant: f64,
+    pub noise_proportional: f64,
+    /// Probability that a reading is lost (reported as 0, an error code).
+    pub dropout: f64,
+    /// Probability that a beam at a depth jump returns a mix of both surfaces.
+    pub mixed_pixel: f64,
+    /// Depth difference between neighbouring beams that counts as a jump, metres.
+    pub jump: f64,
+}
+
+impl SensorModel {
+    /// A Hokuyo URG-04LX: 682 beams over 240 degrees, 0.02-5.6 m, 1 cm + 0.5 % noise.
+    pub fn urg04lx() -> Self {
+        SensorModel {
+            geometry: ScanGeometry::urg04lx(),
+            beams: ScanGeometry::urg04lx_beams(1),
+            noise_constant: 0.01,
+            noise_proportional: 0.005,
+            dropout: 0.005,
+            mixed_pixel: 0.5,
+            jump: 0.15,
+        }
+    }
+
+    /// The URG-04LX field of view sampled with `beams` beams.
+    pub fn urg04lx_with_beams(beams: usize) -> Self {
+        let mut m = Self::urg04lx();
+        let fov = m.geometry.angle_increment * (m.beams - 1) as f64;
+        m.geometry.angle_increment = fov / (beams.max(2) - 1) as f64;
+        m.beams = beams.max(2);
+        m
+    }
+}
+
+/// Obstacles that are in the world but not in the map.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Obstacles {
+    /// Box edges.
+    pub walls: Vec<Wall>,
+    /// People: centre and radius.
+    pub circles: Vec<(Point2<f64>, f64)>,
+}
+
+pub struct Simulator {
+    sensor: SensorModel,
+    scenario: Scenario,
+    caster: RayCaster,
+    field: DistanceField,
+    bounds: (Point2<f64>, Point2<f64>),
+    rng: Rng,
+    scratch: RayScratch,
+    ideal: Vec<f64>,
+    clearance: f64,
+    count: u64,
+    obstacles: Obstacles,
+}
+
+impl Simulator {
+    pub fn new(map: &WallMap, sensor: SensorModel, scenario: Scenario, seed: u64) -> Self {
+        Simulator {
+            sensor,
+            scenario,
+            caster: RayCaster::new(&map.walls),
+            field: DistanceField::new(&map.walls, 0.05, 1.0),
+            bounds: map.bounds(),
+            rng: Rng::new(seed),
+            scratch: RayScratch::default(),
+            ideal: Vec::new(),
+            clearance: 0.35,
+            count: 0,
+            obstacles: Obstacles::default(),
+        }
+    }
+
+    pub fn sensor(&self) -> &SensorModel {
+        &self.sensor
+    }
+
+    /// The obstacles of the last scan.
+    pub fn obstacles(&self) -> &Obstacles {
+        &self.obstacles
+    }
+
+    /// A scan from a random free pose with the scenario's obstacles (scans are 0.1 s apart).
+    pub fn next_scan(&mut self) -> LaserScan {
+        let p = self.random_pose();
+        let obstacles = match self.scenario {
+            Scenario::Clean => Obstacles::default(),
+            Scenario::People => self.people(&p),
+            Scenario::Furniture => self.furniture(&p),
+        };
+        let scan = self.scan_at(&p, &obstacles);
+        self.obstacles = obstacles;
+        scan
+    }
+
+    /// A uniformly drawn pose in free space.
+    pub fn random_pose(&mut self) -> Pose {
+        let (lo, hi) = self.bounds;
+        for _ in 0..100_000 {
+            let q = Point2::new(self.rng.range(lo.x, hi.x), self.rng.range(lo.y, hi.y));
+            if self.field.distance(q) >= self.clearance && self.enclosed(q) {
+                return pose(
+                    q.x,
+                    q.y,
+                    self.rng.range(-std::f64::consts::PI, std::f64::consts::PI),
+                );
+            }
+        }
+        // a map with no enclosed free space: any point clear of walls
+        pose((lo.x + hi.x) / 2.0, (lo.y + hi.y) / 2.0, 0.0)
+    }
+
+    /// Whether rays from `q` meet a wall in at least 14 of 16 directions.
+    fn enclosed(&mut self, q: Point2<f64>) -> bool {
+        let (lo, hi) = self.bounds;
+        let reach = (hi - lo).norm() * 2.0 + 1.0;
+        let g = ScanGeometry {
+            angle_min: 0.0,
+            angle_increment: TAU / 16.0,
+            range_min: 0.0,
+            range_max: reach,
+        };
+        self.caster.cast(
+            &pose(q.x, q.y, 0.0),
+            &g,
+            16,
+            1,
+            &mut self.scratch,
+            &mut self.ideal,
+        );
+        self.ideal.iter().filter(|d| d.is_finite()).count() >= 14
+    }
+
+    /// Simulates the sensor at pose `p` among `obstacles`.
+    pub fn scan_at(&mut self, p: &Pose, obstacles: &Obstacles) -> LaserScan {
+        let s = self.sensor;
+        let g = s.geometry;
+        self.caster
+            .cast(p, &g, s.beams, 1, &mut self.scratch, &mut self.ideal);
+        let origin = Point2::from(p.translation.vector);
+        let theta = p.rotation.angle();
+        for (i, d) in self.ideal.iter_mut().enumerate() {
+            let a = theta + g.angle(i);
+            let dir = Vector2::new(a.cos(), a.sin());
+            for w in &obstacles.walls {
+                if let Some(t) = ray_segment(origin, dir, w) {
+                    *d = d.min(t);
+                }
+            }
+            for &(c, r) in &obstacles.circles {
+                if let Some(t) = ray_circle(origin, dir, c, r) {
+                    *d = d.min(t);
+                }
+            }
+        }
+        let mut ranges: Vec<f32> = Vec::with_capacity(s.beams);
+        for i in 0..s.beams {
+            let mut d = self.ideal[i];
+            // a mixed pixel: the beam straddles a depth jump and returns something in between
+            let neighbour = |k: usize| self.ideal.get(k).copied().unwrap_or(d);
+            let other = if (neighbour(i + 1) - d).abs() > (neighbour(i.wrapping_sub(1)) - d).abs() {
+                neighbour(i + 1)
+            } else {
+                neighbour(i.wrapping_sub(1))
+            };
+            if d.is_finite()
+                && other.is_finite()
+                && other > d + s.jump
+                && other < g.range_max
+                && self.rng.chance(s.mixed_pixel * 0.5)
+            {
+                d += self.rng.range(0.2, 0.8) * (other - d);
+            }
+            let reading = if !d.is_finite() || d >= g.range_max {
+                g.range_max
+            } else if self.rng.chance(s.dropout) {
+                0.0
+            } else {
+                let noisy = d + self.rng.normal() * (s.noise_constant + s.noise_proportional * d);
+                if noisy >= g.range_max {
+                    g.range_max
+                } else {
+                    noisy.max(0.0)
+                }
+            };
+            ranges.push(reading as f32);
+        }
+        let stamp = self.count as f64 * 0.1;
+        self.count += 1;
+        LaserScan {
+            geometry: g,
+            ranges,
+            stamp,
+            truth: Some(*p),
+        }
+    }
+
+    /// A bearing within the field of view, map frame.
+    fn bearing_in_view(&mut self, p: &Pose) -> f64 {
+        let g = self.sensor.geometry;
+        let i = self.rng.range(0.0, (self.sensor.beams - 1) as f64);
+        p.rotation.angle() + g.angle_min + i * g.angle_increment
+    }
+
+    /// The first wall (map only) along a map-frame bearing.
+    fn map_range(&mut self, origin: Point2<f64>, bearing: f64) -> f64 {
+        let g = ScanGeometry {
+            angle_min: 0.0,
+            angle_increment: 1.0,
+            range_min: 0.0,
+            range_max: 1e6,
+        };
+        self.caster.cast(
+            &pose(origin.x, origin.y, bearing),
+            &g,
+            1,
+            1,
+            &mut self.scratch,
+            &mut self.ideal,
+        );
+        self.ideal[0]
+    }
+
+    fn people(&mut self, p: &Pose) -> Obstacles {
+        let origin = Point2::from(p.translation.vector);
+        let want = self.rng.int(1, 4);
+        let mut circles: Vec<(Point2<f64>, f64)> = Vec::new();
+        for _ in 0..50 {
+            if circles.len() == want {
+                break;
+            }
+            let bearing = self.bearing_in_view(p);
+            let dist = self.rng.range(0.6, 3.0);
+            let r = self.rng.range(0.1, 0.2);
+            let c = origin + Vector2::new(bearing.cos(), bearing.sin()) * dist;
+            let free = self.field.distance(c) >= r + 0.05
+                && self.map_range(origin, bearing) > dist + r
+                && circles.iter().all(|&(o, ro)| (o - c).norm() > r + ro + 0.1);
+            if free {
+                circles.push((c, r));
+            }
+        }
+        Obstacles {
+            walls: Vec::new(),
+            circles,
+        }
+    }
+
+    fn furniture(&mut self, p: &Pose) -> Obstacles {
+        let origin = Point2::from(p.translation.vector);
+        let want = self.rng.int(2, 5);
+        let mut boxes: Vec<[Point2<f64>; 4]> = Vec::new();
+        for _ in 0..60 {
+            if boxes.len() == want {
+                break;
+            }
+            let bearing = self.bearing_in_view(p);
+            let d = self.map_range(origin, bearing);
+            if !(1.0..=5.0).contains(&d) {
+                continue;
+            }
+            let hit = origin + Vector2::new(bearing.cos(), bearing.sin()) * d;
+            let Some(wall) = self
+                .caster
+                .walls()
+                .iter()
+                .min_by(|a, b| a.closest(hit).0.total_cmp(&b.closest(hit).0))
+                .copied()
+            else {
+                continue;
+            };
+            let along = (wall.b - wall.a).normalize();
+            let mut normal = Vector2::new(-along.y, along.x);
+            if normal.dot(&(origin - hit)) < 0.0 {
+                normal = -normal;
+            }
+            let (width, depth) = (self.rng.range(0.4, 1.6), self.rng.range(0.3, 0.8));
+            let centre = hit
+                + normal * (depth / 2.0 + 0.01)
+                + along * self.rng.range(-width / 3.0, width / 3.0);
+            let corners = [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)]
+                .map(|(u, v)| centre + along * (u * width / 2.0) + normal * (v * depth / 2.0));
+            let clear_of_robot =
+                (centre - origin).norm() > depth.hypot(width) / 2.0 + self.clearance;
+            let inside = corners.iter().all(|&c| self.field.distance(c) > 0.005)
+                && self.field.distance(centre) >= depth / 2.0 - 0.02;
+            let apart = boxes
+                .iter()
+                .all(|b| (b[0] + (b[2] - b[0]) / 2.0 - centre).norm() > width.max(depth) + 0.2);
+            if clear_of_robot && inside && apart {
+                boxes.push(corners);
+            }
+        }
+        let walls = boxes
+            .iter()
+            .flat_map(|c| {
+                (0..4).map(move |k| Wall {
+                    a: c[k],
+                    b: c[(k + 1) % 4],
+                })
+            })
+            .collect();
+        Obstacles {
+            walls,
+            circles: Vec::new(),
+        }
+    }
+}
+
+fn ray_segment(o: Point2<f64>, dir: Vector2<f64>, w: &Wall) -> Option<f64> {
+    let e = w.b - w.a;
+    let den = dir.perp(&e);
+    if den.abs() < 1e-15 {
+        return None;
+    }
+    let ao = w.a - o;
+    let t = ao.perp(&e) / den;
+    let s = ao.perp(&dir) / den;
+    (t > 0.0 && (0.0..=1.0).contains(&s)).then_some(t)
+}
+
+fn ray_circle(o: Point2<f64>, dir: Vector2<f64>, c: Point2<f64>, r: f64) -> Option<f64> {
+    let oc = o - c;
+    let b = oc.dot(&dir);
+    let disc = b * b - (oc.norm_squared() - r * r);
+    if disc < 0.0 {
+        return None;
+    }
+    let t = -b - disc.sqrt();
+    (t > 0.0).then_some(t)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use mapserver::procedural;
+
+    #[test]
+    fn clean_scans_match_ray_casting_within_the_noise() {
+        let map = procedural::apartment();
+        let mut model = SensorModel::urg04lx();
+        model.dropout = 0.0;
+        model.mixed_pixel = 0.0;
+        let mut sim = Simulator::new(&map, model, Scenario::Clean, 3);
+        let caster = RayCaster::new(&map.walls);
+        for _ in 0..20 {
+            let scan = sim.next_scan();
+            let truth = scan.truth.unwrap();
+            let q = Point2::from(truth.translation.vector);
+            assert!(map.walls.iter().all(|w| w.closest(q).0 >= 0.35));
+            let mut ideal = Vec::new();
+            caster.cast(
+                &truth,
+                &scan.geometry,
+                scan.ranges.len(),
+                1,
+                &mut RayScratch::default(),
+                &mut ideal,
+            );
+            for (r, d) in scan.ranges.iter().zip(&ideal) {
+                if *d < 5.0 {
+                    assert!(
+                        (*r as f64 - d).abs() < 6.0 * (0.01 + 0.005 * d),
+                        "{r} vs {d}"
+                    );
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn scenarios_place_their_obstacles_near_the_robot() {
+        let map = procedural::office(1, 2, 8);
+        let mut sim = Simulator::new(&map, SensorModel::urg04lx(), Scenario::People, 9);
+        let mut people = 0;
+        for _ in 0..30 {
+            let scan = sim.next_scan();
+            let o = Point2::from(scan.truth.unwrap().translation.vector);
+            for &(c, r) in &sim.obstacles().circles {
+                assert!((c - o).norm() <= 3.0 + 1e-9 && (0.1..=0.2).contains(&r));
+                people += 1;
+            }
+        }
+        assert!(people >= 30, "{people}");
+        let mut sim = Simulator::new(&map, SensorModel::urg04lx(), Scenario::Furniture, 9);
+        let mut boxes = 0;
+        for _ in 0..30 {
+            sim.next_scan();
+            boxes += sim.obstacles().walls.len() / 4;
+        }
+        assert!(boxes >= 30, "{boxes}");
+    }
+
+    #[test]
+    fn same_seed_same_log() {
+        let map = procedural::apartment();
+        let mut a = Simulator::new(&map, SensorModel::urg04lx(), Scenario::People, 5);
+        let mut b = Simulator::new(&map, SensorModel::urg04lx(), Scenario::People, 5);
+        for _ in 0..5 {
+            assert_eq!(a.next_scan(), b.next_scan());
+        }
+    }
+}

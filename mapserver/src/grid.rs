@@ -1,0 +1,135 @@
+//! A uniform grid over the map whose cells list the walls within a margin of them: the spatial
+//! index behind ray casting and nearest-wall queries.
+
+use crate::map::Wall;
+use nalgebra::Point2;
+
+#[derive(Clone, Debug)]
+pub struct WallGrid {
+    origin: Point2<f64>,
+    cell: f64,
+    cols: usize,
+    rows: usize,
+    /// Start of each cell's run in `items` (CSR layout, `cols * rows + 1` entries).
+    starts: Vec<u32>,
+    items: Vec<u32>,
+}
+
+impl WallGrid {
+    /// Indexes `walls` in cells of side `cell`; a cell lists every wall closer than `margin` to
+    /// any point of the cell.
+    pub fn new(walls: &[Wall], cell: f64, margin: f64) -> Self {
+        let mut lo = Point2::new(f64::INFINITY, f64::INFINITY);
+        let mut hi = Point2::new(f64::NEG_INFINITY, f64::NEG_INFINITY);
+        for w in walls {
+            lo = lo.inf(&w.a).inf(&w.b);
+            hi = hi.sup(&w.a).sup(&w.b);
+        }
+        if walls.is_empty() {
+            lo = Point2::origin();
+            hi = Point2::origin();
+        }
+        let pad = margin + cell;
+        let origin = Point2::new(lo.x - pad, lo.y - pad);
+        let cols = (((hi.x - lo.x) + 2.0 * pad) / cell).ceil().max(1.0) as usize;
+        let rows = (((hi.y - lo.y) + 2.0 * pad) / cell).ceil().max(1.0) as usize;
+        let half_diag = cell * std::f64::consts::FRAC_1_SQRT_2;
+        let mut per_cell: Vec<Vec<u32>> = vec![Vec::new(); cols * rows];
+        for (k, w) in walls.iter().enumerate() {
+            let reach = margin + cell;
+            let (c0, r0) = Self::clamp_cell(
+                origin,
+                cell,
+                cols,
+                rows,
+                Point2::new(w.a.x.min(w.b.x) - reach, w.a.y.min(w.b.y) - reach),
+            );
+            let (c1, r1) = Self::clamp_cell(
+                origin,
+                cell,
+                cols,
+                rows,
+                Point2::new(w.a.x.max(w.b.x) + reach, w.a.y.max(w.b.y) + reach),
+            );
+            for r in r0..=r1 {
+                for c in c0..=c1 {
+                    let centre = Point2::new(
+                        origin.x + (c as f64 + 0.5) * cell,
+                        origin.y + (r as f64 + 0.5) * cell,
+                    );
+                    if w.closest(centre).0 <= margin + half_diag {
+                        per_cell[r * cols + c].push(k as u32);
+                    }
+                }
+            }
+        }
+        let mut starts = Vec::with_capacity(cols * rows + 1);
+        let mut items = Vec::new();
+        for list in &per_cell {
+            starts.push(items.len() as u32);
+            items.extend_from_slice(list);
+        }
+        starts.push(items.len() as u32);
+        WallGrid {
+            origin,
+            cell,
+            cols,
+            rows,
+            starts,
+            items,
+        }
+    }
+
+    fn clamp_cell(
+        origin: Point2<f64>,
+        cell: f64,
+        cols: usize,
+        rows: usize,
+        p: Point2<f64>,
+    ) -> (usize, usize) {
+        let c = ((p.x - origin.x) / cell)
+            .floor()
+            .clamp(0.0, (cols - 1) as f64) as usize;
+        let r = ((p.y - origin.y) / cell)
+            .floor()
+            .clamp(0.0, (rows - 1) as f64) as usize;
+        (c, r)
+    }
+
+    /// The cell holding `p`, if inside the grid.
+    #[inline]
+    pub fn cell_of(&self, p: Point2<f64>) -> Option<(usize, usize)> {
+        let c = ((p.x - self.origin.x) / self.cell).floor();
+        let r = ((p.y - self.origin.y) / self.cell).floor();
+        (c >= 0.0 && r >= 0.0 && (c as usize) < self.cols && (r as usize) < self.rows)
+            .then_some((c as usize, r as usize))
+    }
+
+    /// Walls listed in cell (c, r).
+    #[inline]
+    pub fn walls_in(&self, c: usize, r: usize) -> &[u32] {
+        let k = r * self.cols + c;
+        &self.items[self.starts[k] as usize..self.starts[k + 1] as usize]
+    }
+
+    /// Walls listed in the cell holding `p` (empty outside the grid).
+    #[inline]
+    pub fn walls_near(&self, p: Point2<f64>) -> &[u32] {
+        match self.cell_of(p) {
+            Some((c, r)) => self.walls_in(c, r),
+            None => &[],
+        }
+    }
+
+    /// Inclusive cell range covering the box [lo, hi], clamped to the grid.
+    pub fn cell_range(&self, lo: Point2<f64>, hi: Point2<f64>) -> ((usize, usize), (usize, usize)) {
+        (
+            Self::clamp_cell(self.origin, self.cell, self.cols, self.rows, lo),
+            Self::clamp_cell(self.origin, self.cell, self.cols, self.rows, hi),
+        )
+    }
+
+    pub fn cell_count(&self) -> usize {
+        self.cols * self.rows
+    }
+}

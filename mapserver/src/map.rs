@@ -1,0 +1,229 @@
+//! The wall map (DESIGN.md): `{"walls": [[x1, y1, x2, y2], ...]}` in metres, map frame. Other
+//! keys are ignored. A malformed file is rejected with the file's name and the offending
+//! element.
+
+use nalgebra::Point2;
+use serde_json::Value;
+use std::path::{Path, PathBuf};
+use thiserror::Error;
+
+/// Walls shorter than this are rejected as degenerate, metres.
+pub const MIN_WALL_LENGTH: f64 = 1e-3;
+
+/// A wall: a segment in the map frame.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Wall {
+    pub a: Point2<f64>,
+    pub b: Point2<f64>,
+}
+
+impl Wall {
+    pub fn new(x1: f64, y1: f64, x2: f64, y2: f64) -> Self {
+        Wall {
+            a: Point2::new(x1, y1),
+            b: Point2::new(x2, y2),
+        }
+    }
+
+    pub fn length(&self) -> f64 {
+        (self.b - self.a).norm()
+    }
+
+    /// Distance from `p` to the segment, and the closest point on it.
+    #[inline]
+    pub fn closest(&self, p: Point2<f64>) -> (f64, Point2<f64>) {
+        let e = self.b - self.a;
+        let len2 = e.norm_squared();
+        let t = if len2 > 0.0 {
+            ((p - self.a).dot(&e) / len2).clamp(0.0, 1.0)
+        } else {
+            0.0
+        };
+        let q = self.a + e * t;
+        ((p - q).norm(), q)
+    }
+}
+
+/// A map of walls.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct WallMap {
+    pub walls: Vec<Wall>,
+}
+
+/// Why a map was rejected.
+#[derive(Debug, Error)]
+pub enum MapError {
+    #[error("{path}: cannot read the map: {source}")]
+    Io {
+        path: PathBuf,
+        source: std::io::Error,
+    },
+    #[error("{path}: not valid JSON at line {line}, column {column}: {message}")]
+    Json {
+        path: PathBuf,
+        line: usize,
+        column: usize,
+        message: String,
+    },
+    #[error("{path}: {message}")]
+    Shape { path: PathBuf, message: String },
+    #[error("{path}: walls[{index}]: {message}")]
+    Wall {
+        path: PathBuf,
+        index: usize,
+        message: String,
+    },
+}
+
+impl WallMap {
+    pub fn new(walls: Vec<Wall>) -> Self {
+        WallMap { walls }
+    }
+
+    /// Loads and validates a JSON map file.
+    pub fn load(path: &Path) -> Result<Self, MapError> {
+        let text = std::fs::read_to_string(path).map_err(|source| MapError::Io {
+            path: path.to_owned(),
+            source,
+        })?;
+        Self::parse(&text, path)
+    }
+
+    /// Parses and validates JSON text; `origin` names the source in errors.
+    pub fn parse(text: &str, origin: &Path) -> Result<Self, MapError> {
+        let path = origin.to_owned();
+        let doc: Value = serde_json::from_str(text).map_err(|e| MapError::Json {
+            path: path.clone(),
+            line: e.line(),
+            column: e.column(),
+            message: e.to_string(),
+        })?;
+        let Some(list) = doc.get("walls") else {
+            return Err(MapError::Shape {
+                path,
+                message: "no \"walls\" key at the top level".into(),
+            });
+        };
+        let Some(list) = list.as_array() else {
+            return Err(MapError::Shape {
+                path,
+                message: "\"walls\" is not a list".into(),
+            });
+        };
+        if list.is_empty() {
+            return Err(MapError::Shape {
+                path,
+                message: "\"walls\" is empty: a map needs walls".into(),
+            });
+        }
+        let mut walls = Vec::with_capacity(list.len());
+        for (index, item) in list.iter().enumerate() {
+            let bad = |message: String| MapError::Wall {
+                path: path.clone(),
+                index,
+                message,
+            };
+            let nums: Vec<f64> = match item.as_array() {
+                Some(a) if a.len() == 4 => a.iter().filter_map(Value::as_f64).collect(),
+                _ => Vec::new(),
+            };
+            if nums.len() != 4 {
+                return Err(bad(format!(
+                    "expected four numbers [x1, y1, x2, y2], found {item}"
+                )));
+            }
+            if nums.iter().any(|v| !v.is_finite()) {
+                return Err(bad(format!("coordinates must be finite, found {item}")));
+            }
+            let wall = Wall::new(nums[0], nums[1], nums[2], nums[3]);
+            if wall.length() < MIN_WALL_LENGTH {
+                return Err(bad(format!(
+                    "wall is shorter than {MIN_WALL_LENGTH} m: {item}"
+                )));
+            }
+            walls.push(wall);
+        }
+        Ok(WallMap { walls })
+    }
+
+    /// The map as JSON (DESIGN.md's format), with a name.
+    pub fn to_json(&self, name: &str) -> String {
+        let mut s = format!(
+            "{{\n  \"name\": {},\n  \"walls\": [\n",
+            Value::String(name.into())
+        );
+        for (k, w) in self.walls.iter().enumerate() {
+            let sep = if k + 1 < self.walls.len() { "," } else { "" };
+            s += &format!(
+                "    [{:.3}, {:.3}, {:.3}, {:.3}]{sep}\n",
+                w.a.x, w.a.y, w.b.x, w.b.y
+            );
+        }
+        s + "  ]\n}\n"
+    }
+
+    /// Axis-aligned bounds (min, max) of all walls.
+    pub fn bounds(&self) -> (Point2<f64>, Point2<f64>) {
+        let mut lo = Point2::new(f64::INFINITY, f64::INFINITY);
+        let mut hi = Point2::new(f64::NEG_INFINITY, f64::NEG_INFINITY);
+        for w in &self.walls {
+            for p in [w.a, w.b] {
+                lo = lo.inf(&p);
+                hi = hi.sup(&p);
+            }
+        }
+        (lo, hi)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn parse(s: &str) -> Result<WallMap, MapError> {
+        WallMap::parse(s, Path::new("m.json"))
+    }
+
+    #[test]
+    fn a_good_map_with_extra_keys_loads() {
+        let m = parse(r#"{"name": "x", "resolution": 0.05, "walls": [[0,0,1,0],[1,0,1,1.5]]}"#)
+            .unwrap();
+        assert_eq!(m.walls.len(), 2);
+        assert_eq!(m.walls[1].b, Point2::new(1.0, 1.5));
+        let again = parse(&m.to_json("x")).unwrap();
+        assert_eq!(again, m);
+    }
+
+    #[test]
+    fn bad_maps_name_the_file_and_the_element() {
+        let cases = [
+            (
+                r#"{"walls": [[0,0,1,0], [1,0,1]]}"#,
+                "m.json: walls[1]: expected four numbers",
+            ),
+            (r#"{"walls": [[0,0,1,0], [1,0,"a",1]]}"#, "m.json: walls[1]"),
+            (
+                r#"{"walls": [[0,0,0,0]]}"#,
+                "m.json: walls[0]: wall is shorter",
+            ),
+            (r#"{"walls": []}"#, "m.json: \"walls\" is empty"),
+            (r#"{"wall": []}"#, "m.json: no \"walls\""),
+            (r#"{"walls": 3}"#, "m.json: \"walls\" is not a list"),
+            (
+                "{\"walls\": [\n[0,0,1,0],\n]}",
+                "m.json: not valid JSON at line 3",
+            ),
+        ];
+        for (text, want) in cases {
+            let err = parse(text).unwrap_err().to_string();
+            assert!(
+                err.starts_with(want),
+                "{err:?} does not start with {want:?}"
+            );
+        }
+        let missing = WallMap::load(Path::new("/nonexistent/map.json"))
+            .unwrap_err()
+            .to_string();
+        assert!(missing.starts_with("/nonexistent/map.json: cannot read"));
+    }
+}

@@ -1,0 +1,54 @@
+//! `gema2 map ...`: bundled and procedural maps.
+
+use anyhow::{bail, Context, Result};
+use clap::Subcommand;
+use mapserver::{procedural, CornerIndex, MapCornerConfig};
+use std::path::PathBuf;
+
+#[derive(Subcommand)]
+pub enum MapCommand {
+    /// Write a generated map as JSON: office, apartment, warehouse, radial, or office-N
+    /// (an office of about N walls).
+    Generate {
+        kind: String,
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
+        #[arg(long)]
+        out: PathBuf,
+    },
+    /// Print a map's size and corner counts.
+    Info { map: PathBuf },
+}
+
+pub fn run(c: MapCommand) -> Result<()> {
+    match c {
+        MapCommand::Generate { kind, seed, out } => {
+            let map = if let Some(n) = kind.strip_prefix("office-") {
+                procedural::office_with_walls(seed, n.parse().context("office-N needs a number")?)
+            } else {
+                match procedural::by_name(&kind) {
+                    Some(m) => m,
+                    None => bail!("unknown map kind {kind:?}"),
+                }
+            };
+            std::fs::write(&out, map.to_json(&kind))
+                .with_context(|| format!("writing {}", out.display()))?;
+            eprintln!("{}: {} walls", out.display(), map.walls.len());
+            Ok(())
+        }
+        MapCommand::Info { map } => {
+            let m = mapserver::WallMap::load(&map)?;
+            let idx = CornerIndex::build(&m.walls, &MapCornerConfig::default());
+            let (lo, hi) = m.bounds();
+            println!(
+                "{}: {} walls, {} corners, {:.1} x {:.1} m",
+                map.display(),
+                m.walls.len(),
+                idx.corners().len(),
+                hi.x - lo.x,
+                hi.y - lo.y
+            );
+            Ok(())
+        }
+    }
+}
