@@ -1,6 +1,8 @@
 //! `gema2`: the user-facing command line.
 
 mod cmd;
+mod diagnose;
+mod report;
 
 use clap::{Parser, Subcommand};
 
@@ -20,12 +22,18 @@ enum Command {
     /// Maps: list and export the bundled ones, generate procedural ones, inspect corners.
     #[command(subcommand)]
     Map(cmd::map::MapCommand),
+    /// Simulate a laser in a map and write a ROBOTLASER1 log with the true poses.
+    Sim(cmd::sim::SimArgs),
+    /// Localize every scan of a log offline and report time and accuracy.
+    Locate(cmd::locate::LocateArgs),
 }
 
 fn main() -> anyhow::Result<()> {
     let cli = Cli::parse();
     match cli.command {
         Some(Command::Map(c)) => cmd::map::run(c),
+        Some(Command::Sim(a)) => cmd::sim::run(a),
+        Some(Command::Locate(a)) => cmd::locate::run(a),
         None => {
             println!("try `gema2 --help`");
             Ok(())

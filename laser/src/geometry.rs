@@ -80,9 +80,19 @@ impl ScanGeometry {
     }
 
     /// Whether a reading is a measurement (DESIGN.md).
+    ///
+    /// Ranges travel as `f32`: a "no return" written as the maximum range comes back a hair
+    /// below it (5.6 becomes 5.5999999), so the comparison with the maximum allows for `f32`
+    /// rounding.
     #[inline]
     pub fn is_valid(&self, r: f64) -> bool {
-        r.is_finite() && r > self.range_min.max(MIN_VALID_RANGE) && r < self.range_max
+        r.is_finite() && r > self.range_min.max(MIN_VALID_RANGE) && r < self.no_return_at()
+    }
+
+    /// Readings at or beyond this are "no return": the maximum range less `f32` rounding.
+    #[inline]
+    pub fn no_return_at(&self) -> f64 {
+        self.range_max * (1.0 - 1e-6)
     }
 
     /// Classifies one reading.
@@ -90,7 +100,7 @@ impl ScanGeometry {
     pub fn classify(&self, r: f64) -> Reading {
         if self.is_valid(r) {
             Reading::Valid(r)
-        } else if r.is_finite() && r >= self.range_max {
+        } else if r.is_finite() && r >= self.no_return_at() {
             Reading::NoReturn
         } else {
             Reading::Unknown
@@ -139,5 +149,8 @@ mod tests {
         assert_eq!(g.classify(5.6), Reading::NoReturn);
         assert_eq!(g.classify(80.0), Reading::NoReturn);
         assert!(g.is_valid(5.599));
+        // a maximum range that went through f32 is still "no return"
+        assert_eq!(g.classify(5.6f32 as f64), Reading::NoReturn);
+        assert_eq!(g.classify(80.0f32 as f64), Reading::NoReturn);
     }
 }

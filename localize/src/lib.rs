@@ -1,1 +1,18 @@
-pub fn x() {}
+//! GEMA2 localization (paper section 5): scan corners matched against the map's corners give
+//! pose hypotheses (eqs. 5-6), which the ray-cast cost function (eq. 7) ranks.
+
+pub mod cost;
+pub mod gema2;
+pub mod localizer;
+pub mod matching;
+pub mod model;
+pub mod refine;
+
+pub use cost::{Cost, CostConfig, CostKind};
+pub use gema2::Gema2;
+pub use localizer::{
+    same_pose, Hypothesis, Localization, Localizer, LocalizerConfig, LocateTimes, Status,
+};
+pub use matching::pose_from_corners;
+pub use model::MapModel;
+pub use refine::RefineConfig;

@@ -3,10 +3,11 @@
 //! A corner is where walls meet, or where their extensions meet within `reach` of both walls'
 //! ends (a door or a gap between the walls still makes the corner a scan can see). At each such
 //! junction the walls offer *arms*: the directions from the junction along each wall towards
-//! the wall material (two when the junction falls inside a wall: a T). Arms are sorted
-//! counter-clockwise and each angular region between neighbouring arms is one corner, with the
-//! same convention as scan corners (crate `segment`): beta is swept counter-clockwise from the
-//! right arm to the left arm. A map does not say which side of a wall is free, so a junction of
+//! the wall material (two when the junction falls inside a wall: a T). Every ordered pair of
+//! arms is one corner, with the same convention as scan corners (crate `segment`): beta is
+//! swept counter-clockwise from the right arm to the left arm. Pairs that are not angular
+//! neighbours matter: an arm that starts after a door gap does not hide the corner of the two
+//! arms either side of it from a sensor looking through the door. A map does not say which side of a wall is free, so a junction of
 //! two walls gives both corners (beta and 2 pi - beta); hypotheses from the wrong one are
 //! rejected by the cost function.
 
@@ -23,6 +24,10 @@ pub struct MapArm {
     pub gap: f64,
     /// Length of the wall beyond the gap.
     pub length: f64,
+    /// How far from the corner wall material runs along the arm's line, following collinear
+    /// walls across gaps of up to [`MapCornerConfig::max_gap`] (doors): the longest arm a scan
+    /// can see here.
+    pub extent: f64,
     pub wall: u32,
 }
 
@@ -47,6 +52,8 @@ pub struct MapCornerConfig {
     pub reach: f64,
     /// Shortest arm, metres.
     pub min_arm_length: f64,
+    /// Largest gap between collinear walls that an arm's extent bridges, metres.
+    pub max_gap: f64,
 }
 
 impl Default for MapCornerConfig {
@@ -55,6 +62,7 @@ impl Default for MapCornerConfig {
             min_angle: 25f64.to_radians(),
             reach: 1.0,
             min_arm_length: 0.1,
+            max_gap: 1.5,
         }
     }
 }
@@ -65,6 +73,7 @@ const MERGE: f64 = 0.02;
 /// Extracts every corner of `walls`.
 pub fn extract_map_corners(walls: &[Wall], cfg: &MapCornerConfig) -> Vec<MapCorner> {
     let junctions = junctions(walls, cfg);
+    let lines = CollinearWalls::new(walls);
     let mut corners = Vec::new();
     let mut arms: Vec<MapArm> = Vec::new();
     for (x, members) in junctions {
@@ -76,27 +85,31 @@ pub fn extract_map_corners(walls: &[Wall], cfg: &MapCornerConfig) -> Vec<MapCorn
         if arms.len() < 2 {
             continue;
         }
-        arms.sort_by(|a, b| angle_of(a.direction).total_cmp(&angle_of(b.direction)));
-        for k in 0..arms.len() {
-            let (right, left) = (arms[k], arms[(k + 1) % arms.len()]);
-            let beta = (angle_of(left.direction) - angle_of(right.direction)).rem_euclid(TAU);
-            let beta = if arms.len() == 1 || beta == 0.0 {
-                TAU
-            } else {
-                beta
-            };
-            if beta < cfg.min_angle
-                || beta > TAU - cfg.min_angle
-                || (beta - PI).abs() < cfg.min_angle
-            {
-                continue;
+        for arm in arms.iter_mut() {
+            arm.extent = lines.extent(walls, arm, x, cfg.max_gap);
+        }
+        // every ordered pair of arms is a corner: an arm that starts after a gap (a door next
+        // to the junction) does not hide the region it splits from a sensor looking through
+        // the gap
+        for (i, right) in arms.iter().enumerate() {
+            for (j, left) in arms.iter().enumerate() {
+                if i == j {
+                    continue;
+                }
+                let beta = (angle_of(left.direction) - angle_of(right.direction)).rem_euclid(TAU);
+                if beta < cfg.min_angle
+                    || beta > TAU - cfg.min_angle
+                    || (beta - PI).abs() < cfg.min_angle
+                {
+                    continue;
+                }
+                corners.push(MapCorner {
+                    position: x,
+                    inner_angle: beta,
+                    orientation: angle_of(right.direction),
+                    arms: [*right, *left],
+                });
             }
-            corners.push(MapCorner {
-                position: x,
-                inner_angle: beta,
-                orientation: angle_of(right.direction),
-                arms: [right, left],
-            });
         }
     }
     corners
@@ -175,9 +188,76 @@ fn arms_of(w: &Wall, index: u32, x: Point2<f64>, cfg: &MapCornerConfig, out: &mu
                 direction,
                 gap,
                 length,
+                extent: gap + length,
                 wall: index,
             });
         }
+    }
+}
+
+/// Walls grouped by the line they lie on (direction within about a degree, offset within a
+/// few centimetres), to follow an arm across door gaps.
+struct CollinearWalls {
+    groups: std::collections::HashMap<(i64, i64), Vec<u32>>,
+}
+
+const ANGLE_BUCKET: f64 = 0.02;
+const OFFSET_BUCKET: f64 = 0.05;
+
+impl CollinearWalls {
+    fn key(w: &Wall) -> (i64, i64) {
+        let d = w.b - w.a;
+        let mut angle = d.y.atan2(d.x).rem_euclid(PI);
+        if angle >= PI - ANGLE_BUCKET / 2.0 {
+            angle -= PI;
+        }
+        let normal = Vector2::new(-angle.sin(), angle.cos());
+        (
+            (angle / ANGLE_BUCKET).round() as i64,
+            (normal.dot(&w.a.coords) / OFFSET_BUCKET).round() as i64,
+        )
+    }
+
+    fn new(walls: &[Wall]) -> Self {
+        let mut groups: std::collections::HashMap<(i64, i64), Vec<u32>> =
+            std::collections::HashMap::new();
+        for (k, w) in walls.iter().enumerate() {
+            groups.entry(Self::key(w)).or_default().push(k as u32);
+        }
+        CollinearWalls { groups }
+    }
+
+    /// How far wall material runs from `x` along `arm`, bridging gaps up to `max_gap`.
+    fn extent(&self, walls: &[Wall], arm: &MapArm, x: Point2<f64>, max_gap: f64) -> f64 {
+        let (ka, ko) = Self::key(&walls[arm.wall as usize]);
+        let u = arm.direction;
+        let n = Vector2::new(-u.y, u.x);
+        let mut spans: Vec<(f64, f64)> = Vec::new();
+        for da in -1..=1 {
+            for dof in -1..=1 {
+                for &k in self
+                    .groups
+                    .get(&(ka + da, ko + dof))
+                    .map(Vec::as_slice)
+                    .unwrap_or(&[])
+                {
+                    let w = &walls[k as usize];
+                    let (sa, sb) = ((w.a - x).dot(&u), (w.b - x).dot(&u));
+                    let off = (w.a - x).dot(&n).abs().max((w.b - x).dot(&n).abs());
+                    if off < OFFSET_BUCKET && sa.max(sb) > 0.0 {
+                        spans.push((sa.min(sb), sa.max(sb)));
+                    }
+                }
+            }
+        }
+        spans.sort_by(|a, b| a.0.total_cmp(&b.0));
+        let mut reach = arm.gap + arm.length;
+        for (s0, s1) in spans {
+            if s0 <= reach + max_gap {
+                reach = reach.max(s1);
+            }
+        }
+        reach
     }
 }
 
@@ -311,12 +391,31 @@ mod tests {
             Wall::new(0.0, 0.0, 0.0, 2.0),
         ];
         let idx = CornerIndex::build(&t, &MapCornerConfig::default());
-        // two 90 degree corners either side of the stem; the 180 degree side makes none
-        assert_eq!(idx.corners().len(), 2);
-        assert!(idx
+        // 90 degrees either side of the stem, and 270 degrees from the stem round the back to
+        // either half of the bar; the straight 180 degree pairs make none
+        assert_eq!(idx.corners().len(), 4);
+        assert_eq!(idx.similar(FRAC_PI_2, 1e-9).len(), 2);
+        assert_eq!(idx.similar(3.0 * FRAC_PI_2, 1e-9).len(), 2);
+    }
+
+    #[test]
+    fn arm_extents_follow_collinear_walls_across_doors() {
+        // a corridor wall in three pieces with 0.9 m doors, meeting an end wall at x = 0
+        let walls = vec![
+            Wall::new(0.0, 0.0, 3.0, 0.0),
+            Wall::new(3.9, 0.0, 7.0, 0.0),
+            Wall::new(7.9, 0.0, 10.0, 0.0),
+            Wall::new(0.0, 0.0, 0.0, 3.0),
+        ];
+        let idx = CornerIndex::build(&walls, &MapCornerConfig::default());
+        let c = idx
             .corners()
             .iter()
-            .all(|c| (c.inner_angle - FRAC_PI_2).abs() < 1e-9));
+            .find(|c| c.position.coords.norm() < 1e-9)
+            .unwrap();
+        let along_x = c.arms.iter().find(|a| a.direction.x > 0.5).unwrap();
+        assert!((along_x.extent - 10.0).abs() < 1e-9, "{}", along_x.extent);
+        assert!((along_x.length - 3.0).abs() < 1e-9);
     }
 
     #[test]

@@ -1,6 +1,7 @@
 //! A truncated distance field: distance from any point to the nearest wall, capped, on a
-//! regular grid. Looking a point up is O(1), so many pose hypotheses can be screened cheaply
-//! before the ray-cast cost function ranks the survivors.
+//! regular grid, with the nearest wall's index. Looking a point up is O(1), so many pose
+//! hypotheses can be screened cheaply before the ray-cast cost function ranks the survivors,
+//! and refinement finds the wall each scan point lies on without searching.
 
 use crate::map::Wall;
 use nalgebra::Point2;
@@ -14,6 +15,8 @@ pub struct DistanceField {
     cap: f64,
     /// Distance in units of `cap / 65535`.
     cells: Vec<u16>,
+    /// Nearest wall of each cell's centre (`u32::MAX`: none within `cap`).
+    nearest: Vec<u32>,
 }
 
 /// Largest number of cells a field may have before its resolution is coarsened.
@@ -39,8 +42,9 @@ impl DistanceField {
         let cols = (w / resolution).ceil().max(1.0) as usize;
         let rows = (h / resolution).ceil().max(1.0) as usize;
         let mut cells = vec![u16::MAX; cols * rows];
+        let mut nearest = vec![u32::MAX; cols * rows];
         let scale = 65535.0 / cap;
-        for wall in walls {
+        for (k, wall) in walls.iter().enumerate() {
             let c0 = (((wall.a.x.min(wall.b.x) - cap - origin.x) / resolution)
                 .floor()
                 .max(0.0)) as usize;
@@ -60,8 +64,11 @@ impl DistanceField {
                     let d = wall.closest(centre).0;
                     if d < cap {
                         let q = (d * scale) as u16;
-                        let cell = &mut cells[r * cols + c];
-                        *cell = (*cell).min(q);
+                        let i = r * cols + c;
+                        if q < cells[i] {
+                            cells[i] = q;
+                            nearest[i] = k as u32;
+                        }
                     }
                 }
             }
@@ -73,12 +80,12 @@ impl DistanceField {
             rows,
             cap,
             cells,
+            nearest,
         }
     }
 
-    /// Distance from `p` to the nearest wall, capped (and `cap` outside the field).
     #[inline]
-    pub fn distance(&self, p: Point2<f64>) -> f64 {
+    fn index(&self, p: Point2<f64>) -> Option<usize> {
         let c = ((p.x - self.origin.x) / self.resolution) as isize;
         let r = ((p.y - self.origin.y) / self.resolution) as isize;
         if p.x < self.origin.x
@@ -86,9 +93,26 @@ impl DistanceField {
             || c as usize >= self.cols
             || r as usize >= self.rows
         {
-            return self.cap;
+            return None;
         }
-        self.cells[r as usize * self.cols + c as usize] as f64 * (self.cap / 65535.0)
+        Some(r as usize * self.cols + c as usize)
+    }
+
+    /// The wall nearest to the centre of the cell holding `p`, if any lies within the cap.
+    #[inline]
+    pub fn nearest_wall(&self, p: Point2<f64>) -> Option<u32> {
+        self.index(p)
+            .map(|i| self.nearest[i])
+            .filter(|&w| w != u32::MAX)
+    }
+
+    /// Distance from `p` to the nearest wall, capped (and `cap` outside the field).
+    #[inline]
+    pub fn distance(&self, p: Point2<f64>) -> f64 {
+        match self.index(p) {
+            Some(i) => self.cells[i] as f64 * (self.cap / 65535.0),
+            None => self.cap,
+        }
     }
 
     pub fn cap(&self) -> f64 {

@@ -2,6 +2,7 @@
 //! spatial structures the localizer needs: ray casting for eq. 7's expected ranges, a
 //! truncated distance field, and nearest-wall queries.
 
+pub mod bundled;
 pub mod corners;
 pub mod field;
 pub mod grid;
@@ -10,6 +11,7 @@ pub mod nearest;
 pub mod procedural;
 pub mod raycast;
 
+pub use bundled::{bundled, load_map, BUNDLED};
 pub use corners::{CornerIndex, MapArm, MapCorner, MapCornerConfig};
 pub use field::DistanceField;
 pub use map::{MapError, Wall, WallMap};

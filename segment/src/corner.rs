@@ -76,6 +76,10 @@ pub struct CornerConfig {
     pub min_angle: f64,
     /// How far the intersection may lie beyond a line's visible end, metres.
     pub reach: f64,
+    /// The reach between two long lines (both at least `long_line` metres): the extensions of
+    /// two long walls meeting is a corner even when furniture or a door hides the junction.
+    pub long_reach: f64,
+    pub long_line: f64,
     /// Shortest visible arm, metres.
     pub min_arm_length: f64,
     /// Largest direction uncertainty of an arm, radians.
@@ -88,6 +92,8 @@ impl Default for CornerConfig {
         CornerConfig {
             min_angle: 25f64.to_radians(),
             reach: 1.0,
+            long_reach: 3.0,
+            long_line: 1.0,
             min_arm_length: 0.25,
             max_direction_sigma: 2.5f64.to_radians(),
             ranking: CornerRanking::Length,
@@ -122,10 +128,15 @@ fn corners_of_pair(lines: &[Line], i: usize, j: usize, cfg: &CornerConfig, out: 
         return;
     }
     let Some(x) = intersect(a, b) else { return };
+    let reach = if a.length().min(b.length()) >= cfg.long_line {
+        cfg.long_reach
+    } else {
+        cfg.reach
+    };
     let mut arms_a = [None; 2];
     let mut arms_b = [None; 2];
-    arms_of(a, i, x, cfg, &mut arms_a);
-    arms_of(b, j, x, cfg, &mut arms_b);
+    arms_of(a, i, x, reach, cfg, &mut arms_a);
+    arms_of(b, j, x, reach, cfg, &mut arms_b);
     for arm_a in arms_a.iter().flatten() {
         for arm_b in arms_b.iter().flatten() {
             if let Some(c) = corner_of_arms(a, b, arm_a, arm_b, x, cfg) {
@@ -147,7 +158,14 @@ fn intersect(a: &Line, b: &Line) -> Option<Point2<f64>> {
 }
 
 /// The arms line `l` offers a corner at `x`: towards its visible part on either side.
-fn arms_of(l: &Line, index: usize, x: Point2<f64>, cfg: &CornerConfig, out: &mut [Option<Arm>; 2]) {
+fn arms_of(
+    l: &Line,
+    index: usize,
+    x: Point2<f64>,
+    reach: f64,
+    cfg: &CornerConfig,
+    out: &mut [Option<Arm>; 2],
+) {
     let len = l.length();
     let t = (x - l.start).dot(&l.direction);
     let sides = [
@@ -157,7 +175,7 @@ fn arms_of(l: &Line, index: usize, x: Point2<f64>, cfg: &CornerConfig, out: &mut
         (-l.direction, (t - len).max(0.0), t.min(len)),
     ];
     for (k, (direction, gap, length)) in sides.into_iter().enumerate() {
-        if gap <= cfg.reach && length >= cfg.min_arm_length {
+        if gap <= reach && length >= cfg.min_arm_length {
             out[k] = Some(Arm {
                 direction,
                 gap,

@@ -1,3 +1,5 @@
 //! One module per subcommand.
 
+pub mod locate;
 pub mod map;
+pub mod sim;

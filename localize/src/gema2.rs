@@ -1,0 +1,34 @@
+//! The whole algorithm in one process: segmentation then localization. `gema2 locate` and the
+//! pipeline's stages run this same code, so offline results equal what the processes publish.
+
+use crate::localizer::{Localization, Localizer, LocalizerConfig};
+use crate::model::MapModel;
+use laser::ScanView;
+use segment::{LineVisibilitySegmenter, Segmentation, Segmenter, SegmenterConfig};
+use std::sync::Arc;
+
+pub struct Gema2 {
+    pub segmenter: Box<dyn Segmenter>,
+    pub localizer: Localizer,
+}
+
+impl Gema2 {
+    /// The paper's segmentation (line visibility) and this project's localizer.
+    pub fn new(
+        model: Arc<MapModel>,
+        segmenter: SegmenterConfig,
+        localizer: LocalizerConfig,
+    ) -> Self {
+        Gema2 {
+            segmenter: Box::new(LineVisibilitySegmenter::new(segmenter)),
+            localizer: Localizer::new(model, localizer),
+        }
+    }
+
+    /// Segments and localizes one scan.
+    pub fn process(&mut self, scan: &ScanView<'_>) -> (&Segmentation, &Localization) {
+        let seg = self.segmenter.segment(scan);
+        let loc = self.localizer.locate(scan, seg);
+        (seg, loc)
+    }
+}

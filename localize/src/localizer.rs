@@ -1,0 +1,404 @@
+//! The localization stage (section 5): scan corners x similar map corners -> pose hypotheses
+//! (eqs. 5-6) -> ranked by the cost function (eq. 7).
+//!
+//! Robustness over the paper's single best corner (LESSONS.md): the `corners_tried` best scan
+//! corners are all matched, so a spurious best corner (a person's legs, a box) does not sink
+//! the scan. Hypotheses then pass through stages of increasing cost and decreasing number:
+//!
+//! 1. matches whose arms cannot fit the map corner's are dropped ([`arms_fit`]);
+//! 2. a distance-field screen keeps the `screened` best;
+//! 3. a coarse one-sided eq. 7 over a subset of beams, with a noise floor that tolerates an
+//!    unrefined pose, keeps the `refined` best (unmapped objects in front of walls cost little
+//!    here, unlike in the screen);
+//! 4. those are refined against the walls and ranked by the full one-sided eq. 7.
+
+use crate::cost::{cost, Cost, CostConfig};
+use crate::matching::{arms_fit, pose_from_corners};
+use crate::model::{MapModel, FIELD_CAP};
+use crate::refine::{refine, RefineConfig};
+use laser::{angle_diff, pose_theta, Pose, ScanView};
+use mapserver::RayScratch;
+use nalgebra::Point2;
+use segment::{ErrorModel, Segmentation};
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LocalizerConfig {
+    /// How many of the best scan corners (eq. 4 order) are matched.
+    pub corners_tried: usize,
+    /// Inner angle tolerance of a match: three standard deviations of the scan corner's angle,
+    /// clamped to [min, max] radians.
+    pub min_angle_tolerance: f64,
+    pub max_angle_tolerance: f64,
+    /// Slack of the arm fit test, metres.
+    pub arm_slack: f64,
+    /// Scan points used to screen hypotheses with the distance field.
+    pub screen_points: usize,
+    /// Hypotheses kept by the screen, and costed coarsely.
+    pub screened: usize,
+    /// Beams of the coarse cost, and its noise floor (metres).
+    pub coarse_beams: usize,
+    pub coarse_sigma: f64,
+    /// Hypotheses kept by the coarse cost, refined and costed in full.
+    pub refined: usize,
+    /// Scan points used by refinement.
+    pub refine_points: usize,
+    pub refine: RefineConfig,
+    pub cost: CostConfig,
+    /// The sensor's e(d), which sets the noise scale of the cost.
+    pub error: ErrorModel,
+    /// Two poses are distinct when their positions differ by more than this (metres) or their
+    /// headings by more than `distinct_heading` (radians).
+    pub distinct_position: f64,
+    pub distinct_heading: f64,
+    /// The best pose is `ambiguous` when a distinct hypothesis costs less than this much more.
+    pub ambiguity_margin: f64,
+    /// The best pose is `failed` when fewer of its beams than this fraction agree with the map...
+    pub min_inliers: f64,
+    /// ...or when more than this fraction see through mapped walls: at the true pose only
+    /// noise, mixed pixels and map errors do, whatever the map lacks.
+    pub max_through: f64,
+    /// Largest number of hypotheses reported.
+    pub max_hypotheses: usize,
+    /// Keep every candidate pose of a scan in [`Localization::all_candidates`] (diagnostics).
+    pub record_candidates: bool,
+}
+
+impl Default for LocalizerConfig {
+    fn default() -> Self {
+        LocalizerConfig {
+            corners_tried: 8,
+            min_angle_tolerance: 2f64.to_radians(),
+            max_angle_tolerance: 8f64.to_radians(),
+            arm_slack: 0.3,
+            screen_points: 40,
+            screened: 32,
+            coarse_beams: 64,
+            coarse_sigma: 0.08,
+            refined: 6,
+            refine_points: 160,
+            refine: RefineConfig::default(),
+            cost: CostConfig::default(),
+            error: ErrorModel::default(),
+            distinct_position: 0.3,
+            distinct_heading: 5f64.to_radians(),
+            ambiguity_margin: 0.3,
+            min_inliers: 0.3,
+            max_through: 0.05,
+            max_hypotheses: 32,
+            record_candidates: false,
+        }
+    }
+}
+
+/// The outcome of one scan.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Status {
+    /// One pose clearly explains the scan best.
+    Ok,
+    /// Two distinct poses explain it about equally well.
+    Ambiguous,
+    /// No corner, no candidate, or no pose that explains the scan.
+    Failed,
+}
+
+impl Status {
+    pub fn as_str(&self) -> &'static str {
+        match self {
+            Status::Ok => "ok",
+            Status::Ambiguous => "ambiguous",
+            Status::Failed => "failed",
+        }
+    }
+}
+
+/// One pose hypothesis.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Hypothesis {
+    /// Sensor pose in the map frame (refined).
+    pub pose: Pose,
+    pub cost: Cost,
+    /// Index of the scan corner (in the segmentation's corner list) and of the map corner (in
+    /// the map's inner-angle-sorted corner list) that produced it.
+    pub scan_corner: u16,
+    pub map_corner: u32,
+}
+
+/// Compute time of the localization steps of one scan.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct LocateTimes {
+    /// Corner matching (eqs. 5-6), arm test and screening.
+    pub matching: Duration,
+    /// Coarse eq. 7 over the screened hypotheses.
+    pub coarse: Duration,
+    pub refine: Duration,
+    /// Full eq. 7 over the refined hypotheses.
+    pub cost: Duration,
+}
+
+#[derive(Clone, Debug)]
+pub struct Localization {
+    /// Ranked hypotheses, best first.
+    pub hypotheses: Vec<Hypothesis>,
+    pub status: Status,
+    /// Poses produced by corner matching (after the arm test, before screening).
+    pub candidates: usize,
+    pub times: LocateTimes,
+    /// With `record_candidates`: every candidate (pose, screening score, scan corner index),
+    /// in screening order.
+    pub all_candidates: Vec<(Pose, f64, u16)>,
+}
+
+impl Localization {
+    pub fn best(&self) -> Option<&Hypothesis> {
+        match self.status {
+            Status::Failed => None,
+            _ => self.hypotheses.first(),
+        }
+    }
+}
+
+#[derive(Clone, Copy, Debug)]
+struct Candidate {
+    pose: Pose,
+    score: f64,
+    scan_corner: u16,
+    map_corner: u32,
+}
+
+pub struct Localizer {
+    model: Arc<MapModel>,
+    pub config: LocalizerConfig,
+    screen_pts: Vec<Point2<f64>>,
+    refine_pts: Vec<Point2<f64>>,
+    candidates: Vec<Candidate>,
+    scratch: RayScratch,
+    expected: Vec<f64>,
+    out: Localization,
+}
+
+impl Localizer {
+    pub fn new(model: Arc<MapModel>, config: LocalizerConfig) -> Self {
+        Localizer {
+            model,
+            config,
+            screen_pts: Vec::new(),
+            refine_pts: Vec::new(),
+            candidates: Vec::new(),
+            scratch: RayScratch::default(),
+            expected: Vec::new(),
+            out: Localization {
+                hypotheses: Vec::new(),
+                status: Status::Failed,
+                candidates: 0,
+                times: LocateTimes::default(),
+                all_candidates: Vec::new(),
+            },
+        }
+    }
+
+    /// Switches to another map (from the next scan on).
+    pub fn set_model(&mut self, model: Arc<MapModel>) {
+        self.model = model;
+    }
+
+    pub fn model(&self) -> &Arc<MapModel> {
+        &self.model
+    }
+
+    /// Localizes one scan from its segmentation.
+    pub fn locate(&mut self, scan: &ScanView<'_>, seg: &Segmentation) -> &Localization {
+        let t0 = Instant::now();
+        self.out.hypotheses.clear();
+        self.out.all_candidates.clear();
+        self.out.status = Status::Failed;
+        subsample(seg, self.config.screen_points, &mut self.screen_pts);
+        subsample(seg, self.config.refine_points, &mut self.refine_pts);
+        self.match_corners(seg);
+        self.out.candidates = self.candidates.len();
+        if self.config.record_candidates {
+            self.candidates.sort_by(|a, b| a.score.total_cmp(&b.score));
+            self.out.all_candidates.extend(
+                self.candidates
+                    .iter()
+                    .map(|c| (c.pose, c.score, c.scan_corner)),
+            );
+        }
+        self.keep_best(self.config.screened);
+        let t1 = Instant::now();
+        self.coarse_cost(scan);
+        self.keep_best(self.config.refined);
+        let t2 = Instant::now();
+        let model = Arc::clone(&self.model);
+        for c in self.candidates.iter_mut() {
+            c.pose = refine(&model, &self.refine_pts, &c.pose, &self.config.refine).0;
+        }
+        let t3 = Instant::now();
+        for c in &self.candidates {
+            let cost = cost(
+                scan,
+                &c.pose,
+                &model.caster,
+                &self.config.error,
+                &self.config.cost,
+                &mut self.scratch,
+                &mut self.expected,
+            );
+            if cost.value.is_finite() {
+                self.out.hypotheses.push(Hypothesis {
+                    pose: c.pose,
+                    cost,
+                    scan_corner: c.scan_corner,
+                    map_corner: c.map_corner,
+                });
+            }
+        }
+        self.rank();
+        let t4 = Instant::now();
+        self.out.times = LocateTimes {
+            matching: t1 - t0,
+            coarse: t2 - t1,
+            refine: t3 - t2,
+            cost: t4 - t3,
+        };
+        &self.out
+    }
+
+    /// Eqs. 5-6 for every similar map corner whose arms fit, for each of the best scan
+    /// corners; each pose is screened by the distance field.
+    fn match_corners(&mut self, seg: &Segmentation) {
+        self.candidates.clear();
+        let cfg = &self.config;
+        let model = &self.model;
+        let n = self.screen_pts.len().max(1) as f64;
+        let all = model.corners.corners();
+        for (ci, c) in seg.corners.iter().take(cfg.corners_tried).enumerate() {
+            let tolerance = (3.0 * c.inner_angle_sigma())
+                .clamp(cfg.min_angle_tolerance, cfg.max_angle_tolerance);
+            let similar = model.corners.similar(c.inner_angle, tolerance);
+            let base = (similar.as_ptr() as usize - all.as_ptr() as usize)
+                / std::mem::size_of::<mapserver::MapCorner>().max(1);
+            for (k, m) in similar.iter().enumerate() {
+                if !arms_fit(c, m, cfg.arm_slack) {
+                    continue;
+                }
+                let pose = pose_from_corners(c, m);
+                let score = self
+                    .screen_pts
+                    .iter()
+                    .map(|q| model.field.distance(pose * q).powi(2))
+                    .sum::<f64>()
+                    / n;
+                // a pose that puts every point far from the walls is not worth more work
+                if score < FIELD_CAP * FIELD_CAP * 0.95 {
+                    self.candidates.push(Candidate {
+                        pose,
+                        score,
+                        scan_corner: ci as u16,
+                        map_corner: (base + k) as u32,
+                    });
+                }
+            }
+        }
+    }
+
+    /// Sorts candidates by score and keeps the `count` best distinct ones.
+    fn keep_best(&mut self, count: usize) {
+        self.candidates.sort_by(|a, b| a.score.total_cmp(&b.score));
+        let mut kept = 0;
+        for k in 0..self.candidates.len() {
+            if kept == count {
+                break;
+            }
+            let p = self.candidates[k].pose;
+            if !self.candidates[..kept]
+                .iter()
+                .any(|q| same_pose(&p, &q.pose, 0.1, 2f64.to_radians()))
+            {
+                self.candidates.swap(kept, k);
+                kept += 1;
+            }
+        }
+        self.candidates.truncate(kept);
+    }
+
+    /// Scores each candidate by eq. 7 over a subset of beams, tolerant of misalignment.
+    fn coarse_cost(&mut self, scan: &ScanView<'_>) {
+        let cfg = CostConfig {
+            stride: (scan.len() / self.config.coarse_beams.max(1)).max(1),
+            sigma_floor: self.config.coarse_sigma,
+            ..self.config.cost
+        };
+        for c in self.candidates.iter_mut() {
+            c.score = cost(
+                scan,
+                &c.pose,
+                &self.model.caster,
+                &self.config.error,
+                &cfg,
+                &mut self.scratch,
+                &mut self.expected,
+            )
+            .value;
+        }
+    }
+
+    /// Sorts hypotheses, merges those that converged to the same pose, and sets the status.
+    fn rank(&mut self) {
+        let cfg = self.config;
+        let hyps = &mut self.out.hypotheses;
+        hyps.sort_by(|a, b| a.cost.value.total_cmp(&b.cost.value));
+        let mut kept: Vec<Hypothesis> = Vec::with_capacity(hyps.len());
+        for h in hyps.drain(..) {
+            if !kept
+                .iter()
+                .any(|k| same_pose(&k.pose, &h.pose, 0.05, 1f64.to_radians()))
+            {
+                kept.push(h);
+            }
+        }
+        kept.truncate(cfg.max_hypotheses);
+        *hyps = kept;
+        let Some(best) = hyps.first() else {
+            self.out.status = Status::Failed;
+            return;
+        };
+        self.out.status =
+            if best.cost.inliers < cfg.min_inliers || best.cost.through > cfg.max_through {
+                Status::Failed
+            } else if hyps[1..].iter().any(|h| {
+                !same_pose(
+                    &h.pose,
+                    &best.pose,
+                    cfg.distinct_position,
+                    cfg.distinct_heading,
+                ) && h.cost.value - best.cost.value < cfg.ambiguity_margin
+            }) {
+                Status::Ambiguous
+            } else {
+                Status::Ok
+            };
+    }
+}
+
+/// Whether two poses are within `position` metres and `heading` radians.
+pub fn same_pose(a: &Pose, b: &Pose, position: f64, heading: f64) -> bool {
+    (a.translation.vector - b.translation.vector).norm() <= position
+        && angle_diff(pose_theta(a), pose_theta(b)).abs() <= heading
+}
+
+/// Up to `count` sample points spread evenly over the scan.
+fn subsample(seg: &Segmentation, count: usize, out: &mut Vec<Point2<f64>>) {
+    out.clear();
+    let n = seg.samples.len();
+    if n == 0 || count == 0 {
+        return;
+    }
+    let step = (n as f64 / count as f64).max(1.0);
+    let mut k = 0.0;
+    while (k as usize) < n {
+        out.push(seg.samples[k as usize].point());
+        k += step;
+    }
+}

@@ -1,0 +1,192 @@
+//! `gema2 locate`: the whole algorithm over a log, offline (no IPC). Writes the CSV of
+//! DESIGN.md and prints timing and, when the log holds truth, accuracy.
+
+use crate::report::{Outcome, Summary};
+use acquire::{CarmenReader, FlaserLayout};
+use anyhow::{Context, Result};
+use clap::Args;
+use localize::{Gema2, LocalizerConfig, MapModel, Status};
+use mapserver::MapCornerConfig;
+use segment::SegmenterConfig;
+use std::io::{BufWriter, Write};
+use std::path::PathBuf;
+use std::sync::Arc;
+use std::time::Instant;
+
+#[derive(Args)]
+pub struct LocateArgs {
+    /// A bundled map's name or a JSON map file.
+    #[arg(long, default_value = "office")]
+    pub map: String,
+    /// CARMEN log (ROBOTLASER1 or FLASER; .gz is fine).
+    #[arg(long)]
+    pub log: PathBuf,
+    /// Locate every K-th laser line...
+    #[arg(long, default_value_t = 1)]
+    pub every: usize,
+    /// ...starting at this one.
+    #[arg(long, default_value_t = 0)]
+    pub offset: usize,
+    /// CSV output (default: none).
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Scan corners matched per scan (1 = the paper's single best corner).
+    #[arg(long)]
+    pub corners: Option<usize>,
+    /// Use the paper's plain eq. 7 instead of the one-sided cost.
+    #[arg(long)]
+    pub paper_cost: bool,
+    /// Use the paper's e(d) = 2 cm instead of 3 cm + 1.5 % of range.
+    #[arg(long)]
+    pub paper_error: bool,
+    /// With truth in the log: print at which stage each scan's right pose was lost.
+    #[arg(long)]
+    pub diagnose: bool,
+    /// Override a parameter, KEY=VALUE (repeatable): reach, min_arm, corners, screened,
+    /// refined, coarse_beams, coarse_sigma, front_cap, through_cap, ambiguity, min_inliers,
+    /// merge_angle (degrees), min_samples, error_constant, error_proportional.
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    pub set: Vec<String>,
+    /// Write scan N's samples, lines, corners and (true-pose) map as JSON to this folder.
+    #[arg(long, num_args = 2, value_names = ["N", "DIR"])]
+    pub dump_scan: Vec<String>,
+}
+
+pub fn configs(a: &LocateArgs) -> Result<(SegmenterConfig, LocalizerConfig)> {
+    let mut seg = SegmenterConfig::default();
+    let mut loc = LocalizerConfig::default();
+    if let Some(k) = a.corners {
+        loc.corners_tried = k.max(1);
+    }
+    if a.paper_cost {
+        loc.cost.kind = localize::CostKind::Paper;
+    }
+    if a.paper_error {
+        seg.error = segment::ErrorModel::PAPER;
+        loc.error = segment::ErrorModel::PAPER;
+    }
+    loc.record_candidates = a.diagnose;
+    for kv in &a.set {
+        let (k, v) = kv
+            .split_once('=')
+            .with_context(|| format!("--set {kv}: expected KEY=VALUE"))?;
+        let v: f64 = v
+            .parse()
+            .with_context(|| format!("--set {kv}: {v:?} is not a number"))?;
+        match k {
+            "reach" => seg.corner.reach = v,
+            "long_reach" => seg.corner.long_reach = v,
+            "long_line" => seg.corner.long_line = v,
+            "min_arm" => seg.corner.min_arm_length = v,
+            "corners" => loc.corners_tried = v as usize,
+            "screened" => loc.screened = v as usize,
+            "refined" => loc.refined = v as usize,
+            "coarse_beams" => loc.coarse_beams = v as usize,
+            "coarse_sigma" => loc.coarse_sigma = v,
+            "front_cap" => loc.cost.front_cap = v,
+            "through_cap" => loc.cost.through_cap = v,
+            "ambiguity" => loc.ambiguity_margin = v,
+            "min_inliers" => loc.min_inliers = v,
+            "max_through" => loc.max_through = v,
+            "merge_angle" => seg.filter.merge_angle = v.to_radians(),
+            "min_samples" => seg.filter.min_samples = v as u32,
+            "error_constant" => {
+                seg.error.constant = v;
+                loc.error.constant = v;
+            }
+            "error_proportional" => {
+                seg.error.proportional = v;
+                loc.error.proportional = v;
+            }
+            _ => anyhow::bail!("--set: unknown parameter {k:?}"),
+        }
+    }
+    Ok((seg, loc))
+}
+
+pub fn run(a: LocateArgs) -> Result<()> {
+    let map = mapserver::load_map(&a.map)?;
+    let model = Arc::new(MapModel::new(map, &MapCornerConfig::default()));
+    let (seg_cfg, loc_cfg) = configs(&a)?;
+    let mut gema2 = Gema2::new(Arc::clone(&model), seg_cfg, loc_cfg);
+    let reader = CarmenReader::open(&a.log, FlaserLayout::default())?;
+    let mut csv = match &a.out {
+        Some(p) => {
+            let f =
+                std::fs::File::create(p).with_context(|| format!("creating {}", p.display()))?;
+            let mut w = BufWriter::new(f);
+            writeln!(
+                w,
+                "scan,x,y,theta,score,status,micros,hypotheses,candidates,inliers"
+            )?;
+            Some(w)
+        }
+        None => None,
+    };
+    let mut summary = Summary::default();
+    let mut diagnosis = crate::diagnose::Diagnosis::default();
+    for (index, item) in reader.enumerate() {
+        let item = item?;
+        if a.every == 0 || index % a.every != a.offset % a.every.max(1) {
+            continue;
+        }
+        let scan = &item.scan;
+        let start = Instant::now();
+        let (seg, loc) = gema2.process(&scan.view());
+        let micros = start.elapsed().as_secs_f64() * 1e6;
+        if a.dump_scan.len() == 2 && a.dump_scan[0].parse::<usize>().ok() == Some(index) {
+            let path = PathBuf::from(&a.dump_scan[1]).join(format!("scan{index}.json"));
+            std::fs::write(&path, crate::diagnose::scan_json(scan, seg, &model))
+                .with_context(|| format!("writing {}", path.display()))?;
+        }
+        if let (true, Some(truth)) = (a.diagnose, scan.truth.as_ref()) {
+            let what = crate::diagnose::classify(seg, loc, truth);
+            if std::env::var_os("GEMA2_DUMP")
+                .is_some_and(|v| v.to_str().is_some_and(|v| what.starts_with(v)))
+            {
+                eprintln!("scan {index}: {what}");
+                crate::diagnose::dump(seg, loc, truth, &model);
+            }
+            diagnosis.add(what);
+        }
+        let best = loc
+            .hypotheses
+            .first()
+            .filter(|_| loc.status != Status::Failed);
+        if let Some(w) = csv.as_mut() {
+            match best {
+                Some(h) => writeln!(
+                    w,
+                    "{index},{:.4},{:.4},{:.5},{:.4},{},{micros:.1},{},{},{:.3},{:.3}",
+                    h.pose.translation.x,
+                    h.pose.translation.y,
+                    laser::pose_theta(&h.pose),
+                    h.cost.value,
+                    loc.status.as_str(),
+                    loc.hypotheses.len(),
+                    loc.candidates,
+                    h.cost.inliers,
+                    h.cost.through
+                )?,
+                None => writeln!(
+                    w,
+                    "{index},,,,,failed,{micros:.1},{},{},,",
+                    loc.hypotheses.len(),
+                    loc.candidates
+                )?,
+            }
+        }
+        summary.add(
+            Outcome::of(loc.status, best.map(|h| h.pose), scan.truth, micros)
+                .with_steps(&seg.times, &loc.times),
+        );
+    }
+    if let Some(mut w) = csv {
+        w.flush()?;
+    }
+    eprint!("{}", summary.render());
+    if a.diagnose {
+        eprint!("{}", diagnosis.render());
+    }
+    Ok(())
+}

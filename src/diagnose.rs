@@ -1,0 +1,176 @@
+//! Where a scan's localization went wrong, judged against the truth: the stage that lost the
+//! right pose. Used by `gema2 locate --diagnose` to direct work at the costliest failure.
+
+use crate::report::{SUCCESS_HEADING_DEG, SUCCESS_POSITION};
+use laser::Pose;
+use localize::{same_pose, Localization, Status};
+use segment::Segmentation;
+use std::collections::BTreeMap;
+
+/// The first stage at which the right pose was lost.
+pub fn classify(seg: &Segmentation, loc: &Localization, truth: &Pose) -> &'static str {
+    let near = |p: &Pose| same_pose(p, truth, SUCCESS_POSITION, SUCCESS_HEADING_DEG.to_radians());
+    let best_right = loc.hypotheses.first().is_some_and(|h| near(&h.pose));
+    if best_right {
+        return match loc.status {
+            Status::Ok => "right, ok",
+            Status::Ambiguous => "right, ambiguous",
+            Status::Failed => "right, but failed (too few inliers)",
+        };
+    }
+    if seg.corners.is_empty() {
+        return "no scan corner";
+    }
+    match loc.all_candidates.iter().position(|c| near(&c.0)) {
+        None => "no candidate near the truth",
+        Some(rank) if !loc.hypotheses.iter().any(|h| near(&h.pose)) => {
+            if rank < 32 {
+                "candidate lost in the coarse cost or refinement"
+            } else {
+                "candidate screened out"
+            }
+        }
+        Some(_) => "right pose out-ranked by the cost",
+    }
+}
+
+#[derive(Default)]
+pub struct Diagnosis {
+    counts: BTreeMap<&'static str, usize>,
+}
+
+impl Diagnosis {
+    pub fn add(&mut self, what: &'static str) {
+        *self.counts.entry(what).or_default() += 1;
+    }
+
+    pub fn render(&self) -> String {
+        self.counts
+            .iter()
+            .map(|(k, v)| format!("  {v:5}  {k}\n"))
+            .collect()
+    }
+}
+
+/// Prints each scan corner, placed in the map by the truth, beside the nearest map corner.
+pub fn dump(seg: &Segmentation, loc: &Localization, truth: &Pose, model: &localize::MapModel) {
+    let near = |p: &Pose, d: f64, a: f64| same_pose(p, truth, d, a.to_radians());
+    let loose = loc
+        .all_candidates
+        .iter()
+        .position(|c| near(&c.0, 0.8, 15.0));
+    eprintln!(
+        "  candidates {} (first within 0.8 m / 15 deg: {:?}), lines {}",
+        loc.all_candidates.len(),
+        loose,
+        seg.lines.len()
+    );
+    for (k, c) in seg.corners.iter().take(10).enumerate() {
+        let p = truth * c.position;
+        let nearest = model
+            .corners
+            .similar(c.inner_angle, 10f64.to_radians())
+            .iter()
+            .min_by(|a, b| (a.position - p).norm().total_cmp(&(b.position - p).norm()));
+        let wall_dist = |q: nalgebra::Point2<f64>| {
+            model
+                .map
+                .walls
+                .iter()
+                .map(|w| w.closest(q).0)
+                .fold(f64::INFINITY, f64::min)
+        };
+        let ends: Vec<String> = c
+            .arms
+            .iter()
+            .map(|a| {
+                format!(
+                    "{:.2}",
+                    wall_dist(truth * (c.position + a.direction * (a.gap + a.length)))
+                )
+            })
+            .collect();
+        eprint!(
+            "    corner-wall {:.2} arm-end-wall {:?}",
+            wall_dist(p),
+            ends
+        );
+        let theta = laser::pose_theta(truth);
+        let o = laser::wrap_angle(c.orientation + theta);
+        match nearest {
+            Some(m) => eprintln!(
+                "  c{k}: q {:.2} beta {:6.1} orient {:6.1} arms {:.2}+{:.2}/{:.2}+{:.2} sig {:.2} | map d {:.2} beta {:6.1} orient {:6.1}",
+                c.quality, c.inner_angle.to_degrees(), o.to_degrees(), c.arms[0].gap, c.arms[0].length, c.arms[1].gap, c.arms[1].length,
+                c.inner_angle_sigma().to_degrees(), (m.position - p).norm(), m.inner_angle.to_degrees(), m.orientation.to_degrees()
+            ),
+            None => eprintln!("  c{k}: no map corners"),
+        }
+    }
+}
+
+/// One scan's segmentation and the map seen from the true pose, as JSON (sensor frame), for
+/// plotting.
+pub fn scan_json(
+    scan: &laser::LaserScan,
+    seg: &Segmentation,
+    model: &localize::MapModel,
+) -> String {
+    let inv = scan
+        .truth
+        .map(|t| t.inverse())
+        .unwrap_or_else(Pose::identity);
+    let pts: Vec<String> = seg
+        .samples
+        .iter()
+        .map(|s| format!("[{:.4},{:.4}]", s.point().x, s.point().y))
+        .collect();
+    let raw: Vec<String> = seg
+        .raw_lines
+        .iter()
+        .map(|l| {
+            format!(
+                "[{:.4},{:.4},{:.4},{:.4},{}]",
+                l.start.x, l.start.y, l.end.x, l.end.y, l.samples
+            )
+        })
+        .collect();
+    let lines: Vec<String> = seg
+        .lines
+        .iter()
+        .map(|l| {
+            format!(
+                "[{:.4},{:.4},{:.4},{:.4},{}]",
+                l.start.x, l.start.y, l.end.x, l.end.y, l.samples
+            )
+        })
+        .collect();
+    let corners: Vec<String> = seg
+        .corners
+        .iter()
+        .map(|c| {
+            format!(
+                "[{:.4},{:.4},{:.2}]",
+                c.position.x,
+                c.position.y,
+                c.inner_angle.to_degrees()
+            )
+        })
+        .collect();
+    let walls: Vec<String> = model
+        .map
+        .walls
+        .iter()
+        .map(|w| {
+            let (a, b) = (inv * w.a, inv * w.b);
+            format!("[{:.4},{:.4},{:.4},{:.4}]", a.x, a.y, b.x, b.y)
+        })
+        .collect();
+    format!(
+        "{{\"points\":[{}],\"raw_lines\":[{}],\"lines\":[{}],\"corners\":[{}],\"walls\":[{}]}}",
+        pts.join(","),
+        raw.join(","),
+        lines.join(","),
+        corners.join(","),
+        walls.join(",")
+    )
+}

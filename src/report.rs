@@ -1,0 +1,155 @@
+//! Accuracy and timing summaries of a run.
+
+use laser::{angle_diff, pose_theta, Pose};
+use localize::Status;
+
+/// Success: position within this of the truth, metres...
+pub const SUCCESS_POSITION: f64 = 0.30;
+/// ...and heading within this, degrees.
+pub const SUCCESS_HEADING_DEG: f64 = 5.0;
+
+/// One scan's result.
+#[derive(Clone, Copy, Debug)]
+pub struct Outcome {
+    pub status: Status,
+    /// Position and heading error of the reported pose, when both it and the truth exist.
+    pub error: Option<(f64, f64)>,
+    pub has_truth: bool,
+    pub micros: f64,
+    /// Per-step microseconds: samples, line inference, filtering + corners, matching +
+    /// screening, coarse cost, refinement, cost.
+    pub steps: [f64; 7],
+}
+
+impl Outcome {
+    pub fn of(status: Status, pose: Option<Pose>, truth: Option<Pose>, micros: f64) -> Self {
+        let error = match (pose, truth) {
+            (Some(p), Some(t)) => Some((
+                (p.translation.vector - t.translation.vector).norm(),
+                angle_diff(pose_theta(&p), pose_theta(&t))
+                    .abs()
+                    .to_degrees(),
+            )),
+            _ => None,
+        };
+        Outcome {
+            status,
+            error,
+            has_truth: truth.is_some(),
+            micros,
+            steps: [0.0; 7],
+        }
+    }
+
+    /// Records the step times of a segmentation and localization.
+    pub fn with_steps(mut self, seg: &segment::SegmentTimes, loc: &localize::LocateTimes) -> Self {
+        let us = |d: std::time::Duration| d.as_secs_f64() * 1e6;
+        self.steps = [
+            us(seg.samples),
+            us(seg.inference),
+            us(seg.corners),
+            us(loc.matching),
+            us(loc.coarse),
+            us(loc.refine),
+            us(loc.cost),
+        ];
+        self
+    }
+
+    pub fn success(&self) -> bool {
+        self.error
+            .is_some_and(|(d, a)| d <= SUCCESS_POSITION && a <= SUCCESS_HEADING_DEG)
+    }
+}
+
+#[derive(Default)]
+pub struct Summary {
+    pub outcomes: Vec<Outcome>,
+}
+
+/// The q-quantile of `v` (sorted in place).
+pub fn quantile(v: &mut [f64], q: f64) -> f64 {
+    if v.is_empty() {
+        return f64::NAN;
+    }
+    v.sort_by(f64::total_cmp);
+    v[((v.len() - 1) as f64 * q).round() as usize]
+}
+
+impl Summary {
+    pub fn add(&mut self, o: Outcome) {
+        self.outcomes.push(o);
+    }
+
+    pub fn scans(&self) -> usize {
+        self.outcomes.len()
+    }
+
+    /// Fraction of scans whose reported pose is right.
+    pub fn success_rate(&self) -> f64 {
+        self.outcomes.iter().filter(|o| o.success()).count() as f64 / self.scans().max(1) as f64
+    }
+
+    /// Mean position error of the successes, metres.
+    pub fn mean_error(&self) -> f64 {
+        let e: Vec<f64> = self
+            .outcomes
+            .iter()
+            .filter(|o| o.success())
+            .filter_map(|o| o.error.map(|e| e.0))
+            .collect();
+        e.iter().sum::<f64>() / e.len().max(1) as f64
+    }
+
+    pub fn count(&self, s: Status) -> usize {
+        self.outcomes.iter().filter(|o| o.status == s).count()
+    }
+
+    /// Of the scans marked ok, the fraction that are right.
+    pub fn ok_precision(&self) -> f64 {
+        let ok: Vec<&Outcome> = self
+            .outcomes
+            .iter()
+            .filter(|o| o.status == Status::Ok)
+            .collect();
+        ok.iter().filter(|o| o.success()).count() as f64 / ok.len().max(1) as f64
+    }
+
+    pub fn render(&self) -> String {
+        let mut t: Vec<f64> = self.outcomes.iter().map(|o| o.micros).collect();
+        let (p50, p99) = (quantile(&mut t, 0.5), quantile(&mut t, 0.99));
+        let mut s = format!(
+            "scans {}  time per scan: median {:.0} us, p99 {:.0} us\nstatus: ok {}, ambiguous {}, failed {}\n",
+            self.scans(),
+            p50,
+            p99,
+            self.count(Status::Ok),
+            self.count(Status::Ambiguous),
+            self.count(Status::Failed)
+        );
+        let names = [
+            "samples",
+            "inference",
+            "filter+corners",
+            "matching",
+            "coarse cost",
+            "refine",
+            "cost",
+        ];
+        s += "median us per step:";
+        for (k, name) in names.iter().enumerate() {
+            let mut v: Vec<f64> = self.outcomes.iter().map(|o| o.steps[k]).collect();
+            s += &format!(" {name} {:.1}", quantile(&mut v, 0.5));
+        }
+        s += "\n";
+        if self.outcomes.iter().any(|o| o.has_truth) {
+            s += &format!(
+                "success {:.1} % (within {SUCCESS_POSITION} m and {SUCCESS_HEADING_DEG} deg)  mean error of successes {:.2} cm  ok precision {:.1} %\n",
+                100.0 * self.success_rate(),
+                100.0 * self.mean_error(),
+                100.0 * self.ok_precision()
+            );
+        }
+        s
+    }
+}
