@@ -45,20 +45,14 @@ impl Diagnosis {
     }
 
     pub fn render(&self) -> String {
-        self.counts
-            .iter()
-            .map(|(k, v)| format!("  {v:5}  {k}\n"))
-            .collect()
+        self.counts.iter().map(|(k, v)| format!("  {v:5}  {k}\n")).collect()
     }
 }
 
 /// Prints each scan corner, placed in the map by the truth, beside the nearest map corner.
 pub fn dump(seg: &Segmentation, loc: &Localization, truth: &Pose, model: &localize::MapModel) {
     let near = |p: &Pose, d: f64, a: f64| same_pose(p, truth, d, a.to_radians());
-    let loose = loc
-        .all_candidates
-        .iter()
-        .position(|c| near(&c.0, 0.8, 15.0));
+    let loose = loc.all_candidates.iter().position(|c| near(&c.0, 0.8, 15.0));
     eprintln!(
         "  candidates {} (first within 0.8 m / 15 deg: {:?}), lines {}",
         loc.all_candidates.len(),
@@ -72,29 +66,14 @@ pub fn dump(seg: &Segmentation, loc: &Localization, truth: &Pose, model: &locali
             .similar(c.inner_angle, 10f64.to_radians())
             .iter()
             .min_by(|a, b| (a.position - p).norm().total_cmp(&(b.position - p).norm()));
-        let wall_dist = |q: nalgebra::Point2<f64>| {
-            model
-                .map
-                .walls
-                .iter()
-                .map(|w| w.closest(q).0)
-                .fold(f64::INFINITY, f64::min)
-        };
+        let wall_dist =
+            |q: nalgebra::Point2<f64>| model.map.walls.iter().map(|w| w.closest(q).0).fold(f64::INFINITY, f64::min);
         let ends: Vec<String> = c
             .arms
             .iter()
-            .map(|a| {
-                format!(
-                    "{:.2}",
-                    wall_dist(truth * (c.position + a.direction * (a.gap + a.length)))
-                )
-            })
+            .map(|a| format!("{:.2}", wall_dist(truth * (c.position + a.direction * (a.gap + a.length)))))
             .collect();
-        eprint!(
-            "    corner-wall {:.2} arm-end-wall {:?}",
-            wall_dist(p),
-            ends
-        );
+        eprint!("    corner-wall {:.2} arm-end-wall {:?}", wall_dist(p), ends);
         let theta = laser::pose_theta(truth);
         let o = laser::wrap_angle(c.orientation + theta);
         match nearest {
@@ -110,51 +89,23 @@ pub fn dump(seg: &Segmentation, loc: &Localization, truth: &Pose, model: &locali
 
 /// One scan's segmentation and the map seen from the true pose, as JSON (sensor frame), for
 /// plotting.
-pub fn scan_json(
-    scan: &laser::LaserScan,
-    seg: &Segmentation,
-    model: &localize::MapModel,
-) -> String {
-    let inv = scan
-        .truth
-        .map(|t| t.inverse())
-        .unwrap_or_else(Pose::identity);
-    let pts: Vec<String> = seg
-        .samples
-        .iter()
-        .map(|s| format!("[{:.4},{:.4}]", s.point().x, s.point().y))
-        .collect();
+pub fn scan_json(scan: &laser::LaserScan, seg: &Segmentation, model: &localize::MapModel) -> String {
+    let inv = scan.truth.map(|t| t.inverse()).unwrap_or_else(Pose::identity);
+    let pts: Vec<String> = seg.samples.iter().map(|s| format!("[{:.4},{:.4}]", s.point().x, s.point().y)).collect();
     let raw: Vec<String> = seg
         .raw_lines
         .iter()
-        .map(|l| {
-            format!(
-                "[{:.4},{:.4},{:.4},{:.4},{}]",
-                l.start.x, l.start.y, l.end.x, l.end.y, l.samples
-            )
-        })
+        .map(|l| format!("[{:.4},{:.4},{:.4},{:.4},{}]", l.start.x, l.start.y, l.end.x, l.end.y, l.samples))
         .collect();
     let lines: Vec<String> = seg
         .lines
         .iter()
-        .map(|l| {
-            format!(
-                "[{:.4},{:.4},{:.4},{:.4},{}]",
-                l.start.x, l.start.y, l.end.x, l.end.y, l.samples
-            )
-        })
+        .map(|l| format!("[{:.4},{:.4},{:.4},{:.4},{}]", l.start.x, l.start.y, l.end.x, l.end.y, l.samples))
         .collect();
     let corners: Vec<String> = seg
         .corners
         .iter()
-        .map(|c| {
-            format!(
-                "[{:.4},{:.4},{:.2}]",
-                c.position.x,
-                c.position.y,
-                c.inner_angle.to_degrees()
-            )
-        })
+        .map(|c| format!("[{:.4},{:.4},{:.2}]", c.position.x, c.position.y, c.inner_angle.to_degrees()))
         .collect();
     let walls: Vec<String> = model
         .map

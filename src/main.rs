@@ -7,11 +7,7 @@ mod report;
 use clap::{Parser, Subcommand};
 
 #[derive(Parser)]
-#[command(
-    name = "gema2",
-    version,
-    about = "Fast global single-scan self-localization from a 2D laser (GEMA2)"
-)]
+#[command(name = "gema2", version, about = "Fast global single-scan self-localization from a 2D laser (GEMA2)")]
 struct Cli {
     #[command(subcommand)]
     command: Option<Command>,

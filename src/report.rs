@@ -26,19 +26,11 @@ impl Outcome {
         let error = match (pose, truth) {
             (Some(p), Some(t)) => Some((
                 (p.translation.vector - t.translation.vector).norm(),
-                angle_diff(pose_theta(&p), pose_theta(&t))
-                    .abs()
-                    .to_degrees(),
+                angle_diff(pose_theta(&p), pose_theta(&t)).abs().to_degrees(),
             )),
             _ => None,
         };
-        Outcome {
-            status,
-            error,
-            has_truth: truth.is_some(),
-            micros,
-            steps: [0.0; 7],
-        }
+        Outcome { status, error, has_truth: truth.is_some(), micros, steps: [0.0; 7] }
     }
 
     /// Records the step times of a segmentation and localization.
@@ -57,8 +49,7 @@ impl Outcome {
     }
 
     pub fn success(&self) -> bool {
-        self.error
-            .is_some_and(|(d, a)| d <= SUCCESS_POSITION && a <= SUCCESS_HEADING_DEG)
+        self.error.is_some_and(|(d, a)| d <= SUCCESS_POSITION && a <= SUCCESS_HEADING_DEG)
     }
 }
 
@@ -92,12 +83,7 @@ impl Summary {
 
     /// Mean position error of the successes, metres.
     pub fn mean_error(&self) -> f64 {
-        let e: Vec<f64> = self
-            .outcomes
-            .iter()
-            .filter(|o| o.success())
-            .filter_map(|o| o.error.map(|e| e.0))
-            .collect();
+        let e: Vec<f64> = self.outcomes.iter().filter(|o| o.success()).filter_map(|o| o.error.map(|e| e.0)).collect();
         e.iter().sum::<f64>() / e.len().max(1) as f64
     }
 
@@ -107,11 +93,7 @@ impl Summary {
 
     /// Of the scans marked ok, the fraction that are right.
     pub fn ok_precision(&self) -> f64 {
-        let ok: Vec<&Outcome> = self
-            .outcomes
-            .iter()
-            .filter(|o| o.status == Status::Ok)
-            .collect();
+        let ok: Vec<&Outcome> = self.outcomes.iter().filter(|o| o.status == Status::Ok).collect();
         ok.iter().filter(|o| o.success()).count() as f64 / ok.len().max(1) as f64
     }
 
@@ -127,15 +109,7 @@ impl Summary {
             self.count(Status::Ambiguous),
             self.count(Status::Failed)
         );
-        let names = [
-            "samples",
-            "inference",
-            "filter+corners",
-            "matching",
-            "coarse cost",
-            "refine",
-            "cost",
-        ];
+        let names = ["samples", "inference", "filter+corners", "matching", "coarse cost", "refine", "cost"];
         s += "median us per step:";
         for (k, name) in names.iter().enumerate() {
             let mut v: Vec<f64> = self.outcomes.iter().map(|o| o.steps[k]).collect();

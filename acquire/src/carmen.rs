@@ -22,16 +22,9 @@ use thiserror::Error;
 #[derive(Debug, Error)]
 pub enum LogError {
     #[error("{path}: cannot read the log: {source}")]
-    Io {
-        path: PathBuf,
-        source: std::io::Error,
-    },
+    Io { path: PathBuf, source: std::io::Error },
     #[error("{path}:{line}: {message}")]
-    Line {
-        path: PathBuf,
-        line: usize,
-        message: String,
-    },
+    Line { path: PathBuf, line: usize, message: String },
 }
 
 /// How FLASER lines (which carry no angles) are laid out.
@@ -47,11 +40,7 @@ pub struct FlaserLayout {
 
 impl Default for FlaserLayout {
     fn default() -> Self {
-        FlaserLayout {
-            start_angle: -std::f64::consts::FRAC_PI_2,
-            increment: None,
-            range_max: 50.0,
-        }
+        FlaserLayout { start_angle: -std::f64::consts::FRAC_PI_2, increment: None, range_max: 50.0 }
     }
 }
 
@@ -75,39 +64,22 @@ pub struct CarmenReader {
 impl CarmenReader {
     /// Opens a log file (`.gz` is decompressed).
     pub fn open(path: &Path, layout: FlaserLayout) -> Result<Self, LogError> {
-        let file = std::fs::File::open(path).map_err(|source| LogError::Io {
-            path: path.to_owned(),
-            source,
-        })?;
+        let file = std::fs::File::open(path).map_err(|source| LogError::Io { path: path.to_owned(), source })?;
         let inner: Box<dyn Read + Send> = if path.extension().is_some_and(|e| e == "gz") {
             Box::new(flate2::read::MultiGzDecoder::new(file))
         } else {
             Box::new(file)
         };
-        Ok(Self::from_reader(
-            Box::new(BufReader::with_capacity(1 << 16, inner)),
-            path,
-            layout,
-        ))
+        Ok(Self::from_reader(Box::new(BufReader::with_capacity(1 << 16, inner)), path, layout))
     }
 
     /// Reads from any source; `path` names it in errors.
     pub fn from_reader(reader: Box<dyn BufRead + Send>, path: &Path, layout: FlaserLayout) -> Self {
-        CarmenReader {
-            reader,
-            path: path.to_owned(),
-            line: 0,
-            buf: String::new(),
-            layout,
-        }
+        CarmenReader { reader, path: path.to_owned(), line: 0, buf: String::new(), layout }
     }
 
     fn error(&self, message: impl Into<String>) -> LogError {
-        LogError::Line {
-            path: self.path.clone(),
-            line: self.line,
-            message: message.into(),
-        }
+        LogError::Line { path: self.path.clone(), line: self.line, message: message.into() }
     }
 }
 
@@ -120,12 +92,7 @@ impl Iterator for CarmenReader {
             match self.reader.read_line(&mut self.buf) {
                 Ok(0) => return None,
                 Ok(_) => {}
-                Err(source) => {
-                    return Some(Err(LogError::Io {
-                        path: self.path.clone(),
-                        source,
-                    }))
-                }
+                Err(source) => return Some(Err(LogError::Io { path: self.path.clone(), source })),
             }
             self.line += 1;
             let mut tokens = self.buf.split_ascii_whitespace();
@@ -135,10 +102,7 @@ impl Iterator for CarmenReader {
                 _ => continue,
             };
             return Some(match parsed {
-                Ok(scan) => Ok(LogScan {
-                    line: self.line,
-                    scan,
-                }),
+                Ok(scan) => Ok(LogScan { line: self.line, scan }),
                 Err(message) => Err(self.error(message)),
             });
         }
@@ -146,12 +110,8 @@ impl Iterator for CarmenReader {
 }
 
 fn num(tokens: &[&str], k: usize, what: &str) -> Result<f64, String> {
-    let t = tokens
-        .get(k)
-        .ok_or_else(|| format!("line ends before {what} (token {})", k + 1))?;
-    let v: f64 = t
-        .parse()
-        .map_err(|_| format!("{what}: {t:?} is not a number"))?;
+    let t = tokens.get(k).ok_or_else(|| format!("line ends before {what} (token {})", k + 1))?;
+    let v: f64 = t.parse().map_err(|_| format!("{what}: {t:?} is not a number"))?;
     if v.is_nan() && what != "range" {
         return Err(format!("{what} is NaN"));
     }
@@ -159,20 +119,15 @@ fn num(tokens: &[&str], k: usize, what: &str) -> Result<f64, String> {
 }
 
 fn count(tokens: &[&str], k: usize, what: &str) -> Result<usize, String> {
-    let t = tokens
-        .get(k)
-        .ok_or_else(|| format!("line ends before {what}"))?;
-    t.parse::<usize>()
-        .map_err(|_| format!("{what}: {t:?} is not a count"))
+    let t = tokens.get(k).ok_or_else(|| format!("line ends before {what}"))?;
+    t.parse::<usize>().map_err(|_| format!("{what}: {t:?} is not a count"))
 }
 
 fn ranges(tokens: &[&str], first: usize, n: usize) -> Result<Vec<f32>, String> {
     if n > 100_000 {
         return Err(format!("{n} readings is not a laser scan"));
     }
-    (first..first + n)
-        .map(|k| num(tokens, k, "range").map(|v| v as f32))
-        .collect()
+    (first..first + n).map(|k| num(tokens, k, "range").map(|v| v as f32)).collect()
 }
 
 fn finite_pose(x: f64, y: f64, t: f64) -> Result<Pose, String> {
@@ -191,9 +146,7 @@ fn parse_robotlaser1(t: &[&str]) -> Result<LaserScan, String> {
     } else if layout_fits(t, 6) {
         0
     } else {
-        return Err(
-            "ROBOTLASER1: the reading and remission counts do not match the line's length".into(),
-        );
+        return Err("ROBOTLASER1: the reading and remission counts do not match the line's length".into());
     };
     let start = num(t, base, "start_angle")?;
     let fov = num(t, base + 1, "fov")?;
@@ -203,11 +156,7 @@ fn parse_robotlaser1(t: &[&str]) -> Result<LaserScan, String> {
     let r = ranges(t, base + 7, n)?;
     let m = count(t, base + 7 + n, "remission count")?;
     let p = base + 8 + n + m;
-    let truth = finite_pose(
-        num(t, p, "laser_x")?,
-        num(t, p + 1, "laser_y")?,
-        num(t, p + 2, "laser_theta")?,
-    )?;
+    let truth = finite_pose(num(t, p, "laser_x")?, num(t, p + 1, "laser_y")?, num(t, p + 2, "laser_theta")?)?;
     let increment = if res > 0.0 {
         res
     } else if n > 1 {
@@ -222,18 +171,12 @@ fn parse_robotlaser1(t: &[&str]) -> Result<LaserScan, String> {
         range_max: max_range,
     };
     if !geometry.is_well_formed() {
-        return Err(format!("ROBOTLASER1: unusable scan layout (start {start}, resolution {res}, max range {max_range})"));
+        return Err(format!(
+            "ROBOTLASER1: unusable scan layout (start {start}, resolution {res}, max range {max_range})"
+        ));
     }
-    let stamp = t
-        .get(p + 11)
-        .and_then(|s| s.parse::<f64>().ok())
-        .unwrap_or(f64::NAN);
-    Ok(LaserScan {
-        geometry,
-        ranges: r,
-        stamp,
-        truth: Some(truth),
-    })
+    let stamp = t.get(p + 11).and_then(|s| s.parse::<f64>().ok()).unwrap_or(f64::NAN);
+    Ok(LaserScan { geometry, ranges: r, stamp, truth: Some(truth) })
 }
 
 /// Whether the reading count at `k` and the remission count after the readings leave room for
@@ -254,11 +197,7 @@ fn parse_flaser(t: &[&str], layout: &FlaserLayout) -> Result<LaserScan, String> 
         return Err("FLASER: fewer than two readings".into());
     }
     let r = ranges(t, 1, n)?;
-    let truth = finite_pose(
-        num(t, n + 1, "x")?,
-        num(t, n + 2, "y")?,
-        num(t, n + 3, "theta")?,
-    )?;
+    let truth = finite_pose(num(t, n + 1, "x")?, num(t, n + 2, "y")?, num(t, n + 3, "theta")?)?;
     let pi = std::f64::consts::PI;
     let increment = layout.increment.unwrap_or(match n {
         180 | 360 => pi / n as f64,
@@ -270,16 +209,8 @@ fn parse_flaser(t: &[&str], layout: &FlaserLayout) -> Result<LaserScan, String> 
         range_min: laser::MIN_VALID_RANGE,
         range_max: layout.range_max,
     };
-    let stamp = t
-        .get(n + 7)
-        .and_then(|s| s.parse::<f64>().ok())
-        .unwrap_or(f64::NAN);
-    Ok(LaserScan {
-        geometry,
-        ranges: r,
-        stamp,
-        truth: Some(truth),
-    })
+    let stamp = t.get(n + 7).and_then(|s| s.parse::<f64>().ok()).unwrap_or(f64::NAN);
+    Ok(LaserScan { geometry, ranges: r, stamp, truth: Some(truth) })
 }
 
 /// Writes a scan as a `ROBOTLASER1` line (laser pose = truth, or zeros when unknown).
@@ -288,11 +219,8 @@ pub fn write_robotlaser1(w: &mut impl Write, scan: &LaserScan) -> std::io::Resul
     let n = scan.ranges.len();
     let fov = g.angle_increment * n.saturating_sub(1) as f64;
     let mut s = String::with_capacity(16 + 8 * n);
-    let _ = write!(
-        s,
-        "ROBOTLASER1 0 {:.9} {:.9} {:.9} {:.3} 0.01 0 {n}",
-        g.angle_min, fov, g.angle_increment, g.range_max
-    );
+    let _ =
+        write!(s, "ROBOTLASER1 0 {:.9} {:.9} {:.9} {:.3} 0.01 0 {n}", g.angle_min, fov, g.angle_increment, g.range_max);
     for r in &scan.ranges {
         let _ = write!(s, " {r:.4}");
     }
@@ -300,15 +228,8 @@ pub fn write_robotlaser1(w: &mut impl Write, scan: &LaserScan) -> std::io::Resul
         Some(p) => (p.translation.x, p.translation.y, laser::pose_theta(p)),
         None => (0.0, 0.0, 0.0),
     };
-    let stamp = if scan.stamp.is_finite() {
-        scan.stamp
-    } else {
-        0.0
-    };
-    let _ = writeln!(
-        s,
-        " 0 {x:.6} {y:.6} {th:.6} {x:.6} {y:.6} {th:.6} 0 0 0 0 0 {stamp:.6} gema2 {stamp:.6}"
-    );
+    let stamp = if scan.stamp.is_finite() { scan.stamp } else { 0.0 };
+    let _ = writeln!(s, " 0 {x:.6} {y:.6} {th:.6} {x:.6} {y:.6} {th:.6} 0 0 0 0 0 {stamp:.6} gema2 {stamp:.6}");
     w.write_all(s.as_bytes())
 }
 
@@ -361,15 +282,8 @@ mod tests {
     fn flaser_layouts_follow_the_reading_count() {
         for (n, inc) in [(181usize, 1f64), (180, 1.0), (361, 0.5), (360, 0.5)] {
             let ranges = vec!["1.5"; n].join(" ");
-            let got = read(&format!(
-                "FLASER {n} {ranges} 1 2 0.1 1 2 0.1 7.0 host 7.0\n"
-            ))
-            .remove(0)
-            .unwrap();
-            assert!(
-                (got.scan.geometry.angle_increment.to_degrees() - inc).abs() < 1e-9,
-                "{n}"
-            );
+            let got = read(&format!("FLASER {n} {ranges} 1 2 0.1 1 2 0.1 7.0 host 7.0\n")).remove(0).unwrap();
+            assert!((got.scan.geometry.angle_increment.to_degrees() - inc).abs() < 1e-9, "{n}");
             assert!((got.scan.geometry.angle_min + std::f64::consts::FRAC_PI_2).abs() < 1e-12);
         }
     }
@@ -380,19 +294,10 @@ mod tests {
             ("FLASER 3 1 2\n", "t.log:1: line ends before range"),
             ("FLASER 2 1 2 0.5\n", "t.log:1: line ends before y"),
             ("ODOM 1 2 3\nFLASER x\n", "t.log:2: FLASER reading count"),
-            (
-                "FLASER 3 1 a 2 0 0 0 0 0 0 1 h 1\n",
-                "t.log:1: range: \"a\"",
-            ),
+            ("FLASER 3 1 a 2 0 0 0 0 0 0 1 h 1\n", "t.log:1: range: \"a\""),
             ("FLASER 3 1 1 2 0 nan 0 0 0 0 1 h 1\n", "t.log:1: y is NaN"),
-            (
-                "ROBOTLASER1 0 -1 2 0.5 80 0.01 0 9 1 1\n",
-                "t.log:1: ROBOTLASER1: the reading",
-            ),
-            (
-                "ROBOTLASER1 0 -1 2 0 80 0.01 0 1 1 0 0 0 0 0 0 0 0 0 0 0 0 1 h 1\n",
-                "t.log:1: ROBOTLASER1: unusable",
-            ),
+            ("ROBOTLASER1 0 -1 2 0.5 80 0.01 0 9 1 1\n", "t.log:1: ROBOTLASER1: the reading"),
+            ("ROBOTLASER1 0 -1 2 0 80 0.01 0 1 1 0 0 0 0 0 0 0 0 0 0 0 0 1 h 1\n", "t.log:1: ROBOTLASER1: unusable"),
         ];
         for (text, want) in cases {
             let err = read(text).remove(0).unwrap_err().to_string();

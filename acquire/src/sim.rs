@@ -29,9 +29,7 @@ impl FromStr for Scenario {
             "clean" => Ok(Scenario::Clean),
             "people" => Ok(Scenario::People),
             "furniture" => Ok(Scenario::Furniture),
-            _ => Err(format!(
-                "unknown scenario {s:?}: clean, people or furniture"
-            )),
+            _ => Err(format!("unknown scenario {s:?}: clean, people or furniture")),
         }
     }
 }
@@ -154,11 +152,7 @@ impl Simulator {
         for _ in 0..100_000 {
             let q = Point2::new(self.rng.range(lo.x, hi.x), self.rng.range(lo.y, hi.y));
             if self.field.distance(q) >= self.clearance && self.enclosed(q) {
-                return pose(
-                    q.x,
-                    q.y,
-                    self.rng.range(-std::f64::consts::PI, std::f64::consts::PI),
-                );
+                return pose(q.x, q.y, self.rng.range(-std::f64::consts::PI, std::f64::consts::PI));
             }
         }
         // a map with no enclosed free space: any point clear of walls
@@ -169,20 +163,8 @@ impl Simulator {
     fn enclosed(&mut self, q: Point2<f64>) -> bool {
         let (lo, hi) = self.bounds;
         let reach = (hi - lo).norm() * 2.0 + 1.0;
-        let g = ScanGeometry {
-            angle_min: 0.0,
-            angle_increment: TAU / 16.0,
-            range_min: 0.0,
-            range_max: reach,
-        };
-        self.caster.cast(
-            &pose(q.x, q.y, 0.0),
-            &g,
-            16,
-            1,
-            &mut self.scratch,
-            &mut self.ideal,
-        );
+        let g = ScanGeometry { angle_min: 0.0, angle_increment: TAU / 16.0, range_min: 0.0, range_max: reach };
+        self.caster.cast(&pose(q.x, q.y, 0.0), &g, 16, 1, &mut self.scratch, &mut self.ideal);
         self.ideal.iter().filter(|d| d.is_finite()).count() >= 14
     }
 
@@ -190,8 +172,7 @@ impl Simulator {
     pub fn scan_at(&mut self, p: &Pose, obstacles: &Obstacles) -> LaserScan {
         let s = self.sensor;
         let g = s.geometry;
-        self.caster
-            .cast(p, &g, s.beams, 1, &mut self.scratch, &mut self.ideal);
+        self.caster.cast(p, &g, s.beams, 1, &mut self.scratch, &mut self.ideal);
         let origin = Point2::from(p.translation.vector);
         let theta = p.rotation.angle();
         for (i, d) in self.ideal.iter_mut().enumerate() {
@@ -242,12 +223,7 @@ impl Simulator {
         }
         let stamp = self.count as f64 * 0.1;
         self.count += 1;
-        LaserScan {
-            geometry: g,
-            ranges,
-            stamp,
-            truth: Some(*p),
-        }
+        LaserScan { geometry: g, ranges, stamp, truth: Some(*p) }
     }
 
     /// A bearing within the field of view, map frame.
@@ -259,20 +235,8 @@ impl Simulator {
 
     /// The first wall (map only) along a map-frame bearing.
     fn map_range(&mut self, origin: Point2<f64>, bearing: f64) -> f64 {
-        let g = ScanGeometry {
-            angle_min: 0.0,
-            angle_increment: 1.0,
-            range_min: 0.0,
-            range_max: 1e6,
-        };
-        self.caster.cast(
-            &pose(origin.x, origin.y, bearing),
-            &g,
-            1,
-            1,
-            &mut self.scratch,
-            &mut self.ideal,
-        );
+        let g = ScanGeometry { angle_min: 0.0, angle_increment: 1.0, range_min: 0.0, range_max: 1e6 };
+        self.caster.cast(&pose(origin.x, origin.y, bearing), &g, 1, 1, &mut self.scratch, &mut self.ideal);
         self.ideal[0]
     }
 
@@ -295,10 +259,7 @@ impl Simulator {
                 circles.push((c, r));
             }
         }
-        Obstacles {
-            walls: Vec::new(),
-            circles,
-        }
+        Obstacles { walls: Vec::new(), circles }
     }
 
     fn furniture(&mut self, p: &Pose) -> Obstacles {
@@ -315,12 +276,8 @@ impl Simulator {
                 continue;
             }
             let hit = origin + Vector2::new(bearing.cos(), bearing.sin()) * d;
-            let Some(wall) = self
-                .caster
-                .walls()
-                .iter()
-                .min_by(|a, b| a.closest(hit).0.total_cmp(&b.closest(hit).0))
-                .copied()
+            let Some(wall) =
+                self.caster.walls().iter().min_by(|a, b| a.closest(hit).0.total_cmp(&b.closest(hit).0)).copied()
             else {
                 continue;
             };
@@ -330,35 +287,19 @@ impl Simulator {
                 normal = -normal;
             }
             let (width, depth) = (self.rng.range(0.4, 1.6), self.rng.range(0.3, 0.8));
-            let centre = hit
-                + normal * (depth / 2.0 + 0.01)
-                + along * self.rng.range(-width / 3.0, width / 3.0);
+            let centre = hit + normal * (depth / 2.0 + 0.01) + along * self.rng.range(-width / 3.0, width / 3.0);
             let corners = [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)]
                 .map(|(u, v)| centre + along * (u * width / 2.0) + normal * (v * depth / 2.0));
-            let clear_of_robot =
-                (centre - origin).norm() > depth.hypot(width) / 2.0 + self.clearance;
+            let clear_of_robot = (centre - origin).norm() > depth.hypot(width) / 2.0 + self.clearance;
             let inside = corners.iter().all(|&c| self.field.distance(c) > 0.005)
                 && self.field.distance(centre) >= depth / 2.0 - 0.02;
-            let apart = boxes
-                .iter()
-                .all(|b| (b[0] + (b[2] - b[0]) / 2.0 - centre).norm() > width.max(depth) + 0.2);
+            let apart = boxes.iter().all(|b| (b[0] + (b[2] - b[0]) / 2.0 - centre).norm() > width.max(depth) + 0.2);
             if clear_of_robot && inside && apart {
                 boxes.push(corners);
             }
         }
-        let walls = boxes
-            .iter()
-            .flat_map(|c| {
-                (0..4).map(move |k| Wall {
-                    a: c[k],
-                    b: c[(k + 1) % 4],
-                })
-            })
-            .collect();
-        Obstacles {
-            walls,
-            circles: Vec::new(),
-        }
+        let walls = boxes.iter().flat_map(|c| (0..4).map(move |k| Wall { a: c[k], b: c[(k + 1) % 4] })).collect();
+        Obstacles { walls, circles: Vec::new() }
     }
 }
 
@@ -404,20 +345,10 @@ mod tests {
             let q = Point2::from(truth.translation.vector);
             assert!(map.walls.iter().all(|w| w.closest(q).0 >= 0.35));
             let mut ideal = Vec::new();
-            caster.cast(
-                &truth,
-                &scan.geometry,
-                scan.ranges.len(),
-                1,
-                &mut RayScratch::default(),
-                &mut ideal,
-            );
+            caster.cast(&truth, &scan.geometry, scan.ranges.len(), 1, &mut RayScratch::default(), &mut ideal);
             for (r, d) in scan.ranges.iter().zip(&ideal) {
                 if *d < 5.0 {
-                    assert!(
-                        (*r as f64 - d).abs() < 6.0 * (0.01 + 0.005 * d),
-                        "{r} vs {d}"
-                    );
+                    assert!((*r as f64 - d).abs() < 6.0 * (0.01 + 0.005 * d), "{r} vs {d}");
                 }
             }
         }

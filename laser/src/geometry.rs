@@ -65,12 +65,7 @@ impl ScanGeometry {
     /// A layout of `n` beams spread evenly over `fov` radians, centred on the x axis.
     pub fn centred(n: usize, fov: f64, range_max: f64) -> Self {
         let inc = if n > 1 { fov / (n - 1) as f64 } else { 0.0 };
-        ScanGeometry {
-            angle_min: -fov / 2.0,
-            angle_increment: inc,
-            range_min: MIN_VALID_RANGE,
-            range_max,
-        }
+        ScanGeometry { angle_min: -fov / 2.0, angle_increment: inc, range_min: MIN_VALID_RANGE, range_max }
     }
 
     /// Angle of beam `i`, sensor frame.
@@ -130,11 +125,7 @@ mod tests {
         // front beam (step 384) is beam 340 and points along x
         assert!(g.angle(340).abs() < 1e-12);
         let fov = g.angle(681) - g.angle(0);
-        assert!(
-            (fov.to_degrees() - 239.414).abs() < 0.001,
-            "{}",
-            fov.to_degrees()
-        );
+        assert!((fov.to_degrees() - 239.414).abs() < 0.001, "{}", fov.to_degrees());
     }
 
     #[test]

@@ -30,10 +30,7 @@ pub struct LaserScan {
 
 impl LaserScan {
     pub fn view(&self) -> ScanView<'_> {
-        ScanView {
-            geometry: self.geometry,
-            ranges: &self.ranges,
-        }
+        ScanView { geometry: self.geometry, ranges: &self.ranges }
     }
 }
 
@@ -60,9 +57,6 @@ impl ScanView<'_> {
 
     /// Number of valid readings.
     pub fn valid_count(&self) -> usize {
-        self.ranges
-            .iter()
-            .filter(|&&r| self.geometry.is_valid(r as f64))
-            .count()
+        self.ranges.iter().filter(|&&r| self.geometry.is_valid(r as f64)).count()
     }
 }

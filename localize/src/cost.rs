@@ -39,13 +39,7 @@ pub struct CostConfig {
 
 impl Default for CostConfig {
     fn default() -> Self {
-        CostConfig {
-            kind: CostKind::OneSided,
-            front_cap: 4.0,
-            through_cap: 25.0,
-            stride: 1,
-            sigma_floor: 0.0,
-        }
+        CostConfig { kind: CostKind::OneSided, front_cap: 4.0, through_cap: 25.0, stride: 1, sigma_floor: 0.0 }
     }
 }
 
@@ -122,18 +116,8 @@ pub fn cost(
         beams += 1;
     }
     if beams == 0 {
-        return Cost {
-            value: f64::INFINITY,
-            inliers: 0.0,
-            through: 0.0,
-            beams: 0,
-        };
+        return Cost { value: f64::INFINITY, inliers: 0.0, through: 0.0, beams: 0 };
     }
     let n = beams as f64;
-    Cost {
-        value: sum / n,
-        inliers: inliers as f64 / n,
-        through: through as f64 / n,
-        beams,
-    }
+    Cost { value: sum / n, inliers: inliers as f64 / n, through: through as f64 / n, beams }
 }

@@ -14,11 +14,7 @@ pub struct Gema2 {
 
 impl Gema2 {
     /// The paper's segmentation (line visibility) and this project's localizer.
-    pub fn new(
-        model: Arc<MapModel>,
-        segmenter: SegmenterConfig,
-        localizer: LocalizerConfig,
-    ) -> Self {
+    pub fn new(model: Arc<MapModel>, segmenter: SegmenterConfig, localizer: LocalizerConfig) -> Self {
         Gema2 {
             segmenter: Box::new(LineVisibilitySegmenter::new(segmenter)),
             localizer: Localizer::new(model, localizer),

@@ -73,7 +73,7 @@ impl Default for LocalizerConfig {
             max_angle_tolerance: 8f64.to_radians(),
             arm_slack: 0.3,
             screen_points: 40,
-            screened: 32,
+            screened: 64,
             coarse_beams: 64,
             coarse_sigma: 0.08,
             refined: 6,
@@ -219,11 +219,7 @@ impl Localizer {
         self.out.candidates = self.candidates.len();
         if self.config.record_candidates {
             self.candidates.sort_by(|a, b| a.score.total_cmp(&b.score));
-            self.out.all_candidates.extend(
-                self.candidates
-                    .iter()
-                    .map(|c| (c.pose, c.score, c.scan_corner)),
-            );
+            self.out.all_candidates.extend(self.candidates.iter().map(|c| (c.pose, c.score, c.scan_corner)));
         }
         self.keep_best(self.config.screened);
         let t1 = Instant::now();
@@ -256,12 +252,7 @@ impl Localizer {
         }
         self.rank();
         let t4 = Instant::now();
-        self.out.times = LocateTimes {
-            matching: t1 - t0,
-            coarse: t2 - t1,
-            refine: t3 - t2,
-            cost: t4 - t3,
-        };
+        self.out.times = LocateTimes { matching: t1 - t0, coarse: t2 - t1, refine: t3 - t2, cost: t4 - t3 };
         &self.out
     }
 
@@ -271,35 +262,36 @@ impl Localizer {
         self.candidates.clear();
         let cfg = &self.config;
         let model = &self.model;
-        let n = self.screen_pts.len().max(1) as f64;
-        let all = model.corners.corners();
+        let field = &model.field;
+        // screening in two passes: every fourth point for all poses, then every point for the
+        // best few times `screened`
+        let few: Vec<Point2<f64>> = self.screen_pts.iter().step_by(4).copied().collect();
+        let score = |pose: &Pose, pts: &[Point2<f64>]| {
+            pts.iter().map(|q| field.distance(pose * q).powi(2)).sum::<f64>() / pts.len().max(1) as f64
+        };
         for (ci, c) in seg.corners.iter().take(cfg.corners_tried).enumerate() {
-            let tolerance = (3.0 * c.inner_angle_sigma())
-                .clamp(cfg.min_angle_tolerance, cfg.max_angle_tolerance);
-            let similar = model.corners.similar(c.inner_angle, tolerance);
-            let base = (similar.as_ptr() as usize - all.as_ptr() as usize)
-                / std::mem::size_of::<mapserver::MapCorner>().max(1);
-            for (k, m) in similar.iter().enumerate() {
+            let tolerance = (3.0 * c.inner_angle_sigma()).clamp(cfg.min_angle_tolerance, cfg.max_angle_tolerance);
+            let range = model.corners.similar_range(c.inner_angle, tolerance);
+            for k in range {
+                let m = &model.corners.corners()[k];
                 if !arms_fit(c, m, cfg.arm_slack) {
                     continue;
                 }
                 let pose = pose_from_corners(c, m);
-                let score = self
-                    .screen_pts
-                    .iter()
-                    .map(|q| model.field.distance(pose * q).powi(2))
-                    .sum::<f64>()
-                    / n;
+                let score = score(&pose, &few);
                 // a pose that puts every point far from the walls is not worth more work
                 if score < FIELD_CAP * FIELD_CAP * 0.95 {
-                    self.candidates.push(Candidate {
-                        pose,
-                        score,
-                        scan_corner: ci as u16,
-                        map_corner: (base + k) as u32,
-                    });
+                    self.candidates.push(Candidate { pose, score, scan_corner: ci as u16, map_corner: k as u32 });
                 }
             }
+        }
+        let keep = 4 * cfg.screened;
+        if self.candidates.len() > keep {
+            self.candidates.select_nth_unstable_by(keep, |a, b| a.score.total_cmp(&b.score));
+            self.candidates.truncate(keep);
+        }
+        for c in self.candidates.iter_mut() {
+            c.score = score(&c.pose, &self.screen_pts);
         }
     }
 
@@ -312,10 +304,7 @@ impl Localizer {
                 break;
             }
             let p = self.candidates[k].pose;
-            if !self.candidates[..kept]
-                .iter()
-                .any(|q| same_pose(&p, &q.pose, 0.1, 2f64.to_radians()))
-            {
+            if !self.candidates[..kept].iter().any(|q| same_pose(&p, &q.pose, 0.1, 2f64.to_radians())) {
                 self.candidates.swap(kept, k);
                 kept += 1;
             }
@@ -351,10 +340,7 @@ impl Localizer {
         hyps.sort_by(|a, b| a.cost.value.total_cmp(&b.cost.value));
         let mut kept: Vec<Hypothesis> = Vec::with_capacity(hyps.len());
         for h in hyps.drain(..) {
-            if !kept
-                .iter()
-                .any(|k| same_pose(&k.pose, &h.pose, 0.05, 1f64.to_radians()))
-            {
+            if !kept.iter().any(|k| same_pose(&k.pose, &h.pose, 0.05, 1f64.to_radians())) {
                 kept.push(h);
             }
         }
@@ -364,21 +350,16 @@ impl Localizer {
             self.out.status = Status::Failed;
             return;
         };
-        self.out.status =
-            if best.cost.inliers < cfg.min_inliers || best.cost.through > cfg.max_through {
-                Status::Failed
-            } else if hyps[1..].iter().any(|h| {
-                !same_pose(
-                    &h.pose,
-                    &best.pose,
-                    cfg.distinct_position,
-                    cfg.distinct_heading,
-                ) && h.cost.value - best.cost.value < cfg.ambiguity_margin
-            }) {
-                Status::Ambiguous
-            } else {
-                Status::Ok
-            };
+        self.out.status = if best.cost.inliers < cfg.min_inliers || best.cost.through > cfg.max_through {
+            Status::Failed
+        } else if hyps[1..].iter().any(|h| {
+            !same_pose(&h.pose, &best.pose, cfg.distinct_position, cfg.distinct_heading)
+                && h.cost.value - best.cost.value < cfg.ambiguity_margin
+        }) {
+            Status::Ambiguous
+        } else {
+            Status::Ok
+        };
     }
 }
 

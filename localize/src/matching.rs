@@ -10,10 +10,7 @@ use segment::Corner;
 /// map has (its extent), and no wall where the map has a gap at the corner. `slack` absorbs
 /// line-end noise, metres.
 pub fn arms_fit(c: &Corner, m: &MapCorner, slack: f64) -> bool {
-    c.arms
-        .iter()
-        .zip(&m.arms)
-        .all(|(s, a)| s.gap + s.length <= a.extent + slack && s.gap + slack >= a.gap)
+    c.arms.iter().zip(&m.arms).all(|(s, a)| s.gap + s.length <= a.extent + slack && s.gap + slack >= a.gap)
 }
 
 /// The sensor pose that lays scan corner `c` onto map corner `m` (eqs. 5 and 6).
@@ -45,14 +42,7 @@ mod tests {
     use segment::Arm;
 
     fn arm(direction: Vector2<f64>, samples: f64) -> Arm {
-        Arm {
-            direction,
-            gap: 0.0,
-            length: 1.0,
-            samples,
-            direction_sigma: 0.01,
-            line: 0,
-        }
+        Arm { direction, gap: 0.0, length: 1.0, samples, direction_sigma: 0.01, line: 0 }
     }
 
     proptest! {
@@ -90,20 +80,8 @@ mod tests {
             inner_angle: std::f64::consts::FRAC_PI_2,
             orientation: 0.0,
             arms: [
-                MapArm {
-                    direction: Vector2::x(),
-                    gap: 0.0,
-                    length: 1.0,
-                    extent: 1.0,
-                    wall: 0,
-                },
-                MapArm {
-                    direction: Vector2::y(),
-                    gap: 0.0,
-                    length: 1.0,
-                    extent: 1.0,
-                    wall: 1,
-                },
+                MapArm { direction: Vector2::x(), gap: 0.0, length: 1.0, extent: 1.0, wall: 0 },
+                MapArm { direction: Vector2::y(), gap: 0.0, length: 1.0, extent: 1.0, wall: 1 },
             ],
         };
         let off = 2f64.to_radians();
@@ -112,10 +90,7 @@ mod tests {
             inner_angle: std::f64::consts::FRAC_PI_2 + off,
             orientation: 0.0,
             quality: 1.0,
-            arms: [
-                arm(Vector2::x(), 300.0),
-                arm(Vector2::new(-off.sin(), off.cos()), 100.0),
-            ],
+            arms: [arm(Vector2::x(), 300.0), arm(Vector2::new(-off.sin(), off.cos()), 100.0)],
         };
         let got = pose_theta(&pose_from_corners(&c, &m));
         assert!((got - (-off * 0.25)).abs() < 1e-12, "{got}");

@@ -20,23 +20,13 @@ pub struct RefineConfig {
 
 impl Default for RefineConfig {
     fn default() -> Self {
-        RefineConfig {
-            iterations: 8,
-            first_gate: 0.5,
-            final_gate: 0.12,
-            kernel: 0.05,
-        }
+        RefineConfig { iterations: 8, first_gate: 0.5, final_gate: 0.12, kernel: 0.05 }
     }
 }
 
 /// Refines `pose` so that `points` (sensor frame) lie on the map's walls; returns the refined
 /// pose and the fraction of points that ended within the final gate.
-pub fn refine(
-    model: &MapModel,
-    points: &[Point2<f64>],
-    pose: &Pose,
-    cfg: &RefineConfig,
-) -> (Pose, f64) {
+pub fn refine(model: &MapModel, points: &[Point2<f64>], pose: &Pose, cfg: &RefineConfig) -> (Pose, f64) {
     let mut theta = pose.rotation.angle();
     let mut t = pose.translation.vector;
     let mut gate = cfg.first_gate;
@@ -80,10 +70,6 @@ pub fn refine(
             break;
         }
     }
-    let fraction = if points.is_empty() {
-        0.0
-    } else {
-        paired as f64 / points.len() as f64
-    };
+    let fraction = if points.is_empty() { 0.0 } else { paired as f64 / points.len() as f64 };
     (Isometry2::new(t, theta), fraction)
 }

@@ -14,10 +14,7 @@ pub const BUNDLED: [(&str, &str); 4] = [
 
 /// The bundled map called `name`.
 pub fn bundled(name: &str) -> Option<Result<WallMap, MapError>> {
-    BUNDLED
-        .iter()
-        .find(|(n, _)| *n == name)
-        .map(|(n, text)| WallMap::parse(text, Path::new(&format!("<bundled {n}>"))))
+    BUNDLED.iter().find(|(n, _)| *n == name).map(|(n, text)| WallMap::parse(text, Path::new(&format!("<bundled {n}>"))))
 }
 
 /// Loads `spec`: a bundled map's name, or a path to a JSON map.
@@ -42,10 +39,7 @@ mod tests {
             let made = procedural::by_name(name).unwrap();
             assert_eq!(shipped.walls.len(), made.walls.len(), "{name}");
             for (a, b) in shipped.walls.iter().zip(&made.walls) {
-                assert!(
-                    (a.a - b.a).norm() < 1e-3 && (a.b - b.b).norm() < 1e-3,
-                    "{name}: regenerate maps/{name}.json"
-                );
+                assert!((a.a - b.a).norm() < 1e-3 && (a.b - b.b).norm() < 1e-3, "{name}: regenerate maps/{name}.json");
             }
         }
     }

@@ -58,12 +58,7 @@ pub struct MapCornerConfig {
 
 impl Default for MapCornerConfig {
     fn default() -> Self {
-        MapCornerConfig {
-            min_angle: 25f64.to_radians(),
-            reach: 1.0,
-            min_arm_length: 0.1,
-            max_gap: 1.5,
-        }
+        MapCornerConfig { min_angle: 25f64.to_radians(), reach: 1.0, min_arm_length: 0.1, max_gap: 3.0 }
     }
 }
 
@@ -97,10 +92,7 @@ pub fn extract_map_corners(walls: &[Wall], cfg: &MapCornerConfig) -> Vec<MapCorn
                     continue;
                 }
                 let beta = (angle_of(left.direction) - angle_of(right.direction)).rem_euclid(TAU);
-                if beta < cfg.min_angle
-                    || beta > TAU - cfg.min_angle
-                    || (beta - PI).abs() < cfg.min_angle
-                {
+                if beta < cfg.min_angle || beta > TAU - cfg.min_angle || (beta - PI).abs() < cfg.min_angle {
                     continue;
                 }
                 corners.push(MapCorner {
@@ -179,18 +171,9 @@ fn arms_of(w: &Wall, index: u32, x: Point2<f64>, cfg: &MapCornerConfig, out: &mu
     let len = w.length();
     let dir = (w.b - w.a) / len;
     let t = (x - w.a).dot(&dir);
-    for (direction, gap, length) in [
-        (dir, (-t).max(0.0), len - t.max(0.0)),
-        (-dir, (t - len).max(0.0), t.min(len)),
-    ] {
+    for (direction, gap, length) in [(dir, (-t).max(0.0), len - t.max(0.0)), (-dir, (t - len).max(0.0), t.min(len))] {
         if gap <= cfg.reach && length >= cfg.min_arm_length {
-            out.push(MapArm {
-                direction,
-                gap,
-                length,
-                extent: gap + length,
-                wall: index,
-            });
+            out.push(MapArm { direction, gap, length, extent: gap + length, wall: index });
         }
     }
 }
@@ -212,15 +195,11 @@ impl CollinearWalls {
             angle -= PI;
         }
         let normal = Vector2::new(-angle.sin(), angle.cos());
-        (
-            (angle / ANGLE_BUCKET).round() as i64,
-            (normal.dot(&w.a.coords) / OFFSET_BUCKET).round() as i64,
-        )
+        ((angle / ANGLE_BUCKET).round() as i64, (normal.dot(&w.a.coords) / OFFSET_BUCKET).round() as i64)
     }
 
     fn new(walls: &[Wall]) -> Self {
-        let mut groups: std::collections::HashMap<(i64, i64), Vec<u32>> =
-            std::collections::HashMap::new();
+        let mut groups: std::collections::HashMap<(i64, i64), Vec<u32>> = std::collections::HashMap::new();
         for (k, w) in walls.iter().enumerate() {
             groups.entry(Self::key(w)).or_default().push(k as u32);
         }
@@ -235,12 +214,7 @@ impl CollinearWalls {
         let mut spans: Vec<(f64, f64)> = Vec::new();
         for da in -1..=1 {
             for dof in -1..=1 {
-                for &k in self
-                    .groups
-                    .get(&(ka + da, ko + dof))
-                    .map(Vec::as_slice)
-                    .unwrap_or(&[])
-                {
+                for &k in self.groups.get(&(ka + da, ko + dof)).map(Vec::as_slice).unwrap_or(&[]) {
                     let w = &walls[k as usize];
                     let (sa, sb) = ((w.a - x).dot(&u), (w.b - x).dot(&u));
                     let off = (w.a - x).dot(&n).abs().max((w.b - x).dot(&n).abs());
@@ -270,9 +244,7 @@ fn dedupe_arms(arms: &mut Vec<MapArm>) {
         let mut m = k + 1;
         while m < arms.len() {
             if arms[k].direction.dot(&arms[m].direction) > cos_same {
-                if arms[m].gap < arms[k].gap
-                    || (arms[m].gap == arms[k].gap && arms[m].length > arms[k].length)
-                {
+                if arms[m].gap < arms[k].gap || (arms[m].gap == arms[k].gap && arms[m].length > arms[k].length) {
                     arms[k] = arms[m];
                 }
                 arms.swap_remove(m);
@@ -307,13 +279,14 @@ impl CornerIndex {
 
     /// Corners with |beta_m - beta| <= tolerance: a contiguous run found by binary search.
     pub fn similar(&self, beta: f64, tolerance: f64) -> &[MapCorner] {
-        let lo = self
-            .corners
-            .partition_point(|c| c.inner_angle < beta - tolerance);
-        let hi = self
-            .corners
-            .partition_point(|c| c.inner_angle <= beta + tolerance);
-        &self.corners[lo..hi.max(lo)]
+        &self.corners[self.similar_range(beta, tolerance)]
+    }
+
+    /// Indices (into [`corners`](Self::corners)) of [`similar`](Self::similar)'s run.
+    pub fn similar_range(&self, beta: f64, tolerance: f64) -> std::ops::Range<usize> {
+        let lo = self.corners.partition_point(|c| c.inner_angle < beta - tolerance);
+        let hi = self.corners.partition_point(|c| c.inner_angle <= beta + tolerance);
+        lo..hi.max(lo)
     }
 
     /// Like [`similar`](Self::similar), restricted to corners within `radius` of `centre`
@@ -325,9 +298,7 @@ impl CornerIndex {
         centre: Point2<f64>,
         radius: f64,
     ) -> impl Iterator<Item = &MapCorner> {
-        self.similar(beta, tolerance)
-            .iter()
-            .filter(move |c| (c.position - centre).norm() <= radius)
+        self.similar(beta, tolerance).iter().filter(move |c| (c.position - centre).norm() <= radius)
     }
 }
 
@@ -352,11 +323,8 @@ mod tests {
         assert_eq!(idx.similar(FRAC_PI_2, 0.01).len(), 4);
         assert_eq!(idx.similar(3.0 * FRAC_PI_2, 0.01).len(), 4);
         // the inside corner at (4, 0): from the wall towards -x... counter-clockwise to +y
-        let c = idx
-            .similar(FRAC_PI_2, 0.01)
-            .iter()
-            .find(|c| (c.position - Point2::new(4.0, 0.0)).norm() < 1e-9)
-            .unwrap();
+        let c =
+            idx.similar(FRAC_PI_2, 0.01).iter().find(|c| (c.position - Point2::new(4.0, 0.0)).norm() < 1e-9).unwrap();
         assert!(
             (c.arms[0].direction - Vector2::new(0.0, 1.0)).norm() < 1e-9
                 || (c.arms[0].direction - Vector2::new(-1.0, 0.0)).norm() < 1e-9
@@ -372,24 +340,9 @@ mod tests {
         let walls = vec![Wall::new(0.9, 0.0, 5.0, 0.0), Wall::new(0.0, 0.0, 0.0, 3.0)];
         let idx = CornerIndex::build(&walls, &MapCornerConfig::default());
         assert_eq!(idx.corners().len(), 2);
-        assert!(idx
-            .corners()
-            .iter()
-            .all(|c| c.position.coords.norm() < 1e-9));
-        assert!(
-            (idx.corners()[0]
-                .arms
-                .iter()
-                .map(|a| a.gap)
-                .fold(0.0, f64::max)
-                - 0.9)
-                .abs()
-                < 1e-9
-        );
-        let t = vec![
-            Wall::new(-3.0, 0.0, 3.0, 0.0),
-            Wall::new(0.0, 0.0, 0.0, 2.0),
-        ];
+        assert!(idx.corners().iter().all(|c| c.position.coords.norm() < 1e-9));
+        assert!((idx.corners()[0].arms.iter().map(|a| a.gap).fold(0.0, f64::max) - 0.9).abs() < 1e-9);
+        let t = vec![Wall::new(-3.0, 0.0, 3.0, 0.0), Wall::new(0.0, 0.0, 0.0, 2.0)];
         let idx = CornerIndex::build(&t, &MapCornerConfig::default());
         // 90 degrees either side of the stem, and 270 degrees from the stem round the back to
         // either half of the bar; the straight 180 degree pairs make none
@@ -408,11 +361,7 @@ mod tests {
             Wall::new(0.0, 0.0, 0.0, 3.0),
         ];
         let idx = CornerIndex::build(&walls, &MapCornerConfig::default());
-        let c = idx
-            .corners()
-            .iter()
-            .find(|c| c.position.coords.norm() < 1e-9)
-            .unwrap();
+        let c = idx.corners().iter().find(|c| c.position.coords.norm() < 1e-9).unwrap();
         let along_x = c.arms.iter().find(|a| a.direction.x > 0.5).unwrap();
         assert!((along_x.extent - 10.0).abs() < 1e-9, "{}", along_x.extent);
         assert!((along_x.length - 3.0).abs() < 1e-9);
@@ -423,10 +372,6 @@ mod tests {
         let idx = CornerIndex::build(&square(), &MapCornerConfig::default());
         assert!(idx.similar(1.0, 0.1).is_empty());
         assert_eq!(idx.similar(PI, PI).len(), 8);
-        assert_eq!(
-            idx.similar_near(FRAC_PI_2, 0.1, Point2::new(0.0, 0.0), 0.5)
-                .count(),
-            1
-        );
+        assert_eq!(idx.similar_near(FRAC_PI_2, 0.1, Point2::new(0.0, 0.0), 0.5).count(), 1);
     }
 }

@@ -45,22 +45,14 @@ impl DistanceField {
         let mut nearest = vec![u32::MAX; cols * rows];
         let scale = 65535.0 / cap;
         for (k, wall) in walls.iter().enumerate() {
-            let c0 = (((wall.a.x.min(wall.b.x) - cap - origin.x) / resolution)
-                .floor()
-                .max(0.0)) as usize;
-            let r0 = (((wall.a.y.min(wall.b.y) - cap - origin.y) / resolution)
-                .floor()
-                .max(0.0)) as usize;
-            let c1 = ((((wall.a.x.max(wall.b.x) + cap - origin.x) / resolution).ceil()) as usize)
-                .min(cols - 1);
-            let r1 = ((((wall.a.y.max(wall.b.y) + cap - origin.y) / resolution).ceil()) as usize)
-                .min(rows - 1);
+            let c0 = (((wall.a.x.min(wall.b.x) - cap - origin.x) / resolution).floor().max(0.0)) as usize;
+            let r0 = (((wall.a.y.min(wall.b.y) - cap - origin.y) / resolution).floor().max(0.0)) as usize;
+            let c1 = ((((wall.a.x.max(wall.b.x) + cap - origin.x) / resolution).ceil()) as usize).min(cols - 1);
+            let r1 = ((((wall.a.y.max(wall.b.y) + cap - origin.y) / resolution).ceil()) as usize).min(rows - 1);
             for r in r0..=r1 {
                 for c in c0..=c1 {
-                    let centre = Point2::new(
-                        origin.x + (c as f64 + 0.5) * resolution,
-                        origin.y + (r as f64 + 0.5) * resolution,
-                    );
+                    let centre =
+                        Point2::new(origin.x + (c as f64 + 0.5) * resolution, origin.y + (r as f64 + 0.5) * resolution);
                     let d = wall.closest(centre).0;
                     if d < cap {
                         let q = (d * scale) as u16;
@@ -73,26 +65,14 @@ impl DistanceField {
                 }
             }
         }
-        DistanceField {
-            origin,
-            resolution,
-            cols,
-            rows,
-            cap,
-            cells,
-            nearest,
-        }
+        DistanceField { origin, resolution, cols, rows, cap, cells, nearest }
     }
 
     #[inline]
     fn index(&self, p: Point2<f64>) -> Option<usize> {
         let c = ((p.x - self.origin.x) / self.resolution) as isize;
         let r = ((p.y - self.origin.y) / self.resolution) as isize;
-        if p.x < self.origin.x
-            || p.y < self.origin.y
-            || c as usize >= self.cols
-            || r as usize >= self.rows
-        {
+        if p.x < self.origin.x || p.y < self.origin.y || c as usize >= self.cols || r as usize >= self.rows {
             return None;
         }
         Some(r as usize * self.cols + c as usize)
@@ -101,9 +81,7 @@ impl DistanceField {
     /// The wall nearest to the centre of the cell holding `p`, if any lies within the cap.
     #[inline]
     pub fn nearest_wall(&self, p: Point2<f64>) -> Option<u32> {
-        self.index(p)
-            .map(|i| self.nearest[i])
-            .filter(|&w| w != u32::MAX)
+        self.index(p).map(|i| self.nearest[i]).filter(|&w| w != u32::MAX)
     }
 
     /// Distance from `p` to the nearest wall, capped (and `cap` outside the field).

@@ -53,10 +53,7 @@ impl WallGrid {
             );
             for r in r0..=r1 {
                 for c in c0..=c1 {
-                    let centre = Point2::new(
-                        origin.x + (c as f64 + 0.5) * cell,
-                        origin.y + (r as f64 + 0.5) * cell,
-                    );
+                    let centre = Point2::new(origin.x + (c as f64 + 0.5) * cell, origin.y + (r as f64 + 0.5) * cell);
                     if w.closest(centre).0 <= margin + half_diag {
                         per_cell[r * cols + c].push(k as u32);
                     }
@@ -70,29 +67,12 @@ impl WallGrid {
             items.extend_from_slice(list);
         }
         starts.push(items.len() as u32);
-        WallGrid {
-            origin,
-            cell,
-            cols,
-            rows,
-            starts,
-            items,
-        }
+        WallGrid { origin, cell, cols, rows, starts, items }
     }
 
-    fn clamp_cell(
-        origin: Point2<f64>,
-        cell: f64,
-        cols: usize,
-        rows: usize,
-        p: Point2<f64>,
-    ) -> (usize, usize) {
-        let c = ((p.x - origin.x) / cell)
-            .floor()
-            .clamp(0.0, (cols - 1) as f64) as usize;
-        let r = ((p.y - origin.y) / cell)
-            .floor()
-            .clamp(0.0, (rows - 1) as f64) as usize;
+    fn clamp_cell(origin: Point2<f64>, cell: f64, cols: usize, rows: usize, p: Point2<f64>) -> (usize, usize) {
+        let c = ((p.x - origin.x) / cell).floor().clamp(0.0, (cols - 1) as f64) as usize;
+        let r = ((p.y - origin.y) / cell).floor().clamp(0.0, (rows - 1) as f64) as usize;
         (c, r)
     }
 

@@ -19,10 +19,7 @@ pub struct Wall {
 
 impl Wall {
     pub fn new(x1: f64, y1: f64, x2: f64, y2: f64) -> Self {
-        Wall {
-            a: Point2::new(x1, y1),
-            b: Point2::new(x2, y2),
-        }
+        Wall { a: Point2::new(x1, y1), b: Point2::new(x2, y2) }
     }
 
     pub fn length(&self) -> f64 {
@@ -34,11 +31,7 @@ impl Wall {
     pub fn closest(&self, p: Point2<f64>) -> (f64, Point2<f64>) {
         let e = self.b - self.a;
         let len2 = e.norm_squared();
-        let t = if len2 > 0.0 {
-            ((p - self.a).dot(&e) / len2).clamp(0.0, 1.0)
-        } else {
-            0.0
-        };
+        let t = if len2 > 0.0 { ((p - self.a).dot(&e) / len2).clamp(0.0, 1.0) } else { 0.0 };
         let q = self.a + e * t;
         ((p - q).norm(), q)
     }
@@ -54,25 +47,13 @@ pub struct WallMap {
 #[derive(Debug, Error)]
 pub enum MapError {
     #[error("{path}: cannot read the map: {source}")]
-    Io {
-        path: PathBuf,
-        source: std::io::Error,
-    },
+    Io { path: PathBuf, source: std::io::Error },
     #[error("{path}: not valid JSON at line {line}, column {column}: {message}")]
-    Json {
-        path: PathBuf,
-        line: usize,
-        column: usize,
-        message: String,
-    },
+    Json { path: PathBuf, line: usize, column: usize, message: String },
     #[error("{path}: {message}")]
     Shape { path: PathBuf, message: String },
     #[error("{path}: walls[{index}]: {message}")]
-    Wall {
-        path: PathBuf,
-        index: usize,
-        message: String,
-    },
+    Wall { path: PathBuf, index: usize, message: String },
 }
 
 impl WallMap {
@@ -82,10 +63,7 @@ impl WallMap {
 
     /// Loads and validates a JSON map file.
     pub fn load(path: &Path) -> Result<Self, MapError> {
-        let text = std::fs::read_to_string(path).map_err(|source| MapError::Io {
-            path: path.to_owned(),
-            source,
-        })?;
+        let text = std::fs::read_to_string(path).map_err(|source| MapError::Io { path: path.to_owned(), source })?;
         Self::parse(&text, path)
     }
 
@@ -99,47 +77,30 @@ impl WallMap {
             message: e.to_string(),
         })?;
         let Some(list) = doc.get("walls") else {
-            return Err(MapError::Shape {
-                path,
-                message: "no \"walls\" key at the top level".into(),
-            });
+            return Err(MapError::Shape { path, message: "no \"walls\" key at the top level".into() });
         };
         let Some(list) = list.as_array() else {
-            return Err(MapError::Shape {
-                path,
-                message: "\"walls\" is not a list".into(),
-            });
+            return Err(MapError::Shape { path, message: "\"walls\" is not a list".into() });
         };
         if list.is_empty() {
-            return Err(MapError::Shape {
-                path,
-                message: "\"walls\" is empty: a map needs walls".into(),
-            });
+            return Err(MapError::Shape { path, message: "\"walls\" is empty: a map needs walls".into() });
         }
         let mut walls = Vec::with_capacity(list.len());
         for (index, item) in list.iter().enumerate() {
-            let bad = |message: String| MapError::Wall {
-                path: path.clone(),
-                index,
-                message,
-            };
+            let bad = |message: String| MapError::Wall { path: path.clone(), index, message };
             let nums: Vec<f64> = match item.as_array() {
                 Some(a) if a.len() == 4 => a.iter().filter_map(Value::as_f64).collect(),
                 _ => Vec::new(),
             };
             if nums.len() != 4 {
-                return Err(bad(format!(
-                    "expected four numbers [x1, y1, x2, y2], found {item}"
-                )));
+                return Err(bad(format!("expected four numbers [x1, y1, x2, y2], found {item}")));
             }
             if nums.iter().any(|v| !v.is_finite()) {
                 return Err(bad(format!("coordinates must be finite, found {item}")));
             }
             let wall = Wall::new(nums[0], nums[1], nums[2], nums[3]);
             if wall.length() < MIN_WALL_LENGTH {
-                return Err(bad(format!(
-                    "wall is shorter than {MIN_WALL_LENGTH} m: {item}"
-                )));
+                return Err(bad(format!("wall is shorter than {MIN_WALL_LENGTH} m: {item}")));
             }
             walls.push(wall);
         }
@@ -148,16 +109,10 @@ impl WallMap {
 
     /// The map as JSON (DESIGN.md's format), with a name.
     pub fn to_json(&self, name: &str) -> String {
-        let mut s = format!(
-            "{{\n  \"name\": {},\n  \"walls\": [\n",
-            Value::String(name.into())
-        );
+        let mut s = format!("{{\n  \"name\": {},\n  \"walls\": [\n", Value::String(name.into()));
         for (k, w) in self.walls.iter().enumerate() {
             let sep = if k + 1 < self.walls.len() { "," } else { "" };
-            s += &format!(
-                "    [{:.3}, {:.3}, {:.3}, {:.3}]{sep}\n",
-                w.a.x, w.a.y, w.b.x, w.b.y
-            );
+            s += &format!("    [{:.3}, {:.3}, {:.3}, {:.3}]{sep}\n", w.a.x, w.a.y, w.b.x, w.b.y);
         }
         s + "  ]\n}\n"
     }
@@ -186,8 +141,7 @@ mod tests {
 
     #[test]
     fn a_good_map_with_extra_keys_loads() {
-        let m = parse(r#"{"name": "x", "resolution": 0.05, "walls": [[0,0,1,0],[1,0,1,1.5]]}"#)
-            .unwrap();
+        let m = parse(r#"{"name": "x", "resolution": 0.05, "walls": [[0,0,1,0],[1,0,1,1.5]]}"#).unwrap();
         assert_eq!(m.walls.len(), 2);
         assert_eq!(m.walls[1].b, Point2::new(1.0, 1.5));
         let again = parse(&m.to_json("x")).unwrap();
@@ -197,33 +151,19 @@ mod tests {
     #[test]
     fn bad_maps_name_the_file_and_the_element() {
         let cases = [
-            (
-                r#"{"walls": [[0,0,1,0], [1,0,1]]}"#,
-                "m.json: walls[1]: expected four numbers",
-            ),
+            (r#"{"walls": [[0,0,1,0], [1,0,1]]}"#, "m.json: walls[1]: expected four numbers"),
             (r#"{"walls": [[0,0,1,0], [1,0,"a",1]]}"#, "m.json: walls[1]"),
-            (
-                r#"{"walls": [[0,0,0,0]]}"#,
-                "m.json: walls[0]: wall is shorter",
-            ),
+            (r#"{"walls": [[0,0,0,0]]}"#, "m.json: walls[0]: wall is shorter"),
             (r#"{"walls": []}"#, "m.json: \"walls\" is empty"),
             (r#"{"wall": []}"#, "m.json: no \"walls\""),
             (r#"{"walls": 3}"#, "m.json: \"walls\" is not a list"),
-            (
-                "{\"walls\": [\n[0,0,1,0],\n]}",
-                "m.json: not valid JSON at line 3",
-            ),
+            ("{\"walls\": [\n[0,0,1,0],\n]}", "m.json: not valid JSON at line 3"),
         ];
         for (text, want) in cases {
             let err = parse(text).unwrap_err().to_string();
-            assert!(
-                err.starts_with(want),
-                "{err:?} does not start with {want:?}"
-            );
+            assert!(err.starts_with(want), "{err:?} does not start with {want:?}");
         }
-        let missing = WallMap::load(Path::new("/nonexistent/map.json"))
-            .unwrap_err()
-            .to_string();
+        let missing = WallMap::load(Path::new("/nonexistent/map.json")).unwrap_err().to_string();
         assert!(missing.starts_with("/nonexistent/map.json: cannot read"));
     }
 }

@@ -34,12 +34,7 @@ impl NearestWalls {
                 Vector2::new(-e.y, e.x)
             })
             .collect();
-        NearestWalls {
-            walls: walls.to_vec(),
-            normals,
-            grid: WallGrid::new(walls, 0.5, radius),
-            radius,
-        }
+        NearestWalls { walls: walls.to_vec(), normals, grid: WallGrid::new(walls, 0.5, radius), radius }
     }
 
     pub fn radius(&self) -> f64 {
@@ -54,12 +49,7 @@ impl NearestWalls {
         for &k in self.grid.walls_near(p) {
             let (d, q) = self.walls[k as usize].closest(p);
             if d <= limit && best.is_none_or(|b| d < b.distance) {
-                best = Some(NearestWall {
-                    wall: k,
-                    distance: d,
-                    point: q,
-                    normal: self.normals[k as usize],
-                });
+                best = Some(NearestWall { wall: k, distance: d, point: q, normal: self.normals[k as usize] });
             }
         }
         best

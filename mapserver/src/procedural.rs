@@ -51,12 +51,7 @@ impl Plan {
             let (x, y) = (u * size.0 / 2.0, v * size.1 / 2.0);
             (centre.0 + c * x - s * y, centre.1 + s * x + c * y)
         };
-        let pts = [
-            corner(-1.0, -1.0),
-            corner(1.0, -1.0),
-            corner(1.0, 1.0),
-            corner(-1.0, 1.0),
-        ];
+        let pts = [corner(-1.0, -1.0), corner(1.0, -1.0), corner(1.0, 1.0), corner(-1.0, 1.0)];
         for k in 0..4 {
             self.wall(pts[k], pts[(k + 1) % 4]);
         }
@@ -98,11 +93,7 @@ pub fn office(seed: u64, bands: usize, rooms_per_side: usize) -> WallMap {
     let mut y = 0.0;
     let mut band_edges = vec![0.0];
     for _ in 0..bands {
-        let (ds, cw, dn) = (
-            rng.range(4.0, 6.0),
-            rng.range(1.8, 2.6),
-            rng.range(4.0, 6.0),
-        );
+        let (ds, cw, dn) = (rng.range(4.0, 6.0), rng.range(1.8, 2.6), rng.range(4.0, 6.0));
         let (cs, cn) = (y + ds, y + ds + cw);
         let top = cn + dn;
         let end_at = |yy: f64| x1 + slant * yy;
@@ -148,22 +139,12 @@ fn end_at_fn(x1: f64, slant: f64, y: f64) -> f64 {
 }
 
 /// Features that make rooms of one size tell apart: a cut corner, a pillar, a fin.
-fn room_features(
-    rng: &mut Rng,
-    p: &mut Plan,
-    (xa, xb): (f64, f64),
-    (wall_y, back_y): (f64, f64),
-    side: usize,
-) {
+fn room_features(rng: &mut Rng, p: &mut Plan, (xa, xb): (f64, f64), (wall_y, back_y): (f64, f64), side: usize) {
     let depth = back_y - wall_y;
     let sign = depth.signum();
     if rng.chance(0.3) {
         let cut = rng.range(0.7, 1.4);
-        let (cx, dx) = if rng.chance(0.5) {
-            (xa, cut)
-        } else {
-            (xb, -cut)
-        };
+        let (cx, dx) = if rng.chance(0.5) { (xa, cut) } else { (xb, -cut) };
         let rise = cut * rng.range(0.6, 1.7);
         p.wall((cx, back_y - sign * rise), (cx + dx, back_y));
     }
@@ -218,11 +199,7 @@ pub fn apartment() -> WallMap {
     // living | kitchen, with a wide opening
     p.wall_with_doors((6.2, 0.0), (6.2, 5.0), &[(1.2, 1.6)]);
     // hall wall (south side of the bedrooms), doors into each room
-    p.wall_with_doors(
-        (0.0, 6.0),
-        (11.0, 6.0),
-        &[(1.1, 0.9), (5.3, 0.9), (7.4, 0.8), (9.6, 0.8)],
-    );
+    p.wall_with_doors((0.0, 6.0), (11.0, 6.0), &[(1.1, 0.9), (5.3, 0.9), (7.4, 0.8), (9.6, 0.8)]);
     // living | hall: a half wall with a broad opening
     p.wall_with_doors((0.0, 5.0), (6.2, 5.0), &[(2.0, 2.4)]);
     // kitchen | hall
@@ -256,11 +233,7 @@ pub fn warehouse(seed: u64) -> WallMap {
     let (w, h) = (34.0, 22.0);
     // south wall with three dock recesses at irregular places
     let mut x = 0.0;
-    for dock in [
-        4.0 + rng.range(0.0, 2.0),
-        13.0 + rng.range(0.0, 3.0),
-        24.0 + rng.range(0.0, 2.0),
-    ] {
+    for dock in [4.0 + rng.range(0.0, 2.0), 13.0 + rng.range(0.0, 3.0), 24.0 + rng.range(0.0, 2.0)] {
         let width = rng.range(3.0, 4.0);
         p.wall((x, 0.0), (dock, 0.0));
         p.wall((dock, 0.0), (dock, -1.2));
@@ -277,11 +250,7 @@ pub fn warehouse(seed: u64) -> WallMap {
     p.wall_with_doors((w - 9.0, h - 6.5), (w, h - 6.5), &[(3.0, 2.5)]);
     p.wall((w - 4.5, h), (w - 4.5, h - 6.5));
     // racks: three rows, staggered, of varying length
-    for (row, ry) in [
-        (0, 4.5),
-        (1, 8.5 + rng.range(-0.3, 0.3)),
-        (2, 12.5 + rng.range(-0.3, 0.3)),
-    ] {
+    for (row, ry) in [(0, 4.5), (1, 8.5 + rng.range(-0.3, 0.3)), (2, 12.5 + rng.range(-0.3, 0.3))] {
         let mut rx = 2.0 + rng.range(0.0, 2.5) + row as f64 * 0.7;
         let limit = if row == 2 { w - 11.0 } else { w - 2.0 };
         while rx < limit - 4.0 {
@@ -310,15 +279,11 @@ pub fn radial(seed: u64) -> WallMap {
     let mut p = Plan::default();
     let n = 9;
     // irregular angles and radii so that no two wedges are alike
-    let mut angles: Vec<f64> = (0..n)
-        .map(|k| (k as f64 + rng.range(-0.3, 0.3)) * TAU / n as f64)
-        .collect();
+    let mut angles: Vec<f64> = (0..n).map(|k| (k as f64 + rng.range(-0.3, 0.3)) * TAU / n as f64).collect();
     angles.sort_by(f64::total_cmp);
     let inner: Vec<f64> = (0..n).map(|_| rng.range(4.0, 5.5)).collect();
     let ring: Vec<f64> = (0..n).map(|_| rng.range(2.3, 3.2)).collect();
-    let outer: Vec<f64> = (0..n)
-        .map(|k| inner[k] + ring[k] + rng.range(4.0, 6.5))
-        .collect();
+    let outer: Vec<f64> = (0..n).map(|k| inner[k] + ring[k] + rng.range(4.0, 6.5)).collect();
     let at = |r: f64, a: f64| (r * a.cos(), r * a.sin());
     for k in 0..n {
         let k2 = (k + 1) % n;
@@ -343,11 +308,7 @@ pub fn radial(seed: u64) -> WallMap {
             let mid = (a + b) / 2.0 + rng.range(-0.1, 0.1);
             let r = (inner[k] + ring[k] + outer[k]) / 2.0 + rng.range(-0.5, 0.5);
             let c = at(r, mid);
-            p.block(
-                c,
-                (rng.range(0.4, 1.2), rng.range(0.4, 0.8)),
-                rng.range(0.0, 3.0),
-            );
+            p.block(c, (rng.range(0.4, 1.2), rng.range(0.4, 0.8)), rng.range(0.0, 3.0));
         }
     }
     let _ = Vector2::<f64>::zeros();
@@ -382,11 +343,7 @@ mod tests {
         for name in ["apartment", "warehouse", "radial"] {
             let m = by_name(name).unwrap();
             let idx = CornerIndex::build(&m.walls, &MapCornerConfig::default());
-            assert!(
-                m.walls.len() >= 30 && idx.corners().len() >= 20,
-                "{name}: {} walls",
-                m.walls.len()
-            );
+            assert!(m.walls.len() >= 30 && idx.corners().len() >= 20, "{name}: {} walls", m.walls.len());
         }
     }
 }

@@ -28,12 +28,7 @@ pub struct RayScratch {
 
 impl RayScratch {
     fn prepare(&mut self, g: &ScanGeometry, beams: usize, stride: usize, walls: usize) {
-        let key = (
-            g.angle_min.to_bits(),
-            g.angle_increment.to_bits(),
-            beams,
-            stride,
-        );
+        let key = (g.angle_min.to_bits(), g.angle_increment.to_bits(), beams, stride);
         if self.key != Some(key) {
             self.dirs.clear();
             self.dirs.extend((0..beams).step_by(stride).map(|i| {
@@ -59,10 +54,7 @@ const CELL: f64 = 1.0;
 
 impl RayCaster {
     pub fn new(walls: &[Wall]) -> Self {
-        RayCaster {
-            walls: walls.to_vec(),
-            grid: WallGrid::new(walls, CELL, 0.0),
-        }
+        RayCaster { walls: walls.to_vec(), grid: WallGrid::new(walls, CELL, 0.0) }
     }
 
     pub fn walls(&self) -> &[Wall] {
@@ -105,15 +97,7 @@ impl RayCaster {
             if w.closest(p).0 >= range {
                 return;
             }
-            sweep(
-                to_sensor(w.a),
-                to_sensor(w.b),
-                g,
-                beams,
-                stride,
-                &scratch.dirs,
-                out,
-            );
+            sweep(to_sensor(w.a), to_sensor(w.b), g, beams, stride, &scratch.dirs, out);
         };
         if visit_all {
             for k in 0..self.walls.len() {
@@ -139,26 +123,14 @@ impl RayCaster {
         let dir = Vector2::new(angle.cos(), angle.sin());
         self.walls
             .iter()
-            .filter_map(|w| {
-                ray_segment(
-                    origin.coords - origin.coords,
-                    dir,
-                    w.a - origin,
-                    w.b - origin,
-                )
-            })
+            .filter_map(|w| ray_segment(origin.coords - origin.coords, dir, w.a - origin, w.b - origin))
             .fold(f64::INFINITY, f64::min)
     }
 }
 
 /// Distance along unit `dir` from `o` to segment [a, b], if it is hit in front.
 #[inline]
-fn ray_segment(
-    o: Vector2<f64>,
-    dir: Vector2<f64>,
-    a: Vector2<f64>,
-    b: Vector2<f64>,
-) -> Option<f64> {
+fn ray_segment(o: Vector2<f64>, dir: Vector2<f64>, a: Vector2<f64>, b: Vector2<f64>) -> Option<f64> {
     let e = b - a;
     let den = dir.perp(&e);
     if den.abs() < 1e-15 {
@@ -197,11 +169,7 @@ fn sweep(
     let span = span.abs();
     let inc = g.angle_increment.abs();
     // beams sorted by increasing angle: index j counts from the smallest angle
-    let first_angle = if g.angle_increment > 0.0 {
-        g.angle_min
-    } else {
-        g.angle(beams - 1)
-    };
+    let first_angle = if g.angle_increment > 0.0 { g.angle_min } else { g.angle(beams - 1) };
     let u = (start - first_angle).rem_euclid(TAU);
     let mut fill = |from: f64, to: f64| {
         let j0 = (from / inc).ceil().max(0.0) as usize;
@@ -211,11 +179,7 @@ fn sweep(
         }
         let j1 = (j1f as usize).min(beams - 1);
         for j in j0..=j1 {
-            let i = if g.angle_increment > 0.0 {
-                j
-            } else {
-                beams - 1 - j
-            };
+            let i = if g.angle_increment > 0.0 { j } else { beams - 1 - j };
             if i % stride != 0 {
                 continue;
             }
@@ -243,9 +207,7 @@ mod tests {
     use proptest::prelude::*;
 
     fn random_walls(seed: &[(f64, f64, f64, f64)]) -> Vec<Wall> {
-        seed.iter()
-            .map(|&(x, y, a, l)| Wall::new(x, y, x + l * a.cos(), y + l * a.sin()))
-            .collect()
+        seed.iter().map(|&(x, y, a, l)| Wall::new(x, y, x + l * a.cos(), y + l * a.sin())).collect()
     }
 
     proptest! {
@@ -299,14 +261,7 @@ mod tests {
         let caster = RayCaster::new(&walls);
         let g = ScanGeometry::centred(361, TAU * 360.0 / 361.0, 10.0);
         let mut out = Vec::new();
-        caster.cast(
-            &pose(0.0, 0.0, 0.0),
-            &g,
-            361,
-            1,
-            &mut RayScratch::default(),
-            &mut out,
-        );
+        caster.cast(&pose(0.0, 0.0, 0.0), &g, 361, 1, &mut RayScratch::default(), &mut out);
         for (i, &d) in out.iter().enumerate() {
             let a = g.angle(i);
             let want = 2.0 / a.cos().abs().max(a.sin().abs());

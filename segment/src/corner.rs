@@ -52,9 +52,7 @@ pub struct Corner {
 impl Corner {
     /// Standard deviation of the inner angle, radians.
     pub fn inner_angle_sigma(&self) -> f64 {
-        self.arms[0]
-            .direction_sigma
-            .hypot(self.arms[1].direction_sigma)
+        self.arms[0].direction_sigma.hypot(self.arms[1].direction_sigma)
     }
 }
 
@@ -128,11 +126,7 @@ fn corners_of_pair(lines: &[Line], i: usize, j: usize, cfg: &CornerConfig, out: 
         return;
     }
     let Some(x) = intersect(a, b) else { return };
-    let reach = if a.length().min(b.length()) >= cfg.long_line {
-        cfg.long_reach
-    } else {
-        cfg.reach
-    };
+    let reach = if a.length().min(b.length()) >= cfg.long_line { cfg.long_reach } else { cfg.reach };
     let mut arms_a = [None; 2];
     let mut arms_b = [None; 2];
     arms_of(a, i, x, reach, cfg, &mut arms_a);
@@ -158,14 +152,7 @@ fn intersect(a: &Line, b: &Line) -> Option<Point2<f64>> {
 }
 
 /// The arms line `l` offers a corner at `x`: towards its visible part on either side.
-fn arms_of(
-    l: &Line,
-    index: usize,
-    x: Point2<f64>,
-    reach: f64,
-    cfg: &CornerConfig,
-    out: &mut [Option<Arm>; 2],
-) {
+fn arms_of(l: &Line, index: usize, x: Point2<f64>, reach: f64, cfg: &CornerConfig, out: &mut [Option<Arm>; 2]) {
     let len = l.length();
     let t = (x - l.start).dot(&l.direction);
     let sides = [
@@ -190,14 +177,7 @@ fn arms_of(
 
 /// The corner between two arms, if the region between them is free on both lines' visible
 /// faces; `None` otherwise.
-fn corner_of_arms(
-    la: &Line,
-    lb: &Line,
-    a: &Arm,
-    b: &Arm,
-    x: Point2<f64>,
-    cfg: &CornerConfig,
-) -> Option<Corner> {
+fn corner_of_arms(la: &Line, lb: &Line, a: &Arm, b: &Arm, x: Point2<f64>, cfg: &CornerConfig) -> Option<Corner> {
     let a_faces = la.normal.dot(&b.direction);
     let b_faces = lb.normal.dot(&a.direction);
     let small_free = a_faces > 0.0 && b_faces > 0.0;
@@ -243,14 +223,7 @@ mod tests {
             .map(|k| {
                 let p = a + (b - a) * (k as f64 / (n - 1) as f64);
                 let d = p.coords.norm();
-                Sample {
-                    beam: 0,
-                    dir: p.coords / d,
-                    d,
-                    near: d - 0.02,
-                    far: d + 0.02,
-                    gap_before: k == 0,
-                }
+                Sample { beam: 0, dir: p.coords / d, d, near: d - 0.02, far: d + 0.02, gap_before: k == 0 }
             })
             .collect()
     }
@@ -265,9 +238,7 @@ mod tests {
             for s in &all[first..] {
                 m.add(s.point());
             }
-            lines.push(
-                Line::from_moments(&all, first, all.len() - 1, m, &ErrorModel::PAPER).unwrap(),
-            );
+            lines.push(Line::from_moments(&all, first, all.len() - 1, m, &ErrorModel::PAPER).unwrap());
         }
         lines
     }
@@ -295,18 +266,12 @@ mod tests {
     fn protruding_corner_is_reflex() {
         // a block filling x >= 2, y >= 0.5, seen from the origin: its faces x = 2 (towards +y)
         // and y = 0.5 (towards +x) meet at (2, 0.5); free space wraps 270 degrees around it
-        let lines = lines_of(&[
-            (Point2::new(4.0, 0.5), Point2::new(2.0, 0.5)),
-            (Point2::new(2.0, 0.5), Point2::new(2.0, 3.0)),
-        ]);
+        let lines =
+            lines_of(&[(Point2::new(4.0, 0.5), Point2::new(2.0, 0.5)), (Point2::new(2.0, 0.5), Point2::new(2.0, 3.0))]);
         let mut out = Vec::new();
         extract_corners(&lines, &CornerConfig::default(), &mut out);
         assert_eq!(out.len(), 1);
-        assert!(
-            (out[0].inner_angle - 1.5 * PI).abs() < 1e-9,
-            "{}",
-            out[0].inner_angle
-        );
+        assert!((out[0].inner_angle - 1.5 * PI).abs() < 1e-9, "{}", out[0].inner_angle);
         // counter-clockwise through free space: from the x = 2 face (up) round to y = 0.5 (+x)
         assert!((out[0].arms[0].direction - Vector2::new(0.0, 1.0)).norm() < 1e-9);
         assert!((out[0].arms[1].direction - Vector2::new(1.0, 0.0)).norm() < 1e-9);
@@ -324,9 +289,7 @@ mod tests {
         // the sensor (origin, x < 0.5) sees the x = 0.5 wall's left face: the corner to the
         // left of it, between y = 2 (towards -x) and... the y = 2 line only runs to +x here,
         // so the only free region is the reflex one on the sensor's side
-        assert!(out
-            .iter()
-            .all(|c| c.inner_angle > 0.0 && c.inner_angle < TAU));
+        assert!(out.iter().all(|c| c.inner_angle > 0.0 && c.inner_angle < TAU));
         // a far intersection yields nothing
         let far = lines_of(&[
             (Point2::new(2.0, 2.0), Point2::new(1.8, 2.0)),

@@ -24,35 +24,21 @@ pub struct FilterConfig {
 
 impl Default for FilterConfig {
     fn default() -> Self {
-        FilterConfig {
-            min_samples: 5,
-            merge_angle: 5f64.to_radians(),
-            merge_offset: 0.06,
-        }
+        FilterConfig { min_samples: 5, merge_angle: 5f64.to_radians(), merge_offset: 0.06 }
     }
 }
 
 /// Filters `lines` (in scan order) into `out` (cleared first).
-pub fn filter_lines(
-    lines: &[Line],
-    samples: &[Sample],
-    error: &ErrorModel,
-    cfg: &FilterConfig,
-    out: &mut Vec<Line>,
-) {
+pub fn filter_lines(lines: &[Line], samples: &[Sample], error: &ErrorModel, cfg: &FilterConfig, out: &mut Vec<Line>) {
     out.clear();
     for line in lines.iter().filter(|l| l.samples >= cfg.min_samples) {
         if let Some(last) = out.last_mut() {
             if mergeable(last, line, error, cfg) {
                 let mut m = last.moments;
                 m += line.moments;
-                if let Some(merged) = Line::from_moments(
-                    samples,
-                    last.first_sample as usize,
-                    line.last_sample as usize,
-                    m,
-                    error,
-                ) {
+                if let Some(merged) =
+                    Line::from_moments(samples, last.first_sample as usize, line.last_sample as usize, m, error)
+                {
                     *last = merged;
                     continue;
                 }
@@ -67,8 +53,7 @@ fn mergeable(a: &Line, b: &Line, error: &ErrorModel, cfg: &FilterConfig) -> bool
     if cos.acos() >= cfg.merge_angle {
         return false;
     }
-    let tolerance =
-        |p: nalgebra::Point2<f64>| cfg.merge_offset.max(2.0 * error.at(p.coords.norm()));
+    let tolerance = |p: nalgebra::Point2<f64>| cfg.merge_offset.max(2.0 * error.at(p.coords.norm()));
     a.distance_to(b.start) <= tolerance(b.start) && b.distance_to(a.end) <= tolerance(a.end)
 }
 
@@ -107,27 +92,11 @@ mod tests {
     #[test]
     fn short_lines_go_and_collinear_neighbours_merge() {
         let mut s = samples_on(Point2::new(2.0, -2.0), Point2::new(2.0, -0.5), 20, true);
-        s.extend(samples_on(
-            Point2::new(1.0, -0.4),
-            Point2::new(1.0, -0.35),
-            3,
-            true,
-        )); // a leg
-        s.extend(samples_on(
-            Point2::new(2.0, -0.2),
-            Point2::new(2.0, 1.5),
-            20,
-            true,
-        ));
+        s.extend(samples_on(Point2::new(1.0, -0.4), Point2::new(1.0, -0.35), 3, true)); // a leg
+        s.extend(samples_on(Point2::new(2.0, -0.2), Point2::new(2.0, 1.5), 20, true));
         let lines = vec![line_of(&s, 0, 20), line_of(&s, 20, 3), line_of(&s, 23, 20)];
         let mut out = Vec::new();
-        filter_lines(
-            &lines,
-            &s,
-            &ErrorModel::PAPER,
-            &FilterConfig::default(),
-            &mut out,
-        );
+        filter_lines(&lines, &s, &ErrorModel::PAPER, &FilterConfig::default(), &mut out);
         assert_eq!(out.len(), 1);
         assert_eq!(out[0].samples, 40);
         assert!((out[0].start - Point2::new(2.0, -2.0)).norm() < 1e-9);
@@ -137,21 +106,10 @@ mod tests {
     #[test]
     fn parallel_walls_at_different_depths_do_not_merge() {
         let mut s = samples_on(Point2::new(2.0, -2.0), Point2::new(2.0, -0.5), 20, true);
-        s.extend(samples_on(
-            Point2::new(2.3, -0.5),
-            Point2::new(2.3, 1.0),
-            20,
-            true,
-        ));
+        s.extend(samples_on(Point2::new(2.3, -0.5), Point2::new(2.3, 1.0), 20, true));
         let lines = vec![line_of(&s, 0, 20), line_of(&s, 20, 20)];
         let mut out = Vec::new();
-        filter_lines(
-            &lines,
-            &s,
-            &ErrorModel::PAPER,
-            &FilterConfig::default(),
-            &mut out,
-        );
+        filter_lines(&lines, &s, &ErrorModel::PAPER, &FilterConfig::default(), &mut out);
         assert_eq!(out.len(), 2);
         let _ = Vector2::<f64>::zeros();
     }

@@ -138,9 +138,7 @@ mod tests {
 
     #[test]
     fn merging_moments_equals_fitting_all_points() {
-        let pts: Vec<Point2<f64>> = (0..30)
-            .map(|k| Point2::new(k as f64 * 0.1, 0.01 * ((k * 7) % 5) as f64))
-            .collect();
+        let pts: Vec<Point2<f64>> = (0..30).map(|k| Point2::new(k as f64 * 0.1, 0.01 * ((k * 7) % 5) as f64)).collect();
         let mut all = Moments::default();
         let mut a = Moments::default();
         let mut b = Moments::default();

@@ -16,12 +16,7 @@ use crate::visibility::LineVisibility;
 /// Infers the lines L of `samples` into `out` (cleared first). Lines of one sample are kept
 /// in the count but have no fit, so they are not emitted: filtering would discard them anyway.
 /// Returns the number of clusters Code 1 produced (the size of L).
-pub fn infer_lines(
-    samples: &[Sample],
-    angle_increment: f64,
-    error: &ErrorModel,
-    out: &mut Vec<Line>,
-) -> usize {
+pub fn infer_lines(samples: &[Sample], angle_increment: f64, error: &ErrorModel, out: &mut Vec<Line>) -> usize {
     out.clear();
     if samples.is_empty() {
         return 0;
@@ -82,20 +77,10 @@ fn reassign_boundaries(samples: &[Sample], error: &ErrorModel, lines: &mut [Line
 }
 
 /// Removes sample `k` (the line's first when `at_start`, else its last) and refits.
-fn shrink(
-    samples: &[Sample],
-    error: &ErrorModel,
-    line: &mut Line,
-    k: usize,
-    at_start: bool,
-) -> bool {
+fn shrink(samples: &[Sample], error: &ErrorModel, line: &mut Line, k: usize, at_start: bool) -> bool {
     let mut m = line.moments;
     m.remove(samples[k].point());
-    let (first, last) = if at_start {
-        (k + 1, line.last_sample as usize)
-    } else {
-        (line.first_sample as usize, k - 1)
-    };
+    let (first, last) = if at_start { (k + 1, line.last_sample as usize) } else { (line.first_sample as usize, k - 1) };
     match Line::from_moments(samples, first, last, m, error) {
         Some(l) => {
             *line = l;
@@ -109,11 +94,7 @@ fn shrink(
 fn grow(samples: &[Sample], error: &ErrorModel, line: &mut Line, k: usize, at_start: bool) -> bool {
     let mut m = line.moments;
     m.add(samples[k].point());
-    let (first, last) = if at_start {
-        (k, line.last_sample as usize)
-    } else {
-        (line.first_sample as usize, k)
-    };
+    let (first, last) = if at_start { (k, line.last_sample as usize) } else { (line.first_sample as usize, k) };
     match Line::from_moments(samples, first, last, m, error) {
         Some(l) => {
             *line = l;
@@ -131,15 +112,9 @@ fn trim_ends(samples: &[Sample], error: &ErrorModel, line: &mut Line) {
     }
     for at_start in [false, true] {
         for _ in 0..MAX_TRIM {
-            let k = if at_start {
-                line.first_sample
-            } else {
-                line.last_sample
-            } as usize;
+            let k = if at_start { line.first_sample } else { line.last_sample } as usize;
             let s = &samples[k];
-            if line.distance_to(s.point()) <= 0.5 * error.at(s.d)
-                || !shrink(samples, error, line, k, at_start)
-            {
+            if line.distance_to(s.point()) <= 0.5 * error.at(s.d) || !shrink(samples, error, line, k, at_start) {
                 break;
             }
         }
@@ -149,14 +124,7 @@ fn trim_ends(samples: &[Sample], error: &ErrorModel, line: &mut Line) {
 /// Most samples trimmed from each end of a line.
 pub const MAX_TRIM: usize = 3;
 
-fn close(
-    samples: &[Sample],
-    first: usize,
-    last: usize,
-    moments: Moments,
-    error: &ErrorModel,
-    out: &mut Vec<Line>,
-) {
+fn close(samples: &[Sample], first: usize, last: usize, moments: Moments, error: &ErrorModel, out: &mut Vec<Line>) {
     if last > first {
         if let Some(line) = Line::from_moments(samples, first, last, moments, error) {
             out.push(line);
@@ -180,10 +148,7 @@ mod tests {
                 let mut best = f64::INFINITY;
                 for k in 0..verts.len() {
                     let p = Vector2::new(verts[k].0, verts[k].1);
-                    let q = Vector2::new(
-                        verts[(k + 1) % verts.len()].0,
-                        verts[(k + 1) % verts.len()].1,
-                    );
+                    let q = Vector2::new(verts[(k + 1) % verts.len()].0, verts[(k + 1) % verts.len()].1);
                     let e = q - p;
                     let den = dir.perp(&e);
                     if den.abs() < 1e-12 {
@@ -203,15 +168,8 @@ mod tests {
     #[test]
     fn a_square_room_gives_one_line_per_visible_wall() {
         let g = ScanGeometry::urg04lx();
-        let ranges = room_ranges(
-            &g,
-            682,
-            &[(-1.0, -1.5), (3.0, -1.5), (3.0, 2.0), (-1.0, 2.0)],
-        );
-        let scan = ScanView {
-            geometry: g,
-            ranges: &ranges,
-        };
+        let ranges = room_ranges(&g, 682, &[(-1.0, -1.5), (3.0, -1.5), (3.0, 2.0), (-1.0, 2.0)]);
+        let scan = ScanView { geometry: g, ranges: &ranges };
         let e = ErrorModel::default();
         let mut samples = Vec::new();
         build_samples(&scan, &e, 1, &mut samples);

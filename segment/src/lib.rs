@@ -19,7 +19,5 @@ pub use corner::{Arm, Corner, CornerConfig, CornerRanking};
 pub use filter::FilterConfig;
 pub use line::Line;
 pub use sample::{ErrorModel, Sample};
-pub use segmenter::{
-    LineVisibilitySegmenter, SegmentTimes, Segmentation, Segmenter, SegmenterConfig,
-};
+pub use segmenter::{LineVisibilitySegmenter, SegmentTimes, Segmentation, Segmenter, SegmenterConfig};
 pub use visibility::LineVisibility;

@@ -17,10 +17,7 @@ pub struct ErrorModel {
 
 impl ErrorModel {
     /// The paper's calibration: e(d) = 2 cm.
-    pub const PAPER: ErrorModel = ErrorModel {
-        constant: 0.02,
-        proportional: 0.0,
-    };
+    pub const PAPER: ErrorModel = ErrorModel { constant: 0.02, proportional: 0.0 };
 
     /// e(d), metres; never negative (eq. 2 uses |e(d)|).
     #[inline]
@@ -33,10 +30,7 @@ impl Default for ErrorModel {
     /// 3 cm + 1.5 % of range: about three standard deviations of a URG-04LX-class sensor
     /// (1 cm + 0.5 % of range), the best of those measured in LESSONS.md.
     fn default() -> Self {
-        ErrorModel {
-            constant: 0.03,
-            proportional: 0.015,
-        }
+        ErrorModel { constant: 0.03, proportional: 0.015 }
     }
 }
 
@@ -81,12 +75,7 @@ impl Sample {
 /// dropped and breaks lines like an invalid reading does.
 ///
 /// `out` is cleared and refilled so a caller can reuse its allocation scan after scan.
-pub fn build_samples(
-    scan: &ScanView<'_>,
-    error: &ErrorModel,
-    averaging: usize,
-    out: &mut Vec<Sample>,
-) {
+pub fn build_samples(scan: &ScanView<'_>, error: &ErrorModel, averaging: usize, out: &mut Vec<Sample>) {
     out.clear();
     let m = averaging.max(1);
     let g = scan.geometry;
@@ -135,18 +124,12 @@ mod tests {
     fn invalid_readings_break_and_are_never_samples() {
         let g = ScanGeometry::centred(6, 1.0, 5.6);
         let ranges = [1.0, f32::NAN, 1.0, 1.0, 0.0, 9.0];
-        let scan = ScanView {
-            geometry: g,
-            ranges: &ranges,
-        };
+        let scan = ScanView { geometry: g, ranges: &ranges };
         let mut s = Vec::new();
         build_samples(&scan, &ErrorModel::PAPER, 1, &mut s);
         assert_eq!(s.len(), 3);
         assert_eq!(s.iter().map(|s| s.beam).collect::<Vec<_>>(), vec![0, 2, 3]);
-        assert_eq!(
-            s.iter().map(|s| s.gap_before).collect::<Vec<_>>(),
-            vec![true, true, false]
-        );
+        assert_eq!(s.iter().map(|s| s.gap_before).collect::<Vec<_>>(), vec![true, true, false]);
         assert!((s[1].near - 0.98).abs() < 1e-12 && (s[1].far - 1.02).abs() < 1e-12);
     }
 
@@ -154,10 +137,7 @@ mod tests {
     fn averaging_merges_groups_and_drops_groups_with_invalid_readings() {
         let g = ScanGeometry::centred(6, 1.0, 5.6);
         let ranges = [1.0, 2.0, 3.0, f32::NAN, 4.0, 4.0];
-        let scan = ScanView {
-            geometry: g,
-            ranges: &ranges,
-        };
+        let scan = ScanView { geometry: g, ranges: &ranges };
         let mut s = Vec::new();
         build_samples(&scan, &ErrorModel::PAPER, 2, &mut s);
         assert_eq!(s.len(), 2);

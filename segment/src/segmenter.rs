@@ -70,10 +70,7 @@ pub struct LineVisibilitySegmenter {
 
 impl LineVisibilitySegmenter {
     pub fn new(config: SegmenterConfig) -> Self {
-        LineVisibilitySegmenter {
-            config,
-            out: Segmentation::default(),
-        }
+        LineVisibilitySegmenter { config, out: Segmentation::default() }
     }
 }
 
@@ -88,27 +85,12 @@ impl Segmenter for LineVisibilitySegmenter {
         let t0 = Instant::now();
         build_samples(scan, &c.error, c.averaging, &mut out.samples);
         let t1 = Instant::now();
-        infer_lines(
-            &out.samples,
-            scan.geometry.angle_increment,
-            &c.error,
-            &mut out.raw_lines,
-        );
+        infer_lines(&out.samples, scan.geometry.angle_increment, &c.error, &mut out.raw_lines);
         let t2 = Instant::now();
-        filter_lines(
-            &out.raw_lines,
-            &out.samples,
-            &c.error,
-            &c.filter,
-            &mut out.lines,
-        );
+        filter_lines(&out.raw_lines, &out.samples, &c.error, &c.filter, &mut out.lines);
         extract_corners(&out.lines, &c.corner, &mut out.corners);
         let t3 = Instant::now();
-        out.times = SegmentTimes {
-            samples: t1 - t0,
-            inference: t2 - t1,
-            corners: t3 - t2,
-        };
+        out.times = SegmentTimes { samples: t1 - t0, inference: t2 - t1, corners: t3 - t2 };
         out
     }
 }

@@ -75,23 +75,11 @@ impl LineVisibility {
     pub fn bounds(&self, samples: &[Sample], s: &Sample) -> (f64, f64) {
         let d_min = self
             .v_min
-            .and_then(|b| {
-                hit(
-                    samples[b.pivot].near_point(),
-                    samples[b.constraint].far_point(),
-                    s.dir,
-                )
-            })
+            .and_then(|b| hit(samples[b.pivot].near_point(), samples[b.constraint].far_point(), s.dir))
             .unwrap_or(0.0);
         let d_max = self
             .v_max
-            .and_then(|b| {
-                hit(
-                    samples[b.pivot].far_point(),
-                    samples[b.constraint].near_point(),
-                    s.dir,
-                )
-            })
+            .and_then(|b| hit(samples[b.pivot].far_point(), samples[b.constraint].near_point(), s.dir))
             .unwrap_or(f64::INFINITY);
         (d_min, d_max)
     }
@@ -117,20 +105,14 @@ impl LineVisibility {
         if s.far < d_max {
             // Case B for V_max: pivot on s's far bound, constrained by an earlier near bound.
             let p = self.most_restrictive(samples, j, s.far_point(), self.restrictive_max, true);
-            self.v_max = Some(Bound {
-                pivot: j,
-                constraint: p,
-            });
+            self.v_max = Some(Bound { pivot: j, constraint: p });
             self.restrictive_max = p;
         }
         if s.near > d_min {
             // The symmetric update of V_min: pivot on s's near bound, constrained by an
             // earlier far bound.
             let p = self.most_restrictive(samples, j, s.near_point(), self.restrictive_min, false);
-            self.v_min = Some(Bound {
-                pivot: j,
-                constraint: p,
-            });
+            self.v_min = Some(Bound { pivot: j, constraint: p });
             self.restrictive_min = p;
         }
         self.len += 1;
@@ -140,20 +122,9 @@ impl LineVisibility {
     /// `V_min`) makes the line through `pivot` most restrictive. Measured as the angle between
     /// the line and the direction from `pivot` back to the sensor: `V_max` takes the largest,
     /// `V_min` the smallest. Compared with cross products, no trigonometry.
-    fn most_restrictive(
-        &self,
-        samples: &[Sample],
-        j: usize,
-        pivot: Point2<f64>,
-        from: usize,
-        for_max: bool,
-    ) -> usize {
+    fn most_restrictive(&self, samples: &[Sample], j: usize, pivot: Point2<f64>, from: usize, for_max: bool) -> usize {
         let bound = |k: usize| -> Vector2<f64> {
-            let q = if for_max {
-                samples[k].near_point()
-            } else {
-                samples[k].far_point()
-            };
+            let q = if for_max { samples[k].near_point() } else { samples[k].far_point() };
             q - pivot
         };
         let mut best = from;
@@ -220,21 +191,9 @@ mod tests {
                 (t + if in_bands { k * e.at(t) } else { k }) as f32
             })
             .collect();
-        let geometry = ScanGeometry {
-            angle_min: g.angle(first),
-            range_max: 100.0,
-            ..*g
-        };
+        let geometry = ScanGeometry { angle_min: g.angle(first), range_max: 100.0, ..*g };
         let mut samples = Vec::new();
-        build_samples(
-            &ScanView {
-                geometry,
-                ranges: &ranges,
-            },
-            e,
-            1,
-            &mut samples,
-        );
+        build_samples(&ScanView { geometry, ranges: &ranges }, e, 1, &mut samples);
         assert_eq!(samples.len(), n);
         samples
     }
@@ -298,16 +257,8 @@ mod tests {
         // sample whose own band starts more than a band away (and a little wedge) is rejected
         for off in [-2.2, 2.2] {
             let d = on.d + off * e.at(on.d);
-            let moved = Sample {
-                d,
-                near: d - e.at(d),
-                far: d + e.at(d),
-                ..on
-            };
-            assert!(
-                !v.admits(&seen, &moved),
-                "a sample {off} error bands off was admitted"
-            );
+            let moved = Sample { d, near: d - e.at(d), far: d + e.at(d), ..on };
+            assert!(!v.admits(&seen, &moved), "a sample {off} error bands off was admitted");
             let (lo, hi) = brute_bounds(&seen[..20], &moved).unwrap();
             assert!(moved.far < lo || moved.near > hi, "brute force disagrees");
         }

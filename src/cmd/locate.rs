@@ -67,12 +67,8 @@ pub fn configs(a: &LocateArgs) -> Result<(SegmenterConfig, LocalizerConfig)> {
     }
     loc.record_candidates = a.diagnose;
     for kv in &a.set {
-        let (k, v) = kv
-            .split_once('=')
-            .with_context(|| format!("--set {kv}: expected KEY=VALUE"))?;
-        let v: f64 = v
-            .parse()
-            .with_context(|| format!("--set {kv}: {v:?} is not a number"))?;
+        let (k, v) = kv.split_once('=').with_context(|| format!("--set {kv}: expected KEY=VALUE"))?;
+        let v: f64 = v.parse().with_context(|| format!("--set {kv}: {v:?} is not a number"))?;
         match k {
             "reach" => seg.corner.reach = v,
             "long_reach" => seg.corner.long_reach = v,
@@ -112,13 +108,9 @@ pub fn run(a: LocateArgs) -> Result<()> {
     let reader = CarmenReader::open(&a.log, FlaserLayout::default())?;
     let mut csv = match &a.out {
         Some(p) => {
-            let f =
-                std::fs::File::create(p).with_context(|| format!("creating {}", p.display()))?;
+            let f = std::fs::File::create(p).with_context(|| format!("creating {}", p.display()))?;
             let mut w = BufWriter::new(f);
-            writeln!(
-                w,
-                "scan,x,y,theta,score,status,micros,hypotheses,candidates,inliers"
-            )?;
+            writeln!(w, "scan,x,y,theta,score,status,micros,hypotheses,candidates,inliers")?;
             Some(w)
         }
         None => None,
@@ -141,18 +133,13 @@ pub fn run(a: LocateArgs) -> Result<()> {
         }
         if let (true, Some(truth)) = (a.diagnose, scan.truth.as_ref()) {
             let what = crate::diagnose::classify(seg, loc, truth);
-            if std::env::var_os("GEMA2_DUMP")
-                .is_some_and(|v| v.to_str().is_some_and(|v| what.starts_with(v)))
-            {
+            if std::env::var_os("GEMA2_DUMP").is_some_and(|v| v.to_str().is_some_and(|v| what.starts_with(v))) {
                 eprintln!("scan {index}: {what}");
                 crate::diagnose::dump(seg, loc, truth, &model);
             }
             diagnosis.add(what);
         }
-        let best = loc
-            .hypotheses
-            .first()
-            .filter(|_| loc.status != Status::Failed);
+        let best = loc.hypotheses.first().filter(|_| loc.status != Status::Failed);
         if let Some(w) = csv.as_mut() {
             match best {
                 Some(h) => writeln!(
@@ -168,18 +155,11 @@ pub fn run(a: LocateArgs) -> Result<()> {
                     h.cost.inliers,
                     h.cost.through
                 )?,
-                None => writeln!(
-                    w,
-                    "{index},,,,,failed,{micros:.1},{},{},,",
-                    loc.hypotheses.len(),
-                    loc.candidates
-                )?,
+                None => writeln!(w, "{index},,,,,failed,{micros:.1},{},{},,", loc.hypotheses.len(), loc.candidates)?,
             }
         }
-        summary.add(
-            Outcome::of(loc.status, best.map(|h| h.pose), scan.truth, micros)
-                .with_steps(&seg.times, &loc.times),
-        );
+        summary
+            .add(Outcome::of(loc.status, best.map(|h| h.pose), scan.truth, micros).with_steps(&seg.times, &loc.times));
     }
     if let Some(mut w) = csv {
         w.flush()?;

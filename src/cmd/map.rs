@@ -31,8 +31,7 @@ pub fn run(c: MapCommand) -> Result<()> {
                     None => bail!("unknown map kind {kind:?}"),
                 }
             };
-            std::fs::write(&out, map.to_json(&kind))
-                .with_context(|| format!("writing {}", out.display()))?;
+            std::fs::write(&out, map.to_json(&kind)).with_context(|| format!("writing {}", out.display()))?;
             eprintln!("{}: {} walls", out.display(), map.walls.len());
             Ok(())
         }

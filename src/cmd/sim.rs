@@ -31,11 +31,7 @@ pub struct SimArgs {
 }
 
 pub fn sensor_of(beams: usize, noise: f64, proportional: f64) -> SensorModel {
-    let mut s = if beams == 682 {
-        SensorModel::urg04lx()
-    } else {
-        SensorModel::urg04lx_with_beams(beams)
-    };
+    let mut s = if beams == 682 { SensorModel::urg04lx() } else { SensorModel::urg04lx_with_beams(beams) };
     s.noise_constant = noise;
     s.noise_proportional = proportional;
     s
@@ -43,14 +39,8 @@ pub fn sensor_of(beams: usize, noise: f64, proportional: f64) -> SensorModel {
 
 pub fn run(a: SimArgs) -> Result<()> {
     let map = mapserver::load_map(&a.map)?;
-    let mut sim = Simulator::new(
-        &map,
-        sensor_of(a.beams, a.noise, a.noise_proportional),
-        a.scenario,
-        a.seed,
-    );
-    let file =
-        std::fs::File::create(&a.out).with_context(|| format!("creating {}", a.out.display()))?;
+    let mut sim = Simulator::new(&map, sensor_of(a.beams, a.noise, a.noise_proportional), a.scenario, a.seed);
+    let file = std::fs::File::create(&a.out).with_context(|| format!("creating {}", a.out.display()))?;
     let mut w = BufWriter::new(file);
     writeln!(
         w,
@@ -60,14 +50,7 @@ pub fn run(a: SimArgs) -> Result<()> {
     for _ in 0..a.scans {
         write_robotlaser1(&mut w, &sim.next_scan())?;
     }
-    w.flush()
-        .with_context(|| format!("writing {}", a.out.display()))?;
-    eprintln!(
-        "{}: {} scans of {} in {}",
-        a.out.display(),
-        a.scans,
-        a.scenario,
-        a.map
-    );
+    w.flush().with_context(|| format!("writing {}", a.out.display()))?;
+    eprintln!("{}: {} scans of {} in {}", a.out.display(), a.scans, a.scenario, a.map);
     Ok(())
 }
