@@ -22,6 +22,8 @@ enum Command {
     Sim(cmd::sim::SimArgs),
     /// Localize every scan of a log offline and report time and accuracy.
     Locate(cmd::locate::LocateArgs),
+    /// Time each stage per scan and print how locate scales with beams and map walls.
+    Bench(cmd::bench::BenchArgs),
 }
 
 fn main() -> anyhow::Result<()> {
@@ -30,6 +32,7 @@ fn main() -> anyhow::Result<()> {
         Some(Command::Map(c)) => cmd::map::run(c),
         Some(Command::Sim(a)) => cmd::sim::run(a),
         Some(Command::Locate(a)) => cmd::locate::run(a),
+        Some(Command::Bench(a)) => cmd::bench::run_bench(a),
         None => {
             println!("try `gema2 --help`");
             Ok(())

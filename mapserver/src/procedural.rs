@@ -89,7 +89,8 @@ pub fn office(seed: u64, bands: usize, rooms_per_side: usize) -> WallMap {
     let length: f64 = (0..rooms_per_side).map(|_| rng.range(3.0, 5.5)).sum();
     let (x0, x1) = (lobby, lobby + length);
     // the far end wall is slanted: rooms at that end are trapezoids
-    let slant = rng.range(0.08, 0.25);
+    // (bounded so that tall buildings do not lean by tens of metres)
+    let slant = rng.range(0.08, 0.25) * (3.0 / bands.max(1) as f64).min(1.0);
     let mut y = 0.0;
     let mut band_edges = vec![0.0];
     for _ in 0..bands {
@@ -161,24 +162,25 @@ fn room_features(rng: &mut Rng, p: &mut Plan, (xa, xb): (f64, f64), (wall_y, bac
     let _ = side;
 }
 
-/// An office with about `walls` walls (for scaling benchmarks).
+/// An office with about `walls` walls (for scaling benchmarks): a building about twice as
+/// wide as it is tall, searched over nearby shapes for the closest wall count.
 pub fn office_with_walls(seed: u64, walls: usize) -> WallMap {
-    // about 9.5 walls per room pair and band; search the closest shape
-    let mut best = office(seed, 1, 2);
-    for bands in 1..=40usize {
-        let rooms = ((walls as f64 / bands as f64 - 8.0) / 9.5).round().max(2.0) as usize;
-        if rooms > 4 * bands.max(3) && bands < 40 {
-            continue;
-        }
-        let m = office(seed, bands, rooms);
-        if m.walls.len().abs_diff(walls) < best.walls.len().abs_diff(walls) {
-            best = m;
-        }
-        if best.walls.len().abs_diff(walls) * 20 < walls {
-            break;
+    // about 26 walls per band and room pair plus a few per band; bands of 2.5 rooms per side each
+    let bands = ((walls as f64 / 24.0).sqrt() / 1.6).round().max(1.0) as usize;
+    let mut best: Option<WallMap> = None;
+    for b in [bands, bands + 1] {
+        let guess = ((walls as f64 / b as f64 - 8.0) / 9.5).round().max(2.0) as usize;
+        // walls grow about linearly with rooms: correct the guess by one measurement
+        let measured = office(seed, b, guess).walls.len().max(1);
+        let rooms = ((guess as f64 * walls as f64 / measured as f64).round() as usize).max(2);
+        for r in [rooms.saturating_sub(1).max(2), rooms, rooms + 1] {
+            let m = office(seed, b, r);
+            if best.as_ref().is_none_or(|x| m.walls.len().abs_diff(walls) < x.walls.len().abs_diff(walls)) {
+                best = Some(m);
+            }
         }
     }
-    best
+    best.unwrap_or_default()
 }
 
 /// A flat of about 12 x 9 m: living room with a bay window, kitchen with an island, an angled

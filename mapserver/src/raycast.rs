@@ -94,7 +94,9 @@ impl RayCaster {
         let visit_all = (c1 - c0 + 1) * (r1 - r0 + 1) * 2 > self.grid.cell_count();
         let visit = |k: usize, scratch: &mut RayScratch, out: &mut Vec<f64>| {
             let w = &self.walls[k];
-            if w.closest(p).0 >= range {
+            // outside the square of side 2 range around the sensor: out of reach
+            if w.a.x.max(w.b.x) < lo.x || w.a.x.min(w.b.x) > hi.x || w.a.y.max(w.b.y) < lo.y || w.a.y.min(w.b.y) > hi.y
+            {
                 return;
             }
             sweep(to_sensor(w.a), to_sensor(w.b), g, beams, stride, &scratch.dirs, out);
@@ -158,7 +160,7 @@ fn sweep(
     if cross.abs() < 1e-12 {
         return; // the wall is seen edge-on (or passes through the sensor)
     }
-    let (aa, ab) = (a.y.atan2(a.x), b.y.atan2(b.x));
+    let (aa, ab) = (fast_atan2(a.y, a.x), fast_atan2(b.y, b.x));
     let mut span = ab - aa;
     if span > std::f64::consts::PI {
         span -= TAU;
@@ -171,20 +173,28 @@ fn sweep(
     // beams sorted by increasing angle: index j counts from the smallest angle
     let first_angle = if g.angle_increment > 0.0 { g.angle_min } else { g.angle(beams - 1) };
     let u = (start - first_angle).rem_euclid(TAU);
+    let ab_cross = a.perp(&b);
     let mut fill = |from: f64, to: f64| {
-        let j0 = (from / inc).ceil().max(0.0) as usize;
-        let j1f = (to / inc).floor();
+        // one beam of margin each side: the angles are approximate, the wedge test is exact
+        let j0 = ((from / inc).ceil() - 1.0).max(0.0) as usize;
+        let j1f = (to / inc).floor() + 1.0;
         if j1f < 0.0 {
             return;
         }
         let j1 = (j1f as usize).min(beams - 1);
-        for j in j0..=j1 {
-            let i = if g.angle_increment > 0.0 { j } else { beams - 1 - j };
-            if i % stride != 0 {
+        if j0 > j1 {
+            return;
+        }
+        let (lo, hi) = if g.angle_increment > 0.0 { (j0, j1) } else { (beams - 1 - j1, beams - 1 - j0) };
+        let first = lo.div_ceil(stride) * stride;
+        for i in (first..=hi).step_by(stride) {
+            let k = i / stride;
+            let d = dirs[k];
+            // the beam lies within the wall's angular wedge (which is narrower than pi)
+            if a.perp(&d) * ab_cross < 0.0 || d.perp(&b) * ab_cross < 0.0 {
                 continue;
             }
-            let k = i / stride;
-            let den = dirs[k].perp(&e);
+            let den = d.perp(&e);
             if den.abs() < 1e-15 {
                 continue;
             }
@@ -195,8 +205,32 @@ fn sweep(
         }
     };
     fill(u, u + span);
-    if u + span >= TAU {
+    if u + span >= TAU - inc {
         fill(u - TAU, u + span - TAU);
+    }
+}
+
+/// atan2 to about 1e-5 rad: octant reduction and a minimax polynomial for atan on [0, 1].
+#[inline]
+fn fast_atan2(y: f64, x: f64) -> f64 {
+    let (ax, ay) = (x.abs(), y.abs());
+    let (small, large) = if ax < ay { (ax, ay) } else { (ay, ax) };
+    if large == 0.0 {
+        return 0.0;
+    }
+    let t = small / large;
+    let s = t * t;
+    let mut r = ((((0.0208351 * s - 0.085133) * s + 0.180141) * s - 0.3302995) * s + 0.999866) * t;
+    if ay > ax {
+        r = std::f64::consts::FRAC_PI_2 - r;
+    }
+    if x < 0.0 {
+        r = std::f64::consts::PI - r;
+    }
+    if y < 0.0 {
+        -r
+    } else {
+        r
     }
 }
 
@@ -247,6 +281,13 @@ mod tests {
                 prop_assert!(grazing || (got - want).abs() < 1e-7 || (got.is_infinite() && want.is_infinite()),
                     "beam {}: sweep {} brute {}", i, got, want);
             }
+        }
+    }
+
+    proptest! {
+        #[test]
+        fn fast_atan2_is_close(y in -10.0f64..10.0, x in -10.0f64..10.0) {
+            prop_assert!((fast_atan2(y, x) - y.atan2(x)).abs() < 2e-5);
         }
     }
 

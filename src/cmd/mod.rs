@@ -1,5 +1,6 @@
 //! One module per subcommand.
 
+pub mod bench;
 pub mod locate;
 pub mod map;
 pub mod sim;

@@ -1,0 +1,121 @@
+//! `gema2 bench`: per-stage time per scan (the paper's Figure 9 breakdown) and how the whole
+//! locate scales with beams and map walls. Figures, not pass/fail: this machine is shared and
+//! noisy, so every figure is a median over many scans.
+
+use crate::report::quantile;
+use acquire::{Scenario, SensorModel, Simulator};
+use anyhow::Result;
+use clap::Args;
+use localize::{Gema2, LocalizerConfig, MapModel};
+use mapserver::{procedural, MapCornerConfig, WallMap};
+use segment::SegmenterConfig;
+use std::sync::Arc;
+use std::time::Instant;
+
+#[derive(Args)]
+pub struct BenchArgs {
+    /// Scans per measurement.
+    #[arg(long, default_value_t = 200)]
+    pub scans: usize,
+    /// Skip the scaling table.
+    #[arg(long)]
+    pub stages_only: bool,
+    /// Beam counts of the scaling table.
+    #[arg(long, value_delimiter = ',', default_value = "68,170,341,682,1364")]
+    pub beams: Vec<usize>,
+    /// Wall counts of the scaling table.
+    #[arg(long, value_delimiter = ',', default_value = "50,200,1000,5000")]
+    pub walls: Vec<usize>,
+}
+
+struct Run {
+    /// Per scan: samples, inference, filter+corners, matching+screen, coarse, refine, cost,
+    /// total (microseconds).
+    steps: Vec<[f64; 8]>,
+    success: f64,
+}
+
+fn run(map: &WallMap, sensor: SensorModel, scans: usize) -> Run {
+    let model = Arc::new(MapModel::new(map.clone(), &MapCornerConfig::default()));
+    let mut sim = Simulator::new(map, sensor, Scenario::Clean, 7);
+    let data: Vec<_> = (0..scans).map(|_| sim.next_scan()).collect();
+    let mut gema2 = Gema2::new(model, SegmenterConfig::default(), LocalizerConfig::default());
+    let mut steps = Vec::with_capacity(scans);
+    let mut right = 0;
+    for scan in &data {
+        let start = Instant::now();
+        let (seg, loc) = gema2.process(&scan.view());
+        let total = start.elapsed();
+        let us = |d: std::time::Duration| d.as_secs_f64() * 1e6;
+        let (s, l) = (&seg.times, &loc.times);
+        steps.push([
+            us(s.samples),
+            us(s.inference),
+            us(s.corners),
+            us(l.matching),
+            us(l.coarse),
+            us(l.refine),
+            us(l.cost),
+            us(total),
+        ]);
+        let truth = scan.truth.expect("simulated scans carry truth");
+        if loc.best().is_some_and(|h| localize::same_pose(&h.pose, &truth, 0.3, 5f64.to_radians())) {
+            right += 1;
+        }
+    }
+    Run { steps, success: right as f64 / scans.max(1) as f64 }
+}
+
+fn median(run: &Run, k: usize) -> f64 {
+    let mut v: Vec<f64> = run.steps.iter().map(|s| s[k]).collect();
+    quantile(&mut v, 0.5)
+}
+
+pub fn run_bench(a: BenchArgs) -> Result<()> {
+    let office = mapserver::load_map("office")?;
+    println!(
+        "GEMA2 per-stage time per scan: bundled office ({} walls), URG-04LX 682 beams, clean, {} scans",
+        office.walls.len(),
+        a.scans
+    );
+    let r = run(&office, SensorModel::urg04lx(), a.scans);
+    let names = [
+        "acquisition (samples, eqs. 1-2)",
+        "line inference (Codes 1-2)",
+        "filtering + corners (eq. 4)",
+        "matching (eqs. 5-6) + screening",
+        "coarse cost (eq. 7, 64 beams)",
+        "refinement",
+        "cost function (eq. 7, all beams)",
+        "total",
+    ];
+    let total = median(&r, 7);
+    for (k, name) in names.iter().enumerate() {
+        let m = median(&r, k);
+        println!("  {name:34} median {m:8.1} us  ({:4.1} %)", 100.0 * m / total);
+    }
+    let mut t: Vec<f64> = r.steps.iter().map(|s| s[7]).collect();
+    println!("  {:34} p99    {:8.1} us   success {:.1} %", "total", quantile(&mut t, 0.99), 100.0 * r.success);
+    if a.stages_only {
+        return Ok(());
+    }
+    println!(
+        "\nScaling: median total locate time per scan (us) [success %], office maps of about W walls, {} scans each",
+        a.scans
+    );
+    let maps: Vec<WallMap> = a.walls.iter().map(|&w| procedural::office_with_walls(3, w)).collect();
+    print!("{:>8}", "beams");
+    for m in &maps {
+        print!("  {:>16}", format!("{} walls", m.walls.len()));
+    }
+    println!();
+    for &b in &a.beams {
+        print!("{b:>8}");
+        for m in &maps {
+            let r = run(m, SensorModel::urg04lx_with_beams(b), a.scans);
+            print!("  {:>9.0} [{:4.1}]", median(&r, 7), 100.0 * r.success);
+        }
+        println!();
+    }
+    Ok(())
+}
