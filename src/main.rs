@@ -22,6 +22,8 @@ enum Command {
     Sim(cmd::sim::SimArgs),
     /// Localize every scan of a log offline and report time and accuracy.
     Locate(cmd::locate::LocateArgs),
+    /// The algorithm on the bundled office with simulated scans (what plain `gema2` runs).
+    Demo(cmd::demo::DemoArgs),
     /// Time each stage per scan and print how locate scales with beams and map walls.
     Bench(cmd::bench::BenchArgs),
 }
@@ -33,9 +35,7 @@ fn main() -> anyhow::Result<()> {
         Some(Command::Sim(a)) => cmd::sim::run(a),
         Some(Command::Locate(a)) => cmd::locate::run(a),
         Some(Command::Bench(a)) => cmd::bench::run_bench(a),
-        None => {
-            println!("try `gema2 --help`");
-            Ok(())
-        }
+        Some(Command::Demo(a)) => cmd::demo::run(a),
+        None => cmd::demo::run(cmd::demo::DemoArgs::default()),
     }
 }

@@ -125,7 +125,7 @@ impl RayCaster {
         let dir = Vector2::new(angle.cos(), angle.sin());
         self.walls
             .iter()
-            .filter_map(|w| ray_segment(origin.coords - origin.coords, dir, w.a - origin, w.b - origin))
+            .filter_map(|w| ray_segment(Vector2::zeros(), dir, w.a - origin, w.b - origin))
             .fold(f64::INFINITY, f64::min)
     }
 }

@@ -1,0 +1,124 @@
+//! The algorithm end to end on simulated scans: eqs. 1-7 together.
+
+use acquire::{Scenario, SensorModel, Simulator};
+use laser::{pose, LaserScan, ScanGeometry};
+use localize::cost::cost;
+use localize::refine::{refine, RefineConfig};
+use localize::{pose_from_corners, same_pose, CostConfig, Gema2, LocalizerConfig, MapModel, Status};
+use mapserver::{procedural, MapCornerConfig, RayScratch, Wall, WallMap};
+use segment::{ErrorModel, LineVisibilitySegmenter, Segmenter, SegmenterConfig};
+use std::sync::Arc;
+
+fn model(map: WallMap) -> Arc<MapModel> {
+    Arc::new(MapModel::new(map, &MapCornerConfig::default()))
+}
+
+/// A pose computed from a simulated scan's corner (eqs. 5-6) lies close to the truth, and once
+/// refined against the walls it reproduces the scan: its eq. 7 cost is at the noise floor, far
+/// below the cost of a pose a metre away.
+#[test]
+fn a_pose_from_a_scan_corner_reproduces_the_scan() {
+    let map = procedural::apartment();
+    let m = model(map.clone());
+    let mut sim = Simulator::new(&map, SensorModel::urg04lx(), Scenario::Clean, 21);
+    let mut seg = LineVisibilitySegmenter::new(SegmenterConfig::default());
+    let error = ErrorModel::default();
+    let (mut checked, mut scratch, mut expected) = (0, RayScratch::default(), Vec::new());
+    for _ in 0..40 {
+        let scan = sim.next_scan();
+        let truth = scan.truth.unwrap();
+        let s = seg.segment(&scan.view());
+        // the map corner this scan corner really is (found with the truth)
+        for c in s.corners.iter().take(3) {
+            let Some(mc) = m.corners.similar(c.inner_angle, 0.1).iter().find(|mc| {
+                (mc.position - truth * c.position).norm() < 0.1
+                    && mc.arms[0].direction.dot(&(truth.rotation * c.arms[0].direction)) > 0.99
+            }) else {
+                continue;
+            };
+            let p = pose_from_corners(c, mc);
+            assert!(same_pose(&p, &truth, 0.15, 3f64.to_radians()), "eqs. 5-6 gave {p:?} for truth {truth:?}");
+            let mut at =
+                |q| cost(&scan.view(), &q, &m.caster, &error, &CostConfig::default(), &mut scratch, &mut expected);
+            let points: Vec<_> = s.samples.iter().map(|q| q.point()).collect();
+            let (refined, paired) = refine(&m, &points, &p, &RefineConfig::default());
+            assert!(paired > 0.9, "refinement paired {paired}");
+            let here = at(refined);
+            let (x, y, th) = (p.translation.x, p.translation.y, p.rotation.angle());
+            let away = at(pose(x + 0.7, y - 0.7, th));
+            assert!(
+                here.value < 1.5 && here.inliers > 0.9 && here.through < 0.02,
+                "cost at the corner's pose {here:?}"
+            );
+            assert!(away.value > 2.0 * here.value, "a pose 1 m away costs {away:?}, the corner's pose {here:?}");
+            checked += 1;
+        }
+    }
+    assert!(checked >= 20, "only {checked} corners matched the map");
+}
+
+/// A regression guard on accuracy: deterministic simulated logs in two bundled maps.
+#[test]
+fn most_clean_scans_are_localized_to_centimetres() {
+    for (name, seed, floor) in [("apartment", 5u64, 0.93), ("radial", 6, 0.92)] {
+        let map = procedural::by_name(name).unwrap();
+        let mut gema2 = Gema2::new(model(map.clone()), SegmenterConfig::default(), LocalizerConfig::default());
+        let mut sim = Simulator::new(&map, SensorModel::urg04lx(), Scenario::Clean, seed);
+        let (n, mut right, mut wrong_ok, mut error) = (100, 0, 0, 0.0);
+        for _ in 0..n {
+            let scan = sim.next_scan();
+            let truth = scan.truth.unwrap();
+            let (_, loc) = gema2.process(&scan.view());
+            match loc.best() {
+                Some(h) if same_pose(&h.pose, &truth, 0.3, 5f64.to_radians()) => {
+                    right += 1;
+                    error += (h.pose.translation.vector - truth.translation.vector).norm();
+                }
+                Some(_) if loc.status == Status::Ok => wrong_ok += 1,
+                _ => {}
+            }
+        }
+        assert!(right as f64 >= floor * n as f64, "{name}: {right}/{n} right");
+        assert!(error / right as f64 <= 0.03, "{name}: mean error {} m", error / right as f64);
+        assert!(wrong_ok <= 1, "{name}: {wrong_ok} wrong poses marked ok");
+    }
+}
+
+fn locate(map: &WallMap, ranges: Vec<f32>, geometry: ScanGeometry) -> Status {
+    let mut gema2 = Gema2::new(model(map.clone()), SegmenterConfig::default(), LocalizerConfig::default());
+    let scan = LaserScan { geometry, ranges, stamp: 0.0, truth: None };
+    gema2.process(&scan.view()).1.status
+}
+
+/// NaN, all-invalid, single-wall and cornerless scans fail; none panics.
+#[test]
+fn hopeless_scans_fail_cleanly() {
+    let map = procedural::apartment();
+    let g = ScanGeometry::urg04lx();
+    let n = ScanGeometry::urg04lx_beams(1);
+    assert_eq!(locate(&map, vec![f32::NAN; n], g), Status::Failed);
+    assert_eq!(locate(&map, vec![0.0; n], g), Status::Failed);
+    assert_eq!(locate(&map, vec![5.6; n], g), Status::Failed);
+    assert_eq!(locate(&map, vec![f32::INFINITY; n], g), Status::Failed);
+    assert_eq!(locate(&map, vec![-1.0; n], g), Status::Failed);
+    assert_eq!(locate(&map, Vec::new(), g), Status::Failed);
+    // one wall seen square on: a line, no corner
+    let wall: Vec<f32> = (0..n)
+        .map(|i| {
+            let a = g.angle(i);
+            if a.cos() > 0.2 {
+                (1.5 / a.cos()).min(5.6) as f32
+            } else {
+                5.6
+            }
+        })
+        .collect();
+    assert_eq!(locate(&map, wall, g), Status::Failed);
+    // a round room: plenty of points, no straight line, no corner
+    assert_eq!(locate(&map, vec![2.0; n], g), Status::Failed);
+    // a scan in a map it does not belong to (a lone box)
+    let lone = WallMap::new(vec![Wall::new(0.0, 0.0, 1.0, 0.0), Wall::new(1.0, 0.0, 1.0, 1.0)]);
+    let mut sim = Simulator::new(&procedural::apartment(), SensorModel::urg04lx(), Scenario::Clean, 3);
+    let scan = sim.next_scan();
+    assert_ne!(locate(&lone, scan.ranges.clone(), scan.geometry), Status::Ok);
+}

@@ -1,0 +1,94 @@
+//! The `gema2` command line, run as a user runs it.
+
+use std::path::Path;
+use std::process::{Command, Output};
+
+fn gema2(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_gema2")).args(args).output().expect("gema2 runs")
+}
+
+fn text(b: &[u8]) -> String {
+    String::from_utf8_lossy(b).into_owned()
+}
+
+#[test]
+fn sim_then_locate_writes_the_design_csv_and_reports_accuracy() {
+    let dir = tempfile::tempdir().unwrap();
+    let log = dir.path().join("a.log");
+    let csv = dir.path().join("a.csv");
+    let log_s = log.to_str().unwrap();
+    let out =
+        gema2(&["sim", "--map", "apartment", "--scenario", "people", "--scans", "30", "--seed", "4", "--out", log_s]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let out = gema2(&["locate", "--map", "apartment", "--log", log_s, "--out", csv.to_str().unwrap()]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let err = text(&out.stderr);
+    assert!(err.contains("scans 30") && err.contains("success") && err.contains("median"), "{err}");
+    let rows: Vec<String> = std::fs::read_to_string(&csv).unwrap().lines().map(str::to_owned).collect();
+    assert!(rows[0].starts_with("scan,x,y,theta,score,status,micros"), "{}", rows[0]);
+    assert_eq!(rows.len(), 31);
+    for (k, row) in rows[1..].iter().enumerate() {
+        let cols: Vec<&str> = row.split(',').collect();
+        assert_eq!(cols[0], k.to_string());
+        assert!(["ok", "ambiguous", "failed"].contains(&cols[5]), "{row}");
+        if cols[5] != "failed" {
+            assert!(cols[1].parse::<f64>().is_ok() && cols[3].parse::<f64>().is_ok(), "{row}");
+        }
+    }
+    // --every 3 --offset 1: scans 1, 4, 7, ...
+    let out = gema2(&[
+        "locate",
+        "--map",
+        "apartment",
+        "--log",
+        log_s,
+        "--every",
+        "3",
+        "--offset",
+        "1",
+        "--out",
+        csv.to_str().unwrap(),
+    ]);
+    assert!(out.status.success());
+    let scans: Vec<String> = std::fs::read_to_string(&csv)
+        .unwrap()
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').next().unwrap().to_owned())
+        .collect();
+    assert_eq!(scans, (0..10).map(|k| (1 + 3 * k).to_string()).collect::<Vec<_>>());
+}
+
+#[test]
+fn a_malformed_map_is_rejected_naming_file_and_element() {
+    let dir = tempfile::tempdir().unwrap();
+    let map = dir.path().join("bad.json");
+    std::fs::write(&map, r#"{"walls": [[0, 0, 1, 0], [1, 0, 1]]}"#).unwrap();
+    let out = gema2(&["locate", "--map", map.to_str().unwrap(), "--log", "/dev/null"]);
+    assert!(!out.status.success());
+    let err = text(&out.stderr);
+    assert!(err.contains("bad.json") && err.contains("walls[1]"), "{err}");
+}
+
+#[test]
+fn a_malformed_log_line_is_rejected_naming_file_and_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let log = dir.path().join("bad.log");
+    std::fs::write(&log, "PARAM a b\nFLASER 3 1.0 1.0 1.0 0 0 0 0 0 0 1 h 1\nFLASER 3 1.0 x 1.0 0 0 0 0 0 0 1 h 1\n")
+        .unwrap();
+    let out = gema2(&["locate", "--map", "apartment", "--log", log.to_str().unwrap()]);
+    assert!(!out.status.success());
+    let err = text(&out.stderr);
+    assert!(err.contains("bad.log:3") && err.contains("\"x\""), "{err}");
+    assert!(!Path::new("bad.csv").exists());
+}
+
+#[test]
+fn unknown_maps_and_missing_logs_are_clear_errors() {
+    let out = gema2(&["locate", "--map", "no-such-map", "--log", "/dev/null"]);
+    assert!(!out.status.success());
+    assert!(text(&out.stderr).contains("no-such-map"));
+    let out = gema2(&["locate", "--map", "office", "--log", "/no/such.log"]);
+    assert!(!out.status.success());
+    assert!(text(&out.stderr).contains("/no/such.log"));
+}
