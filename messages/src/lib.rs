@@ -1,0 +1,24 @@
+//! The gema2 wire contract: every payload that crosses a process boundary, every service name,
+//! and the one function each process opens services through.
+//!
+//! Payloads are fixed-size `#[repr(C)]` plain data with documented maxima, loaned from shared
+//! memory and written in place: nothing is serialized on the hot path. Each topic is a
+//! publish-subscribe service paired with an event service of the same name, so a subscriber
+//! blocks in a `WaitSet` instead of polling. Whoever creates a service fixes its settings, so
+//! they are defined here once ([`Topic::settings`]) and every process opens through
+//! [`open_topic`].
+
+mod payload;
+mod publish;
+mod runtime;
+mod topic;
+
+pub use payload::*;
+pub use publish::{publish, Zeroable};
+pub use runtime::{cleanup_dead_nodes, create_node, monotonic_ns, pin_to_cpu, RuntimeError};
+pub use topic::{
+    open_control, open_corner_queries, open_pubsub, open_topic, service_name, OpenError, Topic, TopicPorts,
+    TopicSettings, ALL_TOPICS,
+};
+
+pub use iceoryx2;

@@ -1,0 +1,288 @@
+//! Payload types. All plain data: numbers and fixed arrays, no pointers.
+
+use iceoryx2::prelude::ZeroCopySend;
+
+/// Most beams in a scan.
+pub const MAX_BEAMS: usize = 2048;
+/// Most lines in a line set.
+pub const MAX_LINES: usize = 512;
+/// Most corners in a corner set.
+pub const MAX_CORNERS: usize = 512;
+/// Most pose hypotheses in a pose message.
+pub const MAX_HYPOTHESES: usize = 32;
+/// Most walls in a published map.
+pub const MAX_WALLS: usize = 16384;
+/// Bytes of an implementation name (UTF-8, NUL padded).
+pub const NAME_LEN: usize = 32;
+
+/// The stages that stamp a message on its way, in pipeline order.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[repr(usize)]
+pub enum Stage {
+    Acquire = 0,
+    Segment = 1,
+    Localize = 2,
+}
+
+/// Number of [`Stage`]s.
+pub const STAGES: usize = 3;
+
+/// When a stage took a message in hand and when it let the result go (monotonic ns, 0 if the
+/// message did not pass the stage).
+#[derive(Clone, Copy, Debug, Default, PartialEq, ZeroCopySend)]
+#[repr(C)]
+pub struct StageSpan {
+    pub enter_ns: u64,
+    pub leave_ns: u64,
+}
+
+/// The common header of every message derived from a scan.
+#[derive(Clone, Copy, Debug, PartialEq, ZeroCopySend)]
+#[repr(C)]
+pub struct Header {
+    /// Sequence number of the scan this message derives from.
+    pub seq: u64,
+    /// Acquisition time of that scan, monotonic ns.
+    pub stamp_ns: u64,
+    /// Per-stage enter/leave times, indexed by [`Stage`].
+    pub stages: [StageSpan; STAGES],
+    /// Name of the implementation that produced this message (the last stage's).
+    pub producer: [u8; NAME_LEN],
+}
+
+impl Header {
+    pub fn new(seq: u64, stamp_ns: u64) -> Self {
+        Header { seq, stamp_ns, stages: [StageSpan::default(); STAGES], producer: [0; NAME_LEN] }
+    }
+
+    pub fn set_producer(&mut self, name: &str) {
+        self.producer = name_bytes(name);
+    }
+
+    pub fn producer(&self) -> &str {
+        name_str(&self.producer)
+    }
+
+    pub fn span(&mut self, stage: Stage) -> &mut StageSpan {
+        &mut self.stages[stage as usize]
+    }
+}
+
+/// `name` as NUL-padded bytes (cut at a character boundary if too long).
+pub fn name_bytes(name: &str) -> [u8; NAME_LEN] {
+    let mut out = [0u8; NAME_LEN];
+    let mut end = name.len().min(NAME_LEN);
+    while !name.is_char_boundary(end) {
+        end -= 1;
+    }
+    out[..end].copy_from_slice(&name.as_bytes()[..end]);
+    out
+}
+
+/// The name in NUL-padded bytes (empty if not UTF-8).
+pub fn name_str(bytes: &[u8; NAME_LEN]) -> &str {
+    let end = bytes.iter().position(|&b| b == 0).unwrap_or(NAME_LEN);
+    std::str::from_utf8(&bytes[..end]).unwrap_or("")
+}
+
+/// A pose in the map frame: x, y (metres), theta (radians, REP 103).
+#[derive(Clone, Copy, Debug, Default, PartialEq, ZeroCopySend)]
+#[repr(C)]
+pub struct PoseMsgXyt {
+    pub x: f64,
+    pub y: f64,
+    pub theta: f64,
+}
+
+/// `gema2/scan`: one laser scan.
+#[derive(Clone, Copy, Debug, ZeroCopySend)]
+#[repr(C)]
+pub struct ScanMsg {
+    pub header: Header,
+    pub angle_min: f64,
+    pub angle_increment: f64,
+    pub range_min: f64,
+    pub range_max: f64,
+    /// 1 when `truth` holds the true sensor pose (simulator, corrected log).
+    pub has_truth: u32,
+    /// Readings in `ranges` (at most [`MAX_BEAMS`]).
+    pub count: u32,
+    pub truth: PoseMsgXyt,
+    pub ranges: [f32; MAX_BEAMS],
+}
+
+/// One fitted line.
+#[derive(Clone, Copy, Debug, Default, PartialEq, ZeroCopySend)]
+#[repr(C)]
+pub struct LineMsg {
+    /// Visible extent, sensor frame, metres.
+    pub start: [f64; 2],
+    pub end: [f64; 2],
+    /// |l|: samples in the line.
+    pub samples: u32,
+    pub _pad: u32,
+}
+
+/// `gema2/lines`: the filtered lines of a scan.
+#[derive(Clone, Copy, Debug, ZeroCopySend)]
+#[repr(C)]
+pub struct LinesMsg {
+    pub header: Header,
+    /// Lines before filtering (the size of L).
+    pub raw_count: u32,
+    pub count: u32,
+    pub lines: [LineMsg; MAX_LINES],
+}
+
+/// One side of a corner (see `segment::Arm`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, ZeroCopySend)]
+#[repr(C)]
+pub struct ArmMsg {
+    pub direction: [f64; 2],
+    pub gap: f64,
+    pub length: f64,
+    pub samples: f64,
+    pub direction_sigma: f64,
+    pub line: u32,
+    pub _pad: u32,
+}
+
+/// One corner (see `segment::Corner`), sensor frame.
+#[derive(Clone, Copy, Debug, Default, PartialEq, ZeroCopySend)]
+#[repr(C)]
+pub struct CornerMsg {
+    pub position: [f64; 2],
+    pub inner_angle: f64,
+    pub orientation: f64,
+    pub quality: f64,
+    pub arms: [ArmMsg; 2],
+}
+
+/// `gema2/corners`: a scan's corners, best first, with the scan they derive from (the cost
+/// function needs its readings).
+#[derive(Clone, Copy, Debug, ZeroCopySend)]
+#[repr(C)]
+pub struct CornersMsg {
+    pub scan: ScanMsg,
+    pub count: u32,
+    pub _pad: u32,
+    pub corners: [CornerMsg; MAX_CORNERS],
+}
+
+/// One pose hypothesis.
+#[derive(Clone, Copy, Debug, Default, PartialEq, ZeroCopySend)]
+#[repr(C)]
+pub struct HypothesisMsg {
+    pub pose: PoseMsgXyt,
+    /// Eq. 7 (one-sided), mean per beam.
+    pub cost: f64,
+    pub inliers: f64,
+    pub through: f64,
+    pub scan_corner: u32,
+    pub map_corner: u32,
+}
+
+/// Localization outcome codes.
+pub const STATUS_OK: u32 = 0;
+pub const STATUS_AMBIGUOUS: u32 = 1;
+pub const STATUS_FAILED: u32 = 2;
+
+/// `gema2/pose`: ranked hypotheses of a scan.
+#[derive(Clone, Copy, Debug, ZeroCopySend)]
+#[repr(C)]
+pub struct PoseMsg {
+    pub header: Header,
+    /// [`STATUS_OK`], [`STATUS_AMBIGUOUS`] or [`STATUS_FAILED`].
+    pub status: u32,
+    pub count: u32,
+    /// Candidates produced by corner matching.
+    pub candidates: u32,
+    /// Version of the map localized against.
+    pub map_version: u32,
+    pub has_truth: u32,
+    pub _pad: u32,
+    pub truth: PoseMsgXyt,
+    pub hypotheses: [HypothesisMsg; MAX_HYPOTHESES],
+}
+
+/// `gema2/map`: the wall map, published with history so late joiners get it.
+#[derive(Clone, Copy, Debug, ZeroCopySend)]
+#[repr(C)]
+pub struct MapMsg {
+    /// Increases every time the map server (re)loads the map.
+    pub version: u32,
+    pub count: u32,
+    /// Walls as x1, y1, x2, y2 (metres).
+    pub walls: [[f64; 4]; MAX_WALLS],
+}
+
+/// Request to the map server: corners with inner angle within `tolerance` of `inner_angle`,
+/// optionally within `radius` of (`x`, `y`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, ZeroCopySend)]
+#[repr(C)]
+pub struct CornerQuery {
+    pub inner_angle: f64,
+    pub tolerance: f64,
+    pub has_region: u32,
+    pub _pad: u32,
+    pub x: f64,
+    pub y: f64,
+    pub radius: f64,
+}
+
+/// A map corner in a reply.
+#[derive(Clone, Copy, Debug, Default, PartialEq, ZeroCopySend)]
+#[repr(C)]
+pub struct MapCornerMsg {
+    pub position: [f64; 2],
+    pub inner_angle: f64,
+    pub orientation: f64,
+}
+
+/// The map server's answer: up to [`MAX_CORNERS`] corners (`total` says how many matched).
+#[derive(Clone, Copy, Debug, ZeroCopySend)]
+#[repr(C)]
+pub struct CornerReply {
+    pub map_version: u32,
+    pub count: u32,
+    pub total: u32,
+    pub _pad: u32,
+    pub corners: [MapCornerMsg; MAX_CORNERS],
+}
+
+/// Request to the supervisor: replace `stage` by implementation `implementation`.
+#[derive(Clone, Copy, Debug, ZeroCopySend)]
+#[repr(C)]
+pub struct ControlRequest {
+    pub stage: [u8; NAME_LEN],
+    pub implementation: [u8; NAME_LEN],
+}
+
+/// The supervisor's answer: `ok` 1 on success, and a message.
+#[derive(Clone, Copy, Debug, ZeroCopySend)]
+#[repr(C)]
+pub struct ControlReply {
+    pub ok: u32,
+    pub message: [u8; 256],
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn names_round_trip_and_are_cut_safely() {
+        assert_eq!(name_str(&name_bytes("line-visibility")), "line-visibility");
+        let long = "é".repeat(40);
+        let cut = name_bytes(&long);
+        assert!(name_str(&cut).chars().all(|c| c == 'é'));
+        assert_eq!(name_str(&cut).len(), 32);
+    }
+
+    #[test]
+    fn payloads_fit_shared_memory_comfortably() {
+        assert!(std::mem::size_of::<ScanMsg>() < 16 * 1024);
+        assert!(std::mem::size_of::<CornersMsg>() < 128 * 1024);
+        assert!(std::mem::size_of::<MapMsg>() <= 600 * 1024);
+    }
+}

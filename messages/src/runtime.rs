@@ -1,0 +1,65 @@
+//! What every gema2 process does the same way: name its node, pin itself to a core, read the
+//! clock that message headers use, and clean up after processes that died.
+
+use iceoryx2::prelude::*;
+use thiserror::Error;
+
+#[derive(Debug, Error)]
+pub enum RuntimeError {
+    #[error("cannot create the iceoryx2 node {name:?}: {message}")]
+    Node { name: String, message: String },
+    #[error("cannot pin to CPU {cpu}: {message}")]
+    Pin { cpu: usize, message: String },
+}
+
+/// Creates this process's node. Termination signals (SIGINT, SIGTERM) are left to iceoryx2,
+/// which makes `WaitSet` loops and `Node::wait` return so the process can finish cleanly.
+pub fn create_node(name: &str) -> Result<Node<ipc::Service>, RuntimeError> {
+    let node_name =
+        NodeName::new(name).map_err(|e| RuntimeError::Node { name: name.into(), message: format!("{e:?}") })?;
+    NodeBuilder::new()
+        .name(&node_name)
+        .signal_handling_mode(SignalHandlingMode::HandleTerminationRequests)
+        .create::<ipc::Service>()
+        .map_err(|e| RuntimeError::Node { name: name.into(), message: format!("{e:?}") })
+}
+
+/// Pins the calling process (all its threads) to one CPU core.
+pub fn pin_to_cpu(cpu: usize) -> Result<(), RuntimeError> {
+    let cores = std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1);
+    if cpu >= cores.max(libc::CPU_SETSIZE as usize) {
+        return Err(RuntimeError::Pin { cpu, message: format!("this machine has {cores} cores") });
+    }
+    // SAFETY: `set` is a plain bit set on the stack; sched_setaffinity reads it.
+    let rc = unsafe {
+        let mut set: libc::cpu_set_t = std::mem::zeroed();
+        libc::CPU_SET(cpu, &mut set);
+        libc::sched_setaffinity(0, std::mem::size_of::<libc::cpu_set_t>(), &set)
+    };
+    if rc != 0 {
+        return Err(RuntimeError::Pin { cpu, message: std::io::Error::last_os_error().to_string() });
+    }
+    Ok(())
+}
+
+/// Monotonic clock, nanoseconds: the same clock in every process of the machine.
+pub fn monotonic_ns() -> u64 {
+    let mut ts = libc::timespec { tv_sec: 0, tv_nsec: 0 };
+    // SAFETY: clock_gettime writes the struct we pass.
+    unsafe { libc::clock_gettime(libc::CLOCK_MONOTONIC, &mut ts) };
+    ts.tv_sec as u64 * 1_000_000_000 + ts.tv_nsec as u64
+}
+
+/// Removes the shared-memory resources of nodes whose process died; returns how many.
+pub fn cleanup_dead_nodes() -> usize {
+    let mut removed = 0;
+    let _ = Node::<ipc::Service>::list(Config::global_config(), |state| {
+        if let NodeState::Dead(view) = state {
+            if view.try_remove_stale_resources().is_ok() {
+                removed += 1;
+            }
+        }
+        CallbackProgression::Continue
+    });
+    removed
+}

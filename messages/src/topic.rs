@@ -1,0 +1,174 @@
+//! Every topic: its service name, payload type and settings, and the one way to open it.
+
+use iceoryx2::prelude::*;
+use iceoryx2::service::port_factory::{event, publish_subscribe, request_response};
+use std::fmt::Debug;
+use thiserror::Error;
+
+/// The published topics, in pipeline order.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Topic {
+    /// [`crate::ScanMsg`] from `acquire`.
+    Scan,
+    /// [`crate::LinesMsg`] from `segment`.
+    Lines,
+    /// [`crate::CornersMsg`] from `segment`.
+    Corners,
+    /// [`crate::PoseMsg`] from `localize`.
+    Pose,
+    /// [`crate::MapMsg`] from `mapserver`, with history.
+    Map,
+}
+
+/// Every topic: a recorder that must see everything iterates over this.
+pub const ALL_TOPICS: [Topic; 5] = [Topic::Scan, Topic::Lines, Topic::Corners, Topic::Pose, Topic::Map];
+
+/// Settings fixed by whoever creates a topic's service.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct TopicSettings {
+    /// Samples kept for subscribers that connect later.
+    pub history: usize,
+    /// Samples a subscriber can hold unread.
+    pub buffer: usize,
+    /// Two publishers at once: a stage and its replacement during a hot swap.
+    pub max_publishers: usize,
+    pub max_subscribers: usize,
+}
+
+impl Topic {
+    /// The service name's last part: `gema2/<topic>` or `<prefix>/<topic>`.
+    pub fn suffix(self) -> &'static str {
+        match self {
+            Topic::Scan => "scan",
+            Topic::Lines => "lines",
+            Topic::Corners => "corners",
+            Topic::Pose => "pose",
+            Topic::Map => "map",
+        }
+    }
+
+    /// The Rust type of the payload.
+    pub fn payload_type(self) -> &'static str {
+        match self {
+            Topic::Scan => std::any::type_name::<crate::ScanMsg>(),
+            Topic::Lines => std::any::type_name::<crate::LinesMsg>(),
+            Topic::Corners => std::any::type_name::<crate::CornersMsg>(),
+            Topic::Pose => std::any::type_name::<crate::PoseMsg>(),
+            Topic::Map => std::any::type_name::<crate::MapMsg>(),
+        }
+    }
+
+    pub fn settings(self) -> TopicSettings {
+        let base = TopicSettings { history: 0, buffer: 64, max_publishers: 3, max_subscribers: 8 };
+        match self {
+            Topic::Map => TopicSettings { history: 1, buffer: 2, ..base },
+            _ => base,
+        }
+    }
+}
+
+/// Why a service could not be opened; always names the service.
+#[derive(Debug, Error)]
+pub enum OpenError {
+    #[error("service {service}: invalid name: {message}")]
+    Name { service: String, message: String },
+    #[error("service {service}: carries {expected}, cannot be opened as {requested}")]
+    WrongType { service: String, expected: &'static str, requested: &'static str },
+    #[error("service {service}: {message}")]
+    Open { service: String, message: String },
+    #[error("service {service}: cannot create a port: {message}")]
+    Port { service: String, message: String },
+}
+
+/// The full service name of `topic` under `prefix` (`gema2` by default).
+pub fn service_name(prefix: &str, topic: &str) -> String {
+    format!("{}/{}", prefix.trim_end_matches('/'), topic)
+}
+
+/// A topic's two services: the data and the event that wakes its subscribers.
+pub struct TopicPorts<T: Debug + ZeroCopySend + 'static> {
+    pub name: String,
+    pub data: publish_subscribe::PortFactory<ipc::Service, T, ()>,
+    pub event: event::PortFactory<ipc::Service>,
+}
+
+fn parse_name(service: &str) -> Result<ServiceName, OpenError> {
+    ServiceName::new(service).map_err(|e| OpenError::Name { service: service.into(), message: format!("{e:?}") })
+}
+
+/// Opens (or creates, with [`Topic::settings`]) `topic` under `prefix`, with payload type `T`.
+/// A `T` that is not the topic's payload is refused before iceoryx2 is asked; a service created
+/// elsewhere with another type fails with iceoryx2's own complaint, both naming the service.
+pub fn open_topic<T: Debug + ZeroCopySend + 'static>(
+    node: &Node<ipc::Service>,
+    prefix: &str,
+    topic: Topic,
+) -> Result<TopicPorts<T>, OpenError> {
+    let service = service_name(prefix, topic.suffix());
+    let requested = std::any::type_name::<T>();
+    if requested != topic.payload_type() {
+        return Err(OpenError::WrongType { service, expected: topic.payload_type(), requested });
+    }
+    open_pubsub::<T>(node, &service, topic.settings())
+}
+
+/// Opens any publish-subscribe service with the given settings (and its event service).
+pub fn open_pubsub<T: Debug + ZeroCopySend + 'static>(
+    node: &Node<ipc::Service>,
+    service: &str,
+    s: TopicSettings,
+) -> Result<TopicPorts<T>, OpenError> {
+    let name = parse_name(service)?;
+    let data = node
+        .service_builder(&name)
+        .publish_subscribe::<T>()
+        .history_size(s.history)
+        .subscriber_max_buffer_size(s.buffer.max(s.history))
+        .max_publishers(s.max_publishers)
+        .max_subscribers(s.max_subscribers)
+        .max_nodes(32)
+        .open_or_create()
+        .map_err(|e| OpenError::Open {
+            service: service.into(),
+            message: format!("{e:?} (payload {})", std::any::type_name::<T>()),
+        })?;
+    let event = node
+        .service_builder(&name)
+        .event()
+        .max_notifiers(16)
+        .max_listeners(16)
+        .max_nodes(32)
+        .open_or_create()
+        .map_err(|e| OpenError::Open { service: service.into(), message: format!("event: {e:?}") })?;
+    Ok(TopicPorts { name: service.into(), data, event })
+}
+
+/// The map server's corner query service, `<prefix>/map/corners`.
+pub fn open_corner_queries(
+    node: &Node<ipc::Service>,
+    prefix: &str,
+) -> Result<request_response::PortFactory<ipc::Service, crate::CornerQuery, (), crate::CornerReply, ()>, OpenError> {
+    open_request_response(node, &service_name(prefix, "map/corners"))
+}
+
+/// The supervisor's control service, `<prefix>/control`.
+pub fn open_control(
+    node: &Node<ipc::Service>,
+    prefix: &str,
+) -> Result<request_response::PortFactory<ipc::Service, crate::ControlRequest, (), crate::ControlReply, ()>, OpenError>
+{
+    open_request_response(node, &service_name(prefix, "control"))
+}
+
+fn open_request_response<Q: Debug + ZeroCopySend + 'static, R: Debug + ZeroCopySend + 'static>(
+    node: &Node<ipc::Service>,
+    service: &str,
+) -> Result<request_response::PortFactory<ipc::Service, Q, (), R, ()>, OpenError> {
+    let name = parse_name(service)?;
+    node.service_builder(&name)
+        .request_response::<Q, R>()
+        .max_clients(8)
+        .max_servers(2)
+        .open_or_create()
+        .map_err(|e| OpenError::Open { service: service.into(), message: format!("{e:?}") })
+}

@@ -1,0 +1,68 @@
+//! Real iceoryx2 services between ports of one process.
+
+use messages::iceoryx2::prelude::*;
+use messages::*;
+
+fn prefix(test: &str) -> String {
+    format!("gema2test_{}_{}", test, std::process::id())
+}
+
+#[test]
+fn a_scan_goes_through_shared_memory_and_wakes_the_listener() {
+    let p = prefix("scan");
+    let node = create_node("test").unwrap();
+    let topic = open_topic::<ScanMsg>(&node, &p, Topic::Scan).unwrap();
+    let sub = topic.data.subscriber_builder().create().unwrap();
+    let listener = topic.event.listener_builder().create().unwrap();
+    let publisher = topic.data.publisher_builder().create().unwrap();
+    let notifier = topic.event.notifier_builder().create().unwrap();
+    let delivered = publish(&publisher, &notifier, |m: &mut ScanMsg| {
+        m.header = Header::new(7, monotonic_ns());
+        m.header.set_producer("sim");
+        m.count = 3;
+        m.ranges[..3].copy_from_slice(&[1.0, 2.0, 3.0]);
+    })
+    .unwrap();
+    assert_eq!(delivered, 1);
+    let mut woke = 0;
+    listener.timed_wait(|_| woke += 1, std::time::Duration::from_secs(1)).unwrap();
+    assert!(woke >= 1);
+    let sample = sub.receive().unwrap().unwrap();
+    assert_eq!(sample.header.seq, 7);
+    assert_eq!(sample.header.producer(), "sim");
+    assert_eq!(&sample.ranges[..3], &[1.0, 2.0, 3.0]);
+    assert!(sample.ranges[3..].iter().all(|&r| r == 0.0));
+}
+
+#[test]
+fn a_payload_type_mismatch_is_an_error_naming_the_service() {
+    let p = prefix("mismatch");
+    let node = create_node("test").unwrap();
+    let wrong = open_topic::<PoseMsg>(&node, &p, Topic::Scan).err().unwrap().to_string();
+    assert!(wrong.contains(&format!("{p}/scan")) && wrong.contains("ScanMsg") && wrong.contains("PoseMsg"), "{wrong}");
+    // a service created by someone else with another payload type
+    let _scan = open_topic::<ScanMsg>(&node, &p, Topic::Scan).unwrap();
+    let clash =
+        open_pubsub::<PoseMsg>(&node, &service_name(&p, "scan"), Topic::Scan.settings()).err().unwrap().to_string();
+    assert!(clash.contains(&format!("{p}/scan")) && clash.contains("IncompatibleTypes"), "{clash}");
+}
+
+#[test]
+fn the_map_reaches_a_late_subscriber_through_history() {
+    let p = prefix("late");
+    let node = create_node("test").unwrap();
+    let topic = open_topic::<MapMsg>(&node, &p, Topic::Map).unwrap();
+    let publisher = topic.data.publisher_builder().create().unwrap();
+    let notifier = topic.event.notifier_builder().create().unwrap();
+    publish(&publisher, &notifier, |m: &mut MapMsg| {
+        m.version = 3;
+        m.count = 1;
+        m.walls[0] = [0.0, 0.0, 1.0, 0.0];
+    })
+    .unwrap();
+    let late = topic.data.subscriber_builder().create().unwrap();
+    use messages::iceoryx2::port::update_connections::UpdateConnections;
+    publisher.update_connections().unwrap();
+    let sample = late.receive().unwrap().expect("history delivered");
+    assert_eq!((sample.version, sample.count), (3, 1));
+}
