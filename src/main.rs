@@ -3,6 +3,7 @@
 mod cmd;
 mod diagnose;
 mod report;
+mod supervisor;
 
 use clap::{Parser, Subcommand};
 
@@ -22,10 +23,25 @@ enum Command {
     Sim(cmd::sim::SimArgs),
     /// Localize every scan of a log offline and report time and accuracy.
     Locate(cmd::locate::LocateArgs),
-    /// The algorithm on the bundled office with simulated scans (what plain `gema2` runs).
+    /// Run the pipeline of separate processes over shared memory (supervisor).
+    Run(supervisor::RunArgs),
+    /// Replace a stage's implementation in a running pipeline.
+    Swap(supervisor::swap::SwapArgs),
+    /// Run one stage in this process (what `gema2 run` starts).
+    #[command(subcommand)]
+    Stage(StageCommand),
+    /// The algorithm on the bundled office with simulated scans, in one process.
     Demo(cmd::demo::DemoArgs),
     /// Time each stage per scan and print how locate scales with beams and map walls.
     Bench(cmd::bench::BenchArgs),
+}
+
+#[derive(Subcommand)]
+enum StageCommand {
+    Acquire(acquire::node::AcquireArgs),
+    Segment(segment::node::SegmentArgs),
+    Localize(localize::node::LocalizeArgs),
+    Mapserver(mapserver::node::MapServerArgs),
 }
 
 fn main() -> anyhow::Result<()> {
@@ -36,6 +52,14 @@ fn main() -> anyhow::Result<()> {
         Some(Command::Locate(a)) => cmd::locate::run(a),
         Some(Command::Bench(a)) => cmd::bench::run_bench(a),
         Some(Command::Demo(a)) => cmd::demo::run(a),
+        Some(Command::Run(a)) => supervisor::run(a),
+        Some(Command::Swap(a)) => supervisor::swap::request(a),
+        Some(Command::Stage(s)) => match s {
+            StageCommand::Acquire(a) => acquire::node::run(a),
+            StageCommand::Segment(a) => segment::node::run(a),
+            StageCommand::Localize(a) => localize::node::run(a),
+            StageCommand::Mapserver(a) => mapserver::node::run(a),
+        },
         None => cmd::demo::run(cmd::demo::DemoArgs::default()),
     }
 }

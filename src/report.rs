@@ -8,6 +8,26 @@ pub const SUCCESS_POSITION: f64 = 0.30;
 /// ...and heading within this, degrees.
 pub const SUCCESS_HEADING_DEG: f64 = 5.0;
 
+/// The header of the pose CSV (DESIGN.md's six columns, then more).
+pub const CSV_HEADER: &str = "scan,x,y,theta,score,status,micros,hypotheses,candidates,inliers,through";
+
+/// One CSV row; `best` is (x, y, theta, cost, inliers, through) of the reported pose.
+pub fn csv_row(
+    scan: usize,
+    best: Option<(f64, f64, f64, f64, f64, f64)>,
+    status: &str,
+    micros: f64,
+    hypotheses: usize,
+    candidates: usize,
+) -> String {
+    match best {
+        Some((x, y, t, c, i, th)) => {
+            format!("{scan},{x:.4},{y:.4},{t:.5},{c:.4},{status},{micros:.1},{hypotheses},{candidates},{i:.3},{th:.3}")
+        }
+        None => format!("{scan},,,,,failed,{micros:.1},{hypotheses},{candidates},,"),
+    }
+}
+
 /// One scan's result.
 #[derive(Clone, Copy, Debug)]
 pub struct Outcome {

@@ -2,6 +2,7 @@
 //! comes in its own module).
 
 pub mod carmen;
+pub mod node;
 pub mod sim;
 
 pub use carmen::{write_robotlaser1, CarmenReader, FlaserLayout, LogError, LogScan};

@@ -7,6 +7,14 @@ use laser::ScanView;
 use segment::{LineVisibilitySegmenter, Segmentation, Segmenter, SegmenterConfig};
 use std::sync::Arc;
 
+/// The configuration of both stages, which every process shares (the localize process rebuilds
+/// samples from the scan with the segmenter's error model).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Gema2Config {
+    pub segmenter: SegmenterConfig,
+    pub localizer: LocalizerConfig,
+}
+
 pub struct Gema2 {
     pub segmenter: Box<dyn Segmenter>,
     pub localizer: Localizer,

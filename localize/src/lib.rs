@@ -6,10 +6,11 @@ pub mod gema2;
 pub mod localizer;
 pub mod matching;
 pub mod model;
+pub mod node;
 pub mod refine;
 
 pub use cost::{Cost, CostConfig, CostKind};
-pub use gema2::Gema2;
+pub use gema2::{Gema2, Gema2Config};
 pub use localizer::{same_pose, Hypothesis, Localization, Localizer, LocalizerConfig, LocateTimes, Status};
 pub use matching::pose_from_corners;
 pub use model::MapModel;

@@ -8,6 +8,7 @@ pub mod field;
 pub mod grid;
 pub mod map;
 pub mod nearest;
+pub mod node;
 pub mod procedural;
 pub mod raycast;
 

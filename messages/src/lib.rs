@@ -15,7 +15,10 @@ mod topic;
 
 pub use payload::*;
 pub use publish::{publish, Zeroable};
-pub use runtime::{cleanup_dead_nodes, create_node, monotonic_ns, pin_to_cpu, RuntimeError};
+pub use runtime::{
+    announce_ready, cleanup_dead_nodes, create_node, instance, monotonic_ns, pin_to_cpu, ready_listener, RuntimeError,
+    MAX_INSTANCE,
+};
 pub use topic::{
     open_control, open_corner_queries, open_pubsub, open_topic, service_name, OpenError, Topic, TopicPorts,
     TopicSettings, ALL_TOPICS,

@@ -15,6 +15,9 @@ pub enum RuntimeError {
 /// Creates this process's node. Termination signals (SIGINT, SIGTERM) are left to iceoryx2,
 /// which makes `WaitSet` loops and `Node::wait` return so the process can finish cleanly.
 pub fn create_node(name: &str) -> Result<Node<ipc::Service>, RuntimeError> {
+    // iceoryx2 warns on every start that it runs without a config file; errors only, unless the
+    // environment asks for more (IOX2_LOG_LEVEL)
+    set_log_level_from_env_or(LogLevel::Error);
     let node_name =
         NodeName::new(name).map_err(|e| RuntimeError::Node { name: name.into(), message: format!("{e:?}") })?;
     NodeBuilder::new()
@@ -62,4 +65,57 @@ pub fn cleanup_dead_nodes() -> usize {
         CallbackProgression::Continue
     });
     removed
+}
+
+/// Largest instance number the supervisor hands out (`GEMA2_INSTANCE`).
+pub const MAX_INSTANCE: usize = 4095;
+
+/// This process's instance number, given by the supervisor in `GEMA2_INSTANCE` (0 if none).
+pub fn instance() -> usize {
+    std::env::var("GEMA2_INSTANCE").ok().and_then(|v| v.parse().ok()).filter(|&v| v <= MAX_INSTANCE).unwrap_or(0)
+}
+
+/// Tells the supervisor (listening on `<prefix>/ready`) that this process's ports exist and it
+/// can take data: the event id is the instance number the supervisor gave it.
+pub fn announce_ready(node: &Node<ipc::Service>, prefix: &str) -> Result<(), crate::OpenError> {
+    let service = crate::service_name(prefix, "ready");
+    let name = ServiceName::new(&service)
+        .map_err(|e| crate::OpenError::Name { service: service.clone(), message: format!("{e:?}") })?;
+    let event = node
+        .service_builder(&name)
+        .event()
+        .event_id_max_value(MAX_INSTANCE)
+        .max_notifiers(16)
+        .max_listeners(4)
+        .max_nodes(32)
+        .open_or_create()
+        .map_err(|e| crate::OpenError::Open { service: service.clone(), message: format!("{e:?}") })?;
+    let notifier = event
+        .notifier_builder()
+        .create()
+        .map_err(|e| crate::OpenError::Port { service: service.clone(), message: format!("{e:?}") })?;
+    notifier
+        .notify_with_custom_event_id(EventId::new(instance()))
+        .map_err(|e| crate::OpenError::Port { service, message: format!("{e:?}") })?;
+    Ok(())
+}
+
+/// The readiness event service the supervisor listens on.
+pub fn ready_listener(
+    node: &Node<ipc::Service>,
+    prefix: &str,
+) -> Result<iceoryx2::port::listener::Listener<ipc::Service>, crate::OpenError> {
+    let service = crate::service_name(prefix, "ready");
+    let name = ServiceName::new(&service)
+        .map_err(|e| crate::OpenError::Name { service: service.clone(), message: format!("{e:?}") })?;
+    let event = node
+        .service_builder(&name)
+        .event()
+        .event_id_max_value(MAX_INSTANCE)
+        .max_notifiers(16)
+        .max_listeners(4)
+        .max_nodes(32)
+        .open_or_create()
+        .map_err(|e| crate::OpenError::Open { service: service.clone(), message: format!("{e:?}") })?;
+    event.listener_builder().create().map_err(|e| crate::OpenError::Port { service, message: format!("{e:?}") })
 }

@@ -133,10 +133,8 @@ fn close(samples: &[Sample], first: usize, last: usize, moments: Moments, error:
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::sample::build_samples;
-    use laser::{ScanGeometry, ScanView};
+pub(crate) mod tests_support {
+    use laser::ScanGeometry;
     use nalgebra::Vector2;
 
     /// Ranges of a convex polygonal room seen from `origin`-relative vertices (brute force).
@@ -164,6 +162,14 @@ mod tests {
             })
             .collect()
     }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::tests_support::room_ranges;
+    use super::*;
+    use crate::sample::build_samples;
+    use laser::{ScanGeometry, ScanView};
 
     #[test]
     fn a_square_room_gives_one_line_per_visible_wall() {

@@ -11,13 +11,17 @@ pub mod filter;
 pub mod fit;
 pub mod inference;
 pub mod line;
+pub mod node;
 pub mod sample;
 pub mod segmenter;
+pub mod split_merge;
 pub mod visibility;
+pub mod wire;
 
 pub use corner::{Arm, Corner, CornerConfig, CornerRanking};
 pub use filter::FilterConfig;
 pub use line::Line;
 pub use sample::{ErrorModel, Sample};
 pub use segmenter::{LineVisibilitySegmenter, SegmentTimes, Segmentation, Segmenter, SegmenterConfig};
+pub use split_merge::{segmenter_by_name, SplitAndMergeSegmenter, SEGMENTERS};
 pub use visibility::LineVisibility;

@@ -110,7 +110,7 @@ pub fn run(a: LocateArgs) -> Result<()> {
         Some(p) => {
             let f = std::fs::File::create(p).with_context(|| format!("creating {}", p.display()))?;
             let mut w = BufWriter::new(f);
-            writeln!(w, "scan,x,y,theta,score,status,micros,hypotheses,candidates,inliers")?;
+            writeln!(w, "{}", crate::report::CSV_HEADER)?;
             Some(w)
         }
         None => None,
@@ -141,22 +141,25 @@ pub fn run(a: LocateArgs) -> Result<()> {
         }
         let best = loc.hypotheses.first().filter(|_| loc.status != Status::Failed);
         if let Some(w) = csv.as_mut() {
-            match best {
-                Some(h) => writeln!(
-                    w,
-                    "{index},{:.4},{:.4},{:.5},{:.4},{},{micros:.1},{},{},{:.3},{:.3}",
+            let fields = best.map(|h| {
+                (
                     h.pose.translation.x,
                     h.pose.translation.y,
                     laser::pose_theta(&h.pose),
                     h.cost.value,
-                    loc.status.as_str(),
-                    loc.hypotheses.len(),
-                    loc.candidates,
                     h.cost.inliers,
-                    h.cost.through
-                )?,
-                None => writeln!(w, "{index},,,,,failed,{micros:.1},{},{},,", loc.hypotheses.len(), loc.candidates)?,
-            }
+                    h.cost.through,
+                )
+            });
+            let row = crate::report::csv_row(
+                index,
+                fields,
+                loc.status.as_str(),
+                micros,
+                loc.hypotheses.len(),
+                loc.candidates,
+            );
+            writeln!(w, "{row}")?;
         }
         summary
             .add(Outcome::of(loc.status, best.map(|h| h.pose), scan.truth, micros).with_steps(&seg.times, &loc.times));

@@ -1,0 +1,126 @@
+//! The acquisition process: scans from the simulator or a log, published on `gema2/scan` at a
+//! fixed rate or as fast as the pipeline takes them. At `--rate max` publishing waits for room
+//! in the subscribers' buffers, so no scan is dropped; at a fixed rate a scan that finds a full
+//! buffer is not delivered to that subscriber (the stage is too slow), and the run goes on.
+
+use crate::{CarmenReader, FlaserLayout, Scenario, SensorModel, Simulator};
+use anyhow::{anyhow, bail, Context, Result};
+use clap::Args;
+use laser::{pose_theta, LaserScan};
+use messages::iceoryx2::prelude::*;
+use messages::{monotonic_ns, open_topic, publish, Header, PoseMsgXyt, ScanMsg, Stage, Topic, MAX_BEAMS};
+use std::path::PathBuf;
+use std::time::Duration;
+
+#[derive(Args, Debug, Clone)]
+pub struct AcquireArgs {
+    /// Service name prefix.
+    #[arg(long, default_value = "gema2")]
+    pub prefix: String,
+    /// Pin to this CPU core.
+    #[arg(long)]
+    pub cpu: Option<usize>,
+    /// Replay this CARMEN log instead of simulating.
+    #[arg(long)]
+    pub log: Option<PathBuf>,
+    /// Simulator: a bundled map's name or a JSON map file.
+    #[arg(long, default_value = "office")]
+    pub map: String,
+    /// Simulator: clean, people or furniture.
+    #[arg(long, default_value = "clean")]
+    pub scenario: Scenario,
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Scans to publish (0: until the source ends or forever).
+    #[arg(long, default_value_t = 0)]
+    pub scans: u64,
+    /// Scans per second, or `max`.
+    #[arg(long, default_value = "10")]
+    pub rate: String,
+    /// Number of the first scan.
+    #[arg(long, default_value_t = 0)]
+    pub first_seq: u64,
+}
+
+/// Writes a scan into a message.
+pub fn scan_to_msg(scan: &LaserScan, seq: u64, stamp_ns: u64, m: &mut ScanMsg) {
+    m.header = Header::new(seq, stamp_ns);
+    let g = &scan.geometry;
+    m.angle_min = g.angle_min;
+    m.angle_increment = g.angle_increment;
+    m.range_min = g.range_min;
+    m.range_max = g.range_max;
+    let n = scan.ranges.len().min(MAX_BEAMS);
+    m.count = n as u32;
+    m.ranges[..n].copy_from_slice(&scan.ranges[..n]);
+    if let Some(t) = &scan.truth {
+        m.has_truth = 1;
+        m.truth = PoseMsgXyt { x: t.translation.x, y: t.translation.y, theta: pose_theta(t) };
+    }
+}
+
+type Source = Box<dyn Iterator<Item = Result<LaserScan>>>;
+
+fn source(a: &AcquireArgs) -> Result<(Source, &'static str)> {
+    if let Some(path) = &a.log {
+        let reader = CarmenReader::open(path, FlaserLayout::default())?;
+        return Ok((Box::new(reader.map(|r| r.map(|s| s.scan).map_err(anyhow::Error::from))), "carmen-log"));
+    }
+    let map = mapserver::load_map(&a.map)?;
+    let mut sim = Simulator::new(&map, SensorModel::urg04lx(), a.scenario, a.seed);
+    Ok((Box::new(std::iter::from_fn(move || Some(Ok(sim.next_scan())))), "simulator"))
+}
+
+pub fn run(a: AcquireArgs) -> Result<()> {
+    if let Some(cpu) = a.cpu {
+        messages::pin_to_cpu(cpu)?;
+    }
+    let period = match a.rate.as_str() {
+        "max" => None,
+        r => match r.parse::<f64>() {
+            Ok(hz) if hz > 0.0 && hz.is_finite() => Some(Duration::from_secs_f64(1.0 / hz)),
+            _ => bail!("--rate {r}: a positive number of scans per second, or max"),
+        },
+    };
+    let (mut scans, producer) = source(&a)?;
+    let node = messages::create_node("acquire")?;
+    let topic = open_topic::<ScanMsg>(&node, &a.prefix, Topic::Scan)?;
+    let strategy =
+        if period.is_none() { BackpressureStrategy::RetryUntilDelivered } else { BackpressureStrategy::DiscardData };
+    let publisher = topic
+        .data
+        .publisher_builder()
+        .backpressure_strategy(strategy)
+        .create()
+        .map_err(|e| anyhow!("{}: publisher: {e:?}", topic.name))?;
+    let notifier = topic.event.notifier_builder().create().map_err(|e| anyhow!("{}: notifier: {e:?}", topic.name))?;
+    let mut seq = a.first_seq;
+    let mut next = monotonic_ns();
+    loop {
+        if a.scans > 0 && seq - a.first_seq >= a.scans {
+            break;
+        }
+        let Some(scan) = scans.next() else { break };
+        let scan = scan.context("acquire: reading the source")?;
+        if let Some(p) = period {
+            let now = monotonic_ns();
+            if next > now && node.wait(Duration::from_nanos(next - now)).is_err() {
+                break; // SIGINT or SIGTERM
+            }
+            next = next.max(now) + p.as_nanos() as u64;
+        } else if node.wait(Duration::ZERO).is_err() {
+            break;
+        }
+        let enter = monotonic_ns();
+        publish(&publisher, &notifier, |m: &mut ScanMsg| {
+            scan_to_msg(&scan, seq, enter, m);
+            m.header.span(Stage::Acquire).enter_ns = enter;
+            m.header.span(Stage::Acquire).leave_ns = monotonic_ns();
+            m.header.set_producer(producer);
+        })
+        .map_err(|e| anyhow!("{}: {e}", topic.name))?;
+        seq += 1;
+    }
+    eprintln!("acquire: published {} scans", seq - a.first_seq);
+    Ok(())
+}

@@ -1,0 +1,187 @@
+//! The localization process: corners (with their scan) and the map in, ranked poses out
+//! (`gema2/pose`). The map arrives on `gema2/map` with history, so a late start still gets it;
+//! a new map version is used from the next scan on. A scan seen before (two segmenters during a
+//! hot swap) is skipped; gaps are fine.
+
+use crate::{Gema2Config, Localizer, MapModel, Status};
+use anyhow::{anyhow, Context, Result};
+use clap::Args;
+use laser::pose_theta;
+use mapserver::{MapCornerConfig, Wall, WallMap};
+use messages::iceoryx2::prelude::*;
+use messages::{
+    monotonic_ns, open_topic, publish, CornersMsg, HypothesisMsg, MapMsg, PoseMsg, PoseMsgXyt, Stage, Topic,
+    MAX_HYPOTHESES, MAX_WALLS, STATUS_AMBIGUOUS, STATUS_FAILED, STATUS_OK,
+};
+use segment::sample::build_samples;
+use segment::wire::{corner_from_msg, scan_view};
+use segment::Segmentation;
+use std::sync::Arc;
+
+#[derive(Args, Debug, Clone)]
+pub struct LocalizeArgs {
+    /// Service name prefix.
+    #[arg(long, default_value = "gema2")]
+    pub prefix: String,
+    /// Pin to this CPU core.
+    #[arg(long)]
+    pub cpu: Option<usize>,
+}
+
+/// The walls of a map message, if it is well formed.
+pub fn map_from_msg(m: &MapMsg) -> Result<WallMap, String> {
+    let n = m.count as usize;
+    if n == 0 || n > MAX_WALLS {
+        return Err(format!("map version {}: {n} walls", m.version));
+    }
+    let walls: Vec<Wall> = m.walls[..n].iter().map(|w| Wall::new(w[0], w[1], w[2], w[3])).collect();
+    match walls
+        .iter()
+        .position(|w| !(w.a.coords.iter().chain(w.b.coords.iter()).all(|v| v.is_finite()) && w.length() > 0.0))
+    {
+        Some(k) => Err(format!("map version {}: wall {k} is degenerate", m.version)),
+        None => Ok(WallMap::new(walls)),
+    }
+}
+
+pub fn run(a: LocalizeArgs) -> Result<()> {
+    if let Some(cpu) = a.cpu {
+        messages::pin_to_cpu(cpu)?;
+    }
+    let node = messages::create_node("localize")?;
+    let corners = open_topic::<CornersMsg>(&node, &a.prefix, Topic::Corners)?;
+    let map = open_topic::<MapMsg>(&node, &a.prefix, Topic::Map)?;
+    let poses = open_topic::<PoseMsg>(&node, &a.prefix, Topic::Pose)?;
+    let err = |what: &str, e: &dyn std::fmt::Debug| anyhow!("localize: {what}: {e:?}");
+    let corners_in = corners.data.subscriber_builder().create().map_err(|e| err(&corners.name, &e))?;
+    let corners_wake = corners.event.listener_builder().create().map_err(|e| err(&corners.name, &e))?;
+    let map_in = map.data.subscriber_builder().create().map_err(|e| err(&map.name, &e))?;
+    let map_wake = map.event.listener_builder().create().map_err(|e| err(&map.name, &e))?;
+    let pose_out = poses.data.publisher_builder().create().map_err(|e| err(&poses.name, &e))?;
+    let pose_note = poses.event.notifier_builder().create().map_err(|e| err(&poses.name, &e))?;
+    let waitset = WaitSetBuilder::new().create::<ipc::Service>().map_err(|e| err("waitset", &e))?;
+    let corners_guard = waitset.attach_notification(&corners_wake).map_err(|e| err("waitset", &e))?;
+    let map_guard = waitset.attach_notification(&map_wake).map_err(|e| err("waitset", &e))?;
+    // the map may already be waiting in history
+    let _poll_map = waitset.attach_interval(std::time::Duration::from_millis(200)).map_err(|e| err("waitset", &e))?;
+
+    let config = Gema2Config::default();
+    let mut localizer: Option<(Localizer, u32)> = None;
+    let mut seg = Segmentation::default();
+    let mut last_seq: Option<u64> = None;
+    let mut failure: Option<anyhow::Error> = None;
+    let mut waiting_for_map = 0u64;
+    let on_event = |id: WaitSetAttachmentId<ipc::Service>| {
+        if id.has_event_from(&map_guard) {
+            let _ = map_wake.try_wait(|_| {});
+        }
+        // the map: newest version wins
+        while let Ok(Some(m)) = map_in.receive() {
+            match map_from_msg(&m) {
+                Ok(walls) if localizer.as_ref().is_none_or(|(_, v)| *v != m.version) => {
+                    let model = Arc::new(MapModel::new(walls, &MapCornerConfig::default()));
+                    eprintln!("localize: map version {} ({} walls)", m.version, m.count);
+                    match localizer.as_mut() {
+                        Some((l, v)) => {
+                            l.set_model(model);
+                            *v = m.version;
+                        }
+                        None => {
+                            localizer = Some((Localizer::new(model, config.localizer), m.version));
+                            // ready once there is a map to localize against
+                            if let Err(e) = messages::announce_ready(&node, &a.prefix) {
+                                eprintln!("localize: {e}");
+                            }
+                        }
+                    }
+                }
+                Ok(_) => {}
+                Err(e) => eprintln!("localize: ignored a bad map: {e}"),
+            }
+        }
+        if !id.has_event_from(&corners_guard) {
+            return CallbackProgression::Continue;
+        }
+        let _ = corners_wake.try_wait(|_| {});
+        loop {
+            let sample = match corners_in.receive() {
+                Ok(Some(s)) => s,
+                Ok(None) => break,
+                Err(e) => {
+                    failure = Some(anyhow!("{}: receive: {e:?}", corners.name));
+                    return CallbackProgression::Stop;
+                }
+            };
+            let enter = monotonic_ns();
+            let msg: &CornersMsg = &sample;
+            let seq = msg.scan.header.seq;
+            if last_seq.is_some_and(|s| seq <= s) {
+                continue; // a duplicate from a second segmenter during a hot swap
+            }
+            let Some((loc, version)) = localizer.as_mut() else {
+                waiting_for_map += 1;
+                if waiting_for_map == 1 || waiting_for_map % 100 == 0 {
+                    eprintln!("localize: no map yet, {waiting_for_map} scans skipped");
+                }
+                continue;
+            };
+            last_seq = Some(seq);
+            let view = match scan_view(&msg.scan) {
+                Ok(v) => v,
+                Err(e) => {
+                    eprintln!("localize: dropped {e}");
+                    continue;
+                }
+            };
+            build_samples(&view, &config.segmenter.error, config.segmenter.averaging, &mut seg.samples);
+            seg.corners.clear();
+            let n = (msg.count as usize).min(msg.corners.len());
+            seg.corners.extend(msg.corners[..n].iter().filter_map(corner_from_msg));
+            let result = loc.locate(&view, &seg);
+            let leave = monotonic_ns();
+            let version = *version;
+            let sent = publish(&pose_out, &pose_note, |p: &mut PoseMsg| {
+                p.header = msg.scan.header;
+                p.header.span(Stage::Localize).enter_ns = enter;
+                p.header.span(Stage::Localize).leave_ns = leave;
+                p.header.set_producer("gema2");
+                p.status = match result.status {
+                    Status::Ok => STATUS_OK,
+                    Status::Ambiguous => STATUS_AMBIGUOUS,
+                    Status::Failed => STATUS_FAILED,
+                };
+                p.candidates = result.candidates as u32;
+                p.map_version = version;
+                p.has_truth = msg.scan.has_truth;
+                p.truth = msg.scan.truth;
+                let k = result.hypotheses.len().min(MAX_HYPOTHESES);
+                p.count = k as u32;
+                for (slot, h) in p.hypotheses.iter_mut().zip(&result.hypotheses[..k]) {
+                    *slot = HypothesisMsg {
+                        pose: PoseMsgXyt {
+                            x: h.pose.translation.x,
+                            y: h.pose.translation.y,
+                            theta: pose_theta(&h.pose),
+                        },
+                        cost: h.cost.value,
+                        inliers: h.cost.inliers,
+                        through: h.cost.through,
+                        scan_corner: h.scan_corner as u32,
+                        map_corner: h.map_corner,
+                    };
+                }
+            });
+            if let Err(e) = sent {
+                failure = Some(anyhow!("localize: publishing pose {seq}: {e}"));
+                return CallbackProgression::Stop;
+            }
+        }
+        CallbackProgression::Continue
+    };
+    waitset.wait_and_process(on_event).map_err(|e| err("waitset", &e))?;
+    match failure {
+        Some(e) => Err(e),
+        None => Ok(()),
+    }
+    .context("localize")
+}

@@ -1,0 +1,129 @@
+//! The map server process: loads the map, publishes it on `gema2/map` with history (so a
+//! localizer that starts later gets it), answers corner queries on `gema2/map/corners`
+//! (inner angle and tolerance, optionally within a region), and reloads the map when its file
+//! changes or on SIGHUP, publishing a new version.
+
+use crate::{load_map, CornerIndex, MapCornerConfig, WallMap};
+use anyhow::{anyhow, bail, Result};
+use clap::Args;
+use messages::iceoryx2::port::update_connections::UpdateConnections;
+use messages::{
+    open_corner_queries, open_topic, publish, CornerReply, MapCornerMsg, MapMsg, Topic, MAX_CORNERS, MAX_WALLS,
+};
+use nalgebra::Point2;
+use std::path::Path;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::{Duration, SystemTime};
+
+#[derive(Args, Debug, Clone)]
+pub struct MapServerArgs {
+    /// Service name prefix.
+    #[arg(long, default_value = "gema2")]
+    pub prefix: String,
+    /// Pin to this CPU core.
+    #[arg(long)]
+    pub cpu: Option<usize>,
+    /// A bundled map's name or a JSON map file (watched for changes).
+    #[arg(long, default_value = "office")]
+    pub map: String,
+}
+
+static RELOAD: AtomicBool = AtomicBool::new(false);
+
+extern "C" fn on_sighup(_: libc::c_int) {
+    RELOAD.store(true, Ordering::Relaxed);
+}
+
+fn modified(spec: &str) -> Option<SystemTime> {
+    std::fs::metadata(Path::new(spec)).and_then(|m| m.modified()).ok()
+}
+
+fn load(spec: &str) -> Result<(WallMap, CornerIndex)> {
+    let map = load_map(spec)?;
+    if map.walls.len() > MAX_WALLS {
+        bail!("{spec}: {} walls, at most {MAX_WALLS} can be published", map.walls.len());
+    }
+    let index = CornerIndex::build(&map.walls, &MapCornerConfig::default());
+    Ok((map, index))
+}
+
+pub fn run(a: MapServerArgs) -> Result<()> {
+    if let Some(cpu) = a.cpu {
+        messages::pin_to_cpu(cpu)?;
+    }
+    // SAFETY: the handler only stores to an atomic.
+    unsafe { libc::signal(libc::SIGHUP, on_sighup as *const () as libc::sighandler_t) };
+    let (mut map, mut index) = load(&a.map)?;
+    let mut stamp = modified(&a.map);
+    let node = messages::create_node("mapserver")?;
+    let topic = open_topic::<MapMsg>(&node, &a.prefix, Topic::Map)?;
+    let publisher = topic.data.publisher_builder().create().map_err(|e| anyhow!("{}: publisher: {e:?}", topic.name))?;
+    let notifier = topic.event.notifier_builder().create().map_err(|e| anyhow!("{}: notifier: {e:?}", topic.name))?;
+    let queries = open_corner_queries(&node, &a.prefix)?;
+    let server = queries.server_builder().create().map_err(|e| anyhow!("corner queries: server: {e:?}"))?;
+    let mut version = 1u32;
+    let send_map = |map: &WallMap, version: u32| {
+        publish(&publisher, &notifier, |m: &mut MapMsg| {
+            m.version = version;
+            m.count = map.walls.len() as u32;
+            for (slot, w) in m.walls.iter_mut().zip(&map.walls) {
+                *slot = [w.a.x, w.a.y, w.b.x, w.b.y];
+            }
+        })
+        .map_err(|e| anyhow!("{}: {e}", topic.name))
+    };
+    send_map(&map, version)?;
+    messages::announce_ready(&node, &a.prefix)?;
+    eprintln!(
+        "mapserver: {} ({} walls, {} corners) as version {version}",
+        a.map,
+        map.walls.len(),
+        index.corners().len()
+    );
+    // queries and late joiners are served every few milliseconds; the data path never waits here
+    while node.wait(Duration::from_millis(5)).is_ok() {
+        publisher.update_connections().map_err(|e| anyhow!("{}: {e:?}", topic.name))?;
+        while let Some(request) = server.receive().map_err(|e| anyhow!("corner queries: {e:?}"))? {
+            let q = *request.payload();
+            let response = request.loan_uninit().map_err(|e| anyhow!("corner queries: loan: {e:?}"))?;
+            let mut reply = CornerReply {
+                map_version: version,
+                count: 0,
+                total: 0,
+                _pad: 0,
+                corners: [MapCornerMsg::default(); MAX_CORNERS],
+            };
+            let centre = Point2::new(q.x, q.y);
+            let found = index
+                .similar(q.inner_angle, q.tolerance.abs())
+                .iter()
+                .filter(|c| q.has_region == 0 || (c.position - centre).norm() <= q.radius);
+            for c in found {
+                if (reply.count as usize) < MAX_CORNERS {
+                    reply.corners[reply.count as usize] = MapCornerMsg {
+                        position: [c.position.x, c.position.y],
+                        inner_angle: c.inner_angle,
+                        orientation: c.orientation,
+                    };
+                    reply.count += 1;
+                }
+                reply.total += 1;
+            }
+            response.write_payload(reply).send().map_err(|e| anyhow!("corner queries: send: {e:?}"))?;
+        }
+        let changed = modified(&a.map);
+        if RELOAD.swap(false, Ordering::Relaxed) || changed != stamp {
+            stamp = changed;
+            match load(&a.map) {
+                Ok((m, i)) => {
+                    version += 1;
+                    (map, index) = (m, i);
+                    send_map(&map, version)?;
+                    eprintln!("mapserver: reloaded {} as version {version} ({} walls)", a.map, map.walls.len());
+                }
+                Err(e) => eprintln!("mapserver: kept version {version}: {e:#}"),
+            }
+        }
+    }
+    Ok(())
+}

@@ -1,0 +1,115 @@
+//! The segmentation process: scans in (`gema2/scan`), lines and corners out (`gema2/lines`,
+//! `gema2/corners`). Blocks in a WaitSet on the scan topic's event; allocates nothing per scan.
+
+use crate::split_merge::{segmenter_by_name, SEGMENTERS};
+use crate::wire::{corner_to_msg, line_to_msg, scan_view};
+use crate::SegmenterConfig;
+use anyhow::{anyhow, Context, Result};
+use clap::Args;
+use messages::iceoryx2::prelude::*;
+use messages::{
+    monotonic_ns, open_topic, publish, CornersMsg, LinesMsg, ScanMsg, Stage, Topic, MAX_CORNERS, MAX_LINES,
+};
+
+#[derive(Args, Debug, Clone)]
+pub struct SegmentArgs {
+    /// Service name prefix.
+    #[arg(long, default_value = "gema2")]
+    pub prefix: String,
+    /// Pin to this CPU core.
+    #[arg(long)]
+    pub cpu: Option<usize>,
+    /// Implementation: line-visibility (the paper's) or split-and-merge.
+    #[arg(long = "impl", default_value = "line-visibility")]
+    pub implementation: String,
+}
+
+pub fn run(a: SegmentArgs) -> Result<()> {
+    if let Some(cpu) = a.cpu {
+        messages::pin_to_cpu(cpu)?;
+    }
+    let mut segmenter = segmenter_by_name(&a.implementation, SegmenterConfig::default())
+        .ok_or_else(|| anyhow!("unknown segment implementation {:?}: one of {SEGMENTERS:?}", a.implementation))?;
+    let node = messages::create_node(&format!("segment-{}", a.implementation))?;
+    let scans = open_topic::<ScanMsg>(&node, &a.prefix, Topic::Scan)?;
+    let lines = open_topic::<LinesMsg>(&node, &a.prefix, Topic::Lines)?;
+    let corners = open_topic::<CornersMsg>(&node, &a.prefix, Topic::Corners)?;
+    let subscriber =
+        scans.data.subscriber_builder().create().map_err(|e| anyhow!("{}: subscriber: {e:?}", scans.name))?;
+    let listener = scans.event.listener_builder().create().map_err(|e| anyhow!("{}: listener: {e:?}", scans.name))?;
+    let lines_out = lines.data.publisher_builder().create().map_err(|e| anyhow!("{}: publisher: {e:?}", lines.name))?;
+    let lines_note = lines.event.notifier_builder().create().map_err(|e| anyhow!("{}: notifier: {e:?}", lines.name))?;
+    let corners_out =
+        corners.data.publisher_builder().create().map_err(|e| anyhow!("{}: publisher: {e:?}", corners.name))?;
+    let corners_note =
+        corners.event.notifier_builder().create().map_err(|e| anyhow!("{}: notifier: {e:?}", corners.name))?;
+    let waitset = WaitSetBuilder::new().create::<ipc::Service>().map_err(|e| anyhow!("waitset: {e:?}"))?;
+    let guard = waitset.attach_notification(&listener).map_err(|e| anyhow!("waitset: {e:?}"))?;
+    messages::announce_ready(&node, &a.prefix)?;
+    let name = segmenter.name();
+    let mut failure: Option<anyhow::Error> = None;
+    let mut bad_scans = 0u64;
+    let on_event = |id: WaitSetAttachmentId<ipc::Service>| {
+        if !id.has_event_from(&guard) {
+            return CallbackProgression::Continue;
+        }
+        let _ = listener.try_wait(|_| {});
+        loop {
+            let sample = match subscriber.receive() {
+                Ok(Some(s)) => s,
+                Ok(None) => break,
+                Err(e) => {
+                    failure = Some(anyhow!("{}: receive: {e:?}", scans.name));
+                    return CallbackProgression::Stop;
+                }
+            };
+            let enter = monotonic_ns();
+            let scan: &ScanMsg = &sample;
+            let view = match scan_view(scan) {
+                Ok(v) => v,
+                Err(e) => {
+                    bad_scans += 1;
+                    eprintln!("segment: dropped {e} ({bad_scans} so far)");
+                    continue;
+                }
+            };
+            let seg = segmenter.segment(&view);
+            let leave = monotonic_ns();
+            let mut header = scan.header;
+            header.span(Stage::Segment).enter_ns = enter;
+            header.span(Stage::Segment).leave_ns = leave;
+            header.set_producer(name);
+            let sent = publish(&lines_out, &lines_note, |m: &mut LinesMsg| {
+                m.header = header;
+                m.raw_count = seg.raw_lines.len() as u32;
+                let n = seg.lines.len().min(MAX_LINES);
+                m.count = n as u32;
+                for (slot, l) in m.lines.iter_mut().zip(&seg.lines[..n]) {
+                    *slot = line_to_msg(l);
+                }
+            })
+            .and_then(|_| {
+                publish(&corners_out, &corners_note, |m: &mut CornersMsg| {
+                    m.scan = *scan;
+                    m.scan.header = header;
+                    let n = seg.corners.len().min(MAX_CORNERS);
+                    m.count = n as u32;
+                    for (slot, c) in m.corners.iter_mut().zip(&seg.corners[..n]) {
+                        *slot = corner_to_msg(c);
+                    }
+                })
+            });
+            if let Err(e) = sent {
+                failure = Some(anyhow!("segment: publishing scan {}: {e}", header.seq));
+                return CallbackProgression::Stop;
+            }
+        }
+        CallbackProgression::Continue
+    };
+    waitset.wait_and_process(on_event).map_err(|e| anyhow!("waitset: {e:?}"))?;
+    match failure {
+        Some(e) => Err(e),
+        None => Ok(()),
+    }
+    .context("segment")
+}

@@ -1,0 +1,83 @@
+//! Stage processes: started from the pipeline spec, reaped, stopped cleanly.
+
+use super::pipeline::{Kind, Restart, StageSpec};
+use anyhow::{Context, Result};
+use std::process::{Child, Command, ExitStatus, Stdio};
+use std::time::{Duration, Instant};
+
+/// A running (or restarting) stage.
+pub struct StageProcess {
+    pub spec: StageSpec,
+    pub child: Option<Child>,
+    pub restarts: u32,
+    /// When a dead stage is due to be started again.
+    pub restart_at: Option<Instant>,
+    pub finished: bool,
+}
+
+impl StageProcess {
+    pub fn new(spec: StageSpec) -> Self {
+        StageProcess { spec, child: None, restarts: 0, restart_at: None, finished: false }
+    }
+
+    /// Starts the stage with its implementation, CPU and prefix, as instance `instance` (the
+    /// number it announces readiness with).
+    pub fn start(&mut self, prefix: &str, implementation: Option<&str>, instance: usize) -> Result<()> {
+        self.child = Some(spawn(&self.spec, prefix, implementation, instance)?);
+        self.restart_at = None;
+        Ok(())
+    }
+
+    /// Whether the policy restarts a stage that ended with `status`.
+    pub fn should_restart(&self, status: &ExitStatus) -> bool {
+        match self.spec.restart {
+            Restart::Always => true,
+            Restart::OnFailure => !status.success(),
+            Restart::Never => false,
+        }
+    }
+
+    /// Backoff before the next restart: 100 ms doubling up to 5 s.
+    pub fn backoff(&self) -> Duration {
+        Duration::from_millis(100u64 << self.restarts.min(6)).min(Duration::from_secs(5))
+    }
+}
+
+/// Starts one stage process.
+pub fn spawn(spec: &StageSpec, prefix: &str, implementation: Option<&str>, instance: usize) -> Result<Child> {
+    let mut cmd = match &spec.binary {
+        Some(b) => Command::new(b),
+        None => {
+            let mut c = Command::new(std::env::current_exe().context("locating the gema2 binary")?);
+            c.arg("stage").arg(spec.kind.as_str());
+            c
+        }
+    };
+    cmd.args(&spec.args).arg("--prefix").arg(prefix);
+    if let Some(cpu) = spec.cpu {
+        cmd.arg("--cpu").arg(cpu.to_string());
+    }
+    if let Some(i) = implementation.or(spec.implementation.as_deref()) {
+        if spec.kind == Kind::Segment {
+            cmd.arg("--impl").arg(i);
+        }
+    }
+    cmd.env("GEMA2_INSTANCE", instance.to_string());
+    cmd.stdin(Stdio::null());
+    cmd.spawn().with_context(|| format!("starting stage {}", spec.name))
+}
+
+/// Sends SIGTERM, waits up to `grace`, then SIGKILL; always reaps.
+pub fn stop(child: &mut Child, grace: Duration) -> Option<ExitStatus> {
+    // SAFETY: kill(2) on our own child's pid.
+    unsafe { libc::kill(child.id() as i32, libc::SIGTERM) };
+    let deadline = Instant::now() + grace;
+    while Instant::now() < deadline {
+        if let Ok(Some(status)) = child.try_wait() {
+            return Some(status);
+        }
+        std::thread::sleep(Duration::from_millis(10));
+    }
+    let _ = child.kill();
+    child.wait().ok()
+}

@@ -1,0 +1,114 @@
+//! What the supervisor learns from the poses it receives: latency per stage and per IPC hop
+//! (from the per-stage enter/leave times every header carries), throughput, accuracy.
+
+use crate::report::{quantile, SUCCESS_HEADING_DEG, SUCCESS_POSITION};
+use messages::{PoseMsg, Stage, STATUS_AMBIGUOUS, STATUS_FAILED, STATUS_OK};
+use std::io::Write;
+
+/// Latency figures, microseconds, in pipeline order.
+pub const FIGURES: [&str; 7] = [
+    "acquire stage",
+    "hop acquire -> segment",
+    "segment stage",
+    "hop segment -> localize",
+    "localize stage",
+    "hop localize -> consumer",
+    "end to end (acquisition -> pose received)",
+];
+
+#[derive(Default)]
+pub struct Monitor {
+    pub figures: Vec<[f64; 7]>,
+    pub received: u64,
+    pub right: u64,
+    pub with_truth: u64,
+    pub first_ns: Option<u64>,
+    pub last_ns: u64,
+    pub seqs: Vec<u64>,
+    pub rows: Vec<String>,
+}
+
+fn us(a: u64, b: u64) -> f64 {
+    if a == 0 || b == 0 {
+        f64::NAN
+    } else {
+        (b as f64 - a as f64) / 1e3
+    }
+}
+
+impl Monitor {
+    pub fn record(&mut self, p: &PoseMsg, received_ns: u64) {
+        let h = &p.header;
+        let (a, s, l) =
+            (h.stages[Stage::Acquire as usize], h.stages[Stage::Segment as usize], h.stages[Stage::Localize as usize]);
+        self.figures.push([
+            us(a.enter_ns, a.leave_ns),
+            us(a.leave_ns, s.enter_ns),
+            us(s.enter_ns, s.leave_ns),
+            us(s.leave_ns, l.enter_ns),
+            us(l.enter_ns, l.leave_ns),
+            us(l.leave_ns, received_ns),
+            us(h.stamp_ns, received_ns),
+        ]);
+        self.received += 1;
+        self.first_ns.get_or_insert(received_ns);
+        self.last_ns = received_ns;
+        self.seqs.push(h.seq);
+        let best = (p.status != STATUS_FAILED && p.count > 0).then(|| p.hypotheses[0]);
+        if p.has_truth != 0 {
+            self.with_truth += 1;
+            if let Some(b) = best {
+                let t = p.truth;
+                let d = (b.pose.x - t.x).hypot(b.pose.y - t.y);
+                let a = laser::angle_diff(b.pose.theta, t.theta).abs().to_degrees();
+                if d <= SUCCESS_POSITION && a <= SUCCESS_HEADING_DEG {
+                    self.right += 1;
+                }
+            }
+        }
+        let status = match p.status {
+            STATUS_OK => "ok",
+            STATUS_AMBIGUOUS => "ambiguous",
+            _ => "failed",
+        };
+        let micros = us(l.enter_ns, l.leave_ns) + us(s.enter_ns, s.leave_ns);
+        self.rows.push(crate::report::csv_row(
+            h.seq as usize,
+            best.map(|b| (b.pose.x, b.pose.y, b.pose.theta, b.cost, b.inliers, b.through)),
+            status,
+            micros,
+            p.count as usize,
+            p.candidates as usize,
+        ));
+    }
+
+    pub fn write_csv(&self, w: &mut impl Write) -> std::io::Result<()> {
+        writeln!(w, "{}", crate::report::CSV_HEADER)?;
+        for r in &self.rows {
+            writeln!(w, "{r}")?;
+        }
+        Ok(())
+    }
+
+    pub fn render(&self, published: Option<u64>) -> String {
+        let mut s = String::from("latency (us)                                   p50       p99\n");
+        for (k, name) in FIGURES.iter().enumerate() {
+            let mut v: Vec<f64> = self.figures.iter().map(|f| f[k]).filter(|x| x.is_finite()).collect();
+            s += &format!("  {name:42} {:8.1}  {:8.1}\n", quantile(&mut v, 0.5), quantile(&mut v, 0.99));
+        }
+        let secs = (self.last_ns.saturating_sub(self.first_ns.unwrap_or(self.last_ns))) as f64 / 1e9;
+        let rate = if secs > 0.0 { (self.received.saturating_sub(1)) as f64 / secs } else { f64::NAN };
+        s += &format!("poses received {}", self.received);
+        if let Some(n) = published {
+            s += &format!(" of {n} scans published");
+        }
+        s += &format!(", throughput {rate:.1} scans/s\n");
+        if self.with_truth > 0 {
+            s += &format!(
+                "success {:.1} % (within {SUCCESS_POSITION} m and {SUCCESS_HEADING_DEG} deg)\n",
+                100.0 * self.right as f64 / self.with_truth as f64
+            );
+        }
+        s
+    }
+}

@@ -1,0 +1,120 @@
+//! The declarative pipeline file (TOML): which stages run, how, where, and what happens when
+//! one dies.
+
+use anyhow::{bail, Context, Result};
+use serde::Deserialize;
+use std::path::{Path, PathBuf};
+
+/// The pipeline `gema2 run` uses when given no file.
+pub const DEFAULT_PIPELINE: &str = include_str!("../../pipelines/default.toml");
+
+#[derive(Clone, Copy, Debug, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "kebab-case")]
+pub enum Restart {
+    Always,
+    OnFailure,
+    Never,
+}
+
+#[derive(Clone, Copy, Debug, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "kebab-case")]
+pub enum Kind {
+    Acquire,
+    Segment,
+    Localize,
+    Mapserver,
+}
+
+impl Kind {
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Kind::Acquire => "acquire",
+            Kind::Segment => "segment",
+            Kind::Localize => "localize",
+            Kind::Mapserver => "mapserver",
+        }
+    }
+}
+
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct StageSpec {
+    pub name: String,
+    pub kind: Kind,
+    /// A program to run instead of `gema2 stage <kind>`.
+    pub binary: Option<PathBuf>,
+    pub implementation: Option<String>,
+    #[serde(default)]
+    pub args: Vec<String>,
+    pub cpu: Option<usize>,
+    #[serde(default = "on_failure")]
+    pub restart: Restart,
+}
+
+fn on_failure() -> Restart {
+    Restart::OnFailure
+}
+
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Pipeline {
+    #[serde(rename = "stage")]
+    pub stages: Vec<StageSpec>,
+}
+
+impl Pipeline {
+    pub fn parse(text: &str, origin: &Path) -> Result<Self> {
+        let p: Pipeline = toml::from_str(text).with_context(|| format!("{}: not a pipeline", origin.display()))?;
+        for (k, s) in p.stages.iter().enumerate() {
+            if p.stages[..k].iter().any(|o| o.name == s.name) {
+                bail!("{}: two stages are called {:?}", origin.display(), s.name);
+            }
+        }
+        if !p.stages.iter().any(|s| s.kind == Kind::Acquire) {
+            bail!("{}: no acquire stage: nothing would produce scans", origin.display());
+        }
+        Ok(p)
+    }
+
+    pub fn load(path: Option<&Path>) -> Result<Self> {
+        match path {
+            Some(p) => Self::parse(&std::fs::read_to_string(p).with_context(|| format!("reading {}", p.display()))?, p),
+            None => Self::parse(DEFAULT_PIPELINE, Path::new("<embedded default pipeline>")),
+        }
+    }
+}
+
+/// Replaces (or adds) `--flag value` in an argument list.
+pub fn set_arg(args: &mut Vec<String>, flag: &str, value: &str) {
+    if let Some(k) = args.iter().position(|a| a == flag) {
+        if k + 1 < args.len() {
+            args[k + 1] = value.to_owned();
+            return;
+        }
+        args.truncate(k);
+    }
+    args.push(flag.to_owned());
+    args.push(value.to_owned());
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_default_pipeline_parses_and_bad_ones_are_explained() {
+        let p = Pipeline::load(None).unwrap();
+        assert_eq!(
+            p.stages.iter().map(|s| s.kind).collect::<Vec<_>>(),
+            vec![Kind::Mapserver, Kind::Localize, Kind::Segment, Kind::Acquire]
+        );
+        let err = Pipeline::parse("[[stage]]\nname = \"a\"\nkind = \"segment\"\n", Path::new("p.toml")).unwrap_err();
+        assert!(format!("{err:#}").contains("no acquire stage"));
+        let err = Pipeline::parse("[[stage]]\nname = \"a\"\nkind = \"laser\"\n", Path::new("p.toml")).unwrap_err();
+        assert!(format!("{err:#}").contains("p.toml"));
+        let mut args = vec!["--rate".to_owned(), "10".to_owned()];
+        set_arg(&mut args, "--rate", "max");
+        set_arg(&mut args, "--scans", "5");
+        assert_eq!(args, ["--rate", "max", "--scans", "5"]);
+    }
+}

@@ -1,0 +1,213 @@
+//! The supervisor's loop.
+
+use super::child::{stop, StageProcess};
+use super::monitor::Monitor;
+use super::pipeline::{set_arg, Kind, Pipeline};
+use super::swap::{Swap, SwapOutcome};
+use anyhow::{anyhow, bail, Context, Result};
+use clap::Args;
+use messages::iceoryx2::prelude::*;
+use messages::{monotonic_ns, open_control, open_topic, ready_listener, PoseMsg, Topic, MAX_INSTANCE};
+use std::collections::HashSet;
+use std::path::PathBuf;
+use std::time::{Duration, Instant};
+
+#[derive(Args, Debug, Clone)]
+pub struct RunArgs {
+    /// Pipeline file (TOML); the embedded default runs the simulator in the bundled office.
+    #[arg(long)]
+    pub pipeline: Option<PathBuf>,
+    /// Scans the sources publish (default: the pipeline's; 300 with the embedded pipeline).
+    #[arg(long)]
+    pub scans: Option<u64>,
+    /// Scans per second of the sources, or `max`.
+    #[arg(long)]
+    pub rate: Option<String>,
+    /// Service name prefix, so several pipelines can share a machine.
+    #[arg(long, default_value = "gema2")]
+    pub prefix: String,
+    /// Write every pose received as CSV (the columns of `gema2 locate`).
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Give up after this many seconds.
+    #[arg(long)]
+    pub timeout: Option<f64>,
+}
+
+/// Hands out instance numbers 1..=MAX_INSTANCE.
+struct Instances(usize);
+
+impl Instances {
+    fn next(&mut self) -> usize {
+        self.0 = self.0 % MAX_INSTANCE + 1;
+        self.0
+    }
+}
+
+fn wait_ready(
+    ready: &messages::iceoryx2::port::listener::Listener<ipc::Service>,
+    seen: &mut HashSet<usize>,
+    want: usize,
+    stage: &mut StageProcess,
+    limit: Duration,
+) -> Result<()> {
+    let deadline = Instant::now() + limit;
+    while !seen.contains(&want) {
+        if Instant::now() > deadline {
+            bail!("stage {} did not become ready within {limit:?}", stage.spec.name);
+        }
+        if let Some(Ok(Some(status))) = stage.child.as_mut().map(|c| c.try_wait()) {
+            bail!("stage {} exited before it was ready: {status}", stage.spec.name);
+        }
+        let _ = ready.timed_wait(
+            |e| {
+                seen.insert(e.id.as_value());
+            },
+            Duration::from_millis(50),
+        );
+    }
+    Ok(())
+}
+
+pub fn run(a: RunArgs) -> Result<()> {
+    let mut pipeline = Pipeline::load(a.pipeline.as_deref())?;
+    let scans = a.scans.or(if a.pipeline.is_none() { Some(300) } else { None });
+    for s in pipeline.stages.iter_mut().filter(|s| s.kind == Kind::Acquire) {
+        if let Some(n) = scans {
+            set_arg(&mut s.args, "--scans", &n.to_string());
+        }
+        if let Some(r) = &a.rate {
+            set_arg(&mut s.args, "--rate", r);
+        }
+    }
+    let stale = messages::cleanup_dead_nodes();
+    if stale > 0 {
+        eprintln!("supervisor: removed the resources of {stale} dead processes");
+    }
+    let node = messages::create_node("supervisor")?;
+    let poses = open_topic::<PoseMsg>(&node, &a.prefix, Topic::Pose)?;
+    let pose_in = poses.data.subscriber_builder().create().map_err(|e| anyhow!("{}: {e:?}", poses.name))?;
+    let pose_wake = poses.event.listener_builder().create().map_err(|e| anyhow!("{}: {e:?}", poses.name))?;
+    let ready = ready_listener(&node, &a.prefix)?;
+    let control = open_control(&node, &a.prefix)?;
+    let server = control.server_builder().create().map_err(|e| anyhow!("control: {e:?}"))?;
+
+    let mut instances = Instances(0);
+    let mut seen = HashSet::new();
+    let mut stages: Vec<StageProcess> = pipeline.stages.into_iter().map(StageProcess::new).collect();
+    // everything but the sources first, each connected before the next starts
+    for st in stages.iter_mut().filter(|s| s.spec.kind != Kind::Acquire) {
+        let k = instances.next();
+        st.start(&a.prefix, None, k)?;
+        wait_ready(&ready, &mut seen, k, st, Duration::from_secs(30))?;
+    }
+    for st in stages.iter_mut().filter(|s| s.spec.kind == Kind::Acquire) {
+        st.start(&a.prefix, None, instances.next())?;
+    }
+    let started = Instant::now();
+    eprintln!("supervisor: {} stages running under prefix {}", stages.len(), a.prefix);
+
+    let waitset = WaitSetBuilder::new().create::<ipc::Service>().map_err(|e| anyhow!("waitset: {e:?}"))?;
+    let pose_guard = waitset.attach_notification(&pose_wake).map_err(|e| anyhow!("waitset: {e:?}"))?;
+    let ready_guard = waitset.attach_notification(&ready).map_err(|e| anyhow!("waitset: {e:?}"))?;
+    let _tick = waitset.attach_interval(Duration::from_millis(20)).map_err(|e| anyhow!("waitset: {e:?}"))?;
+    let mut monitor = Monitor::default();
+    let mut swap: Option<Swap> = None;
+    let mut failure: Option<anyhow::Error> = None;
+    let mut last_pose = Instant::now();
+    let on_event = |id: WaitSetAttachmentId<ipc::Service>| {
+        if id.has_event_from(&pose_guard) {
+            let _ = pose_wake.try_wait(|_| {});
+        }
+        while let Ok(Some(p)) = pose_in.receive() {
+            monitor.record(&p, monotonic_ns());
+            last_pose = Instant::now();
+        }
+        if id.has_event_from(&ready_guard) {
+            let _ = ready.try_wait(|e| {
+                seen.insert(e.id.as_value());
+            });
+        }
+        // reap and restart
+        for st in stages.iter_mut() {
+            let exited = st.child.as_mut().and_then(|c| c.try_wait().ok().flatten());
+            if let Some(status) = exited {
+                st.child = None;
+                if st.should_restart(&status) {
+                    let removed = messages::cleanup_dead_nodes();
+                    eprintln!(
+                        "supervisor: stage {} ended ({status}); restarting in {:?} ({removed} dead nodes cleaned)",
+                        st.spec.name,
+                        st.backoff()
+                    );
+                    st.restart_at = Some(Instant::now() + st.backoff());
+                    st.restarts += 1;
+                } else {
+                    st.finished = true;
+                    if !status.success() {
+                        eprintln!("supervisor: stage {} ended ({status}), not restarted", st.spec.name);
+                    }
+                }
+            }
+            if st.restart_at.is_some_and(|t| Instant::now() >= t) {
+                let implementation = st.spec.implementation.clone();
+                if let Err(e) = st.start(&a.prefix, implementation.as_deref(), instances.next()) {
+                    failure = Some(e);
+                    return CallbackProgression::Stop;
+                }
+            }
+        }
+        // hot swaps
+        if swap.is_none() {
+            match Swap::accept(&server, &mut stages, &a.prefix, || instances.next()) {
+                Ok(s) => swap = s,
+                Err(e) => eprintln!("supervisor: {e:#}"),
+            }
+        }
+        if let Some(s) = swap.as_mut() {
+            match s.progress(&seen, &mut stages) {
+                SwapOutcome::Pending => {}
+                SwapOutcome::Done(message) | SwapOutcome::Failed(message) => {
+                    eprintln!("supervisor: {message}");
+                    swap = None;
+                }
+            }
+        }
+        // done?
+        let sources_done = stages.iter().filter(|s| s.spec.kind == Kind::Acquire).all(|s| s.finished);
+        let all_in = scans.is_some_and(|n| monitor.received >= n);
+        let quiet = sources_done && last_pose.elapsed() > Duration::from_secs(2);
+        let timed_out = a.timeout.is_some_and(|t| started.elapsed().as_secs_f64() > t);
+        if all_in || quiet || timed_out {
+            if timed_out {
+                eprintln!("supervisor: timed out after {:?}", started.elapsed());
+            }
+            return CallbackProgression::Stop;
+        }
+        CallbackProgression::Continue
+    };
+    let waited = waitset.wait_and_process(on_event);
+    // stop every stage: SIGTERM, a grace period, then SIGKILL; then clean up
+    for st in stages.iter_mut() {
+        if let Some(mut c) = st.child.take() {
+            stop(&mut c, Duration::from_secs(3));
+        }
+    }
+    drop(swap);
+    messages::cleanup_dead_nodes();
+    waited.map_err(|e| anyhow!("waitset: {e:?}"))?;
+    if let Some(e) = failure {
+        return Err(e);
+    }
+    println!("{}", monitor.render(scans));
+    for st in stages.iter().filter(|s| s.restarts > 0) {
+        println!("stage {} restarted {} times", st.spec.name, st.restarts);
+    }
+    if let Some(path) = &a.out {
+        let mut f = std::io::BufWriter::new(
+            std::fs::File::create(path).with_context(|| format!("creating {}", path.display()))?,
+        );
+        monitor.write_csv(&mut f).with_context(|| format!("writing {}", path.display()))?;
+    }
+    Ok(())
+}
