@@ -57,7 +57,12 @@ pub fn run(a: LocalizeArgs) -> Result<()> {
     let corners_wake = corners.event.listener_builder().create().map_err(|e| err(&corners.name, &e))?;
     let map_in = map.data.subscriber_builder().create().map_err(|e| err(&map.name, &e))?;
     let map_wake = map.event.listener_builder().create().map_err(|e| err(&map.name, &e))?;
-    let pose_out = poses.data.publisher_builder().create().map_err(|e| err(&poses.name, &e))?;
+    let pose_out = poses
+        .data
+        .publisher_builder()
+        .backpressure_strategy(BackpressureStrategy::RetryUntilDelivered)
+        .create()
+        .map_err(|e| err(&poses.name, &e))?;
     let pose_note = poses.event.notifier_builder().create().map_err(|e| err(&poses.name, &e))?;
     let waitset = WaitSetBuilder::new().create::<ipc::Service>().map_err(|e| err("waitset", &e))?;
     let corners_guard = waitset.attach_notification(&corners_wake).map_err(|e| err("waitset", &e))?;
@@ -120,7 +125,7 @@ pub fn run(a: LocalizeArgs) -> Result<()> {
             }
             let Some((loc, version)) = localizer.as_mut() else {
                 waiting_for_map += 1;
-                if waiting_for_map == 1 || waiting_for_map % 100 == 0 {
+                if waiting_for_map == 1 || waiting_for_map.is_multiple_of(100) {
                     eprintln!("localize: no map yet, {waiting_for_map} scans skipped");
                 }
                 continue;

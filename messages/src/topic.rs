@@ -33,6 +33,9 @@ pub struct TopicSettings {
     /// Two publishers at once: a stage and its replacement during a hot swap.
     pub max_publishers: usize,
     pub max_subscribers: usize,
+    /// Whether a full subscriber buffer overwrites its oldest sample. Off for the data topics:
+    /// their publishers then wait or drop by their own strategy, and nothing is lost silently.
+    pub safe_overflow: bool,
 }
 
 impl Topic {
@@ -59,9 +62,10 @@ impl Topic {
     }
 
     pub fn settings(self) -> TopicSettings {
-        let base = TopicSettings { history: 0, buffer: 64, max_publishers: 3, max_subscribers: 8 };
+        let base =
+            TopicSettings { history: 0, buffer: 64, max_publishers: 3, max_subscribers: 8, safe_overflow: false };
         match self {
-            Topic::Map => TopicSettings { history: 1, buffer: 2, ..base },
+            Topic::Map => TopicSettings { history: 1, buffer: 2, safe_overflow: true, ..base },
             _ => base,
         }
     }
@@ -123,6 +127,7 @@ pub fn open_pubsub<T: Debug + ZeroCopySend + 'static>(
         .service_builder(&name)
         .publish_subscribe::<T>()
         .history_size(s.history)
+        .enable_safe_overflow(s.safe_overflow)
         .subscriber_max_buffer_size(s.buffer.max(s.history))
         .max_publishers(s.max_publishers)
         .max_subscribers(s.max_subscribers)

@@ -1,5 +1,8 @@
 //! The segmentation process: scans in (`gema2/scan`), lines and corners out (`gema2/lines`,
 //! `gema2/corners`). Blocks in a WaitSet on the scan topic's event; allocates nothing per scan.
+//! Its outputs wait for room in their subscribers' buffers instead of dropping: only the
+//! source drops scans, so a pipeline that falls behind sheds load at its entry, never between
+//! stages.
 
 use crate::split_merge::{segmenter_by_name, SEGMENTERS};
 use crate::wire::{corner_to_msg, line_to_msg, scan_view};
@@ -37,10 +40,20 @@ pub fn run(a: SegmentArgs) -> Result<()> {
     let subscriber =
         scans.data.subscriber_builder().create().map_err(|e| anyhow!("{}: subscriber: {e:?}", scans.name))?;
     let listener = scans.event.listener_builder().create().map_err(|e| anyhow!("{}: listener: {e:?}", scans.name))?;
-    let lines_out = lines.data.publisher_builder().create().map_err(|e| anyhow!("{}: publisher: {e:?}", lines.name))?;
+    // inner links wait for room rather than drop: a slow pipeline sheds load at its source
+    let lines_out = lines
+        .data
+        .publisher_builder()
+        .backpressure_strategy(BackpressureStrategy::RetryUntilDelivered)
+        .create()
+        .map_err(|e| anyhow!("{}: publisher: {e:?}", lines.name))?;
     let lines_note = lines.event.notifier_builder().create().map_err(|e| anyhow!("{}: notifier: {e:?}", lines.name))?;
-    let corners_out =
-        corners.data.publisher_builder().create().map_err(|e| anyhow!("{}: publisher: {e:?}", corners.name))?;
+    let corners_out = corners
+        .data
+        .publisher_builder()
+        .backpressure_strategy(BackpressureStrategy::RetryUntilDelivered)
+        .create()
+        .map_err(|e| anyhow!("{}: publisher: {e:?}", corners.name))?;
     let corners_note =
         corners.event.notifier_builder().create().map_err(|e| anyhow!("{}: notifier: {e:?}", corners.name))?;
     let waitset = WaitSetBuilder::new().create::<ipc::Service>().map_err(|e| anyhow!("waitset: {e:?}"))?;

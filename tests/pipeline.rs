@@ -1,0 +1,270 @@
+//! The pipeline as real processes over shared memory. Every test uses its own service prefix,
+//! so tests can run in parallel.
+
+use std::collections::BTreeSet;
+use std::io::{BufRead, BufReader};
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Output, Stdio};
+use std::time::{Duration, Instant};
+
+fn exe() -> &'static str {
+    env!("CARGO_BIN_EXE_gema2")
+}
+
+fn prefix(test: &str) -> String {
+    format!("t{}_{}", test, std::process::id())
+}
+
+fn gema2(args: &[&str]) -> Output {
+    Command::new(exe()).args(args).output().expect("gema2 runs")
+}
+
+/// A simulated log of `scans` scans in the office, and a pipeline file replaying it.
+fn setup(dir: &Path, scans: usize, rate: &str) -> (PathBuf, PathBuf) {
+    let log = dir.join("scans.log");
+    let out = gema2(&[
+        "sim",
+        "--map",
+        "office",
+        "--scenario",
+        "people",
+        "--scans",
+        &scans.to_string(),
+        "--seed",
+        "11",
+        "--out",
+        log.to_str().unwrap(),
+    ]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let pipeline = dir.join("pipeline.toml");
+    std::fs::write(
+        &pipeline,
+        format!(
+            r#"
+[[stage]]
+name = "mapserver"
+kind = "mapserver"
+args = ["--map", "office"]
+
+[[stage]]
+name = "localize"
+kind = "localize"
+
+[[stage]]
+name = "segment"
+kind = "segment"
+implementation = "line-visibility"
+
+[[stage]]
+name = "acquire"
+kind = "acquire"
+args = ["--log", "{}", "--rate", "{rate}"]
+restart = "never"
+"#,
+            log.display()
+        ),
+    )
+    .unwrap();
+    (log, pipeline)
+}
+
+fn rows(csv: &Path) -> Vec<Vec<String>> {
+    std::fs::read_to_string(csv).unwrap().lines().skip(1).map(|l| l.split(',').map(str::to_owned).collect()).collect()
+}
+
+/// Processes whose command line holds `stage <kind>` and `--prefix <prefix>`.
+fn stage_pids(kind: &str, prefix: &str) -> Vec<u32> {
+    let mut pids = Vec::new();
+    for entry in std::fs::read_dir("/proc").unwrap().flatten() {
+        let Ok(pid) = entry.file_name().to_string_lossy().parse::<u32>() else { continue };
+        let Ok(cmd) = std::fs::read(entry.path().join("cmdline")) else { continue };
+        let args: Vec<String> = cmd.split(|&b| b == 0).map(|a| String::from_utf8_lossy(a).into_owned()).collect();
+        let has = |w: &[&str]| args.windows(w.len()).any(|x| x.iter().zip(w).all(|(a, b)| a == b));
+        if has(&["stage", kind]) && has(&["--prefix", prefix]) {
+            pids.push(pid);
+        }
+    }
+    pids
+}
+
+fn wait_for(what: &str, limit: Duration, mut ok: impl FnMut() -> bool) {
+    let start = Instant::now();
+    while !ok() {
+        assert!(start.elapsed() < limit, "timed out waiting for {what}");
+        std::thread::sleep(Duration::from_millis(50));
+    }
+}
+
+fn run_in_background(pipeline: &Path, prefix: &str, scans: usize, csv: &Path) -> Child {
+    Command::new(exe())
+        .args([
+            "run",
+            "--pipeline",
+            pipeline.to_str().unwrap(),
+            "--prefix",
+            prefix,
+            "--scans",
+            &scans.to_string(),
+            "--timeout",
+            "120",
+        ])
+        .args(["--out", csv.to_str().unwrap()])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap()
+}
+
+#[test]
+fn the_pipeline_publishes_exactly_what_locate_computes_offline() {
+    let dir = tempfile::tempdir().unwrap();
+    let (log, pipeline) = setup(dir.path(), 300, "max");
+    let (online, offline) = (dir.path().join("online.csv"), dir.path().join("offline.csv"));
+    let p = prefix("equal");
+    let out = gema2(&[
+        "run",
+        "--pipeline",
+        pipeline.to_str().unwrap(),
+        "--prefix",
+        &p,
+        "--scans",
+        "300",
+        "--timeout",
+        "120",
+        "--out",
+        online.to_str().unwrap(),
+    ]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let report = String::from_utf8_lossy(&out.stdout);
+    assert!(report.contains("poses received 300 of 300"), "{report}");
+    let out = gema2(&["locate", "--map", "office", "--log", log.to_str().unwrap(), "--out", offline.to_str().unwrap()]);
+    assert!(out.status.success());
+    let (a, b) = (rows(&online), rows(&offline));
+    assert_eq!(a.len(), 300);
+    assert_eq!(b.len(), 300);
+    for (x, y) in a.iter().zip(&b) {
+        // every column but the compute time
+        let same = x.iter().zip(y).enumerate().all(|(k, (u, v))| k == 6 || u == v);
+        assert!(same, "pipeline {x:?}\noffline  {y:?}");
+    }
+    assert!(stage_pids("segment", &p).is_empty(), "stages left running");
+}
+
+#[test]
+fn a_killed_stage_is_restarted_and_nothing_else_restarts() {
+    let dir = tempfile::tempdir().unwrap();
+    let (_, pipeline) = setup(dir.path(), 240, "40");
+    let csv = dir.path().join("poses.csv");
+    let p = prefix("kill");
+    let run = run_in_background(&pipeline, &p, 240, &csv);
+    wait_for("all stages", Duration::from_secs(30), || !stage_pids("acquire", &p).is_empty());
+    std::thread::sleep(Duration::from_secs(1));
+    let (segment, localize, mapserver) =
+        (stage_pids("segment", &p), stage_pids("localize", &p), stage_pids("mapserver", &p));
+    assert_eq!((segment.len(), localize.len(), mapserver.len()), (1, 1, 1));
+    // SAFETY: kill(2) on a process this test started (through the supervisor).
+    unsafe { libc_kill(segment[0] as i32, 9) };
+    wait_for("a new segment", Duration::from_secs(10), || stage_pids("segment", &p).iter().any(|&q| q != segment[0]));
+    assert_eq!(stage_pids("localize", &p), localize, "localize was restarted");
+    assert_eq!(stage_pids("mapserver", &p), mapserver, "mapserver was restarted");
+    let out = run.wait_with_output().unwrap();
+    let report = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(report.contains("stage segment restarted 1 times"), "{report}");
+    // poses kept coming after the restart, up to the end of the log
+    let seqs: Vec<u64> = rows(&csv).iter().map(|r| r[0].parse().unwrap()).collect();
+    assert!(seqs.iter().max().copied().unwrap_or(0) >= 230, "{seqs:?}");
+    assert!(seqs.len() >= 150, "only {} poses", seqs.len());
+}
+
+extern "C" {
+    #[link_name = "kill"]
+    fn libc_kill(pid: i32, sig: i32) -> i32;
+}
+
+#[test]
+fn a_hot_swap_of_segment_loses_at_most_two_scans() {
+    let dir = tempfile::tempdir().unwrap();
+    let (_, pipeline) = setup(dir.path(), 240, "40");
+    let csv = dir.path().join("poses.csv");
+    let p = prefix("swap");
+    let run = run_in_background(&pipeline, &p, 240, &csv);
+    wait_for("all stages", Duration::from_secs(30), || !stage_pids("acquire", &p).is_empty());
+    std::thread::sleep(Duration::from_secs(1));
+    let old = stage_pids("segment", &p);
+    let swap = gema2(&["swap", "segment", "--impl", "split-and-merge", "--prefix", &p]);
+    assert!(swap.status.success(), "{}", String::from_utf8_lossy(&swap.stderr));
+    assert!(String::from_utf8_lossy(&swap.stdout).contains("swapped segment to split-and-merge"));
+    let now = stage_pids("segment", &p);
+    assert_eq!(now.len(), 1);
+    assert_ne!(now, old);
+    let bad = gema2(&["swap", "segment", "--impl", "no-such", "--prefix", &p]);
+    assert!(!bad.status.success() && String::from_utf8_lossy(&bad.stderr).contains("no-such"));
+    let out = run.wait_with_output().unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let seqs: BTreeSet<u64> = rows(&csv).iter().map(|r| r[0].parse().unwrap()).collect();
+    let missing: Vec<u64> = (0..240).filter(|s| !seqs.contains(s)).collect();
+    assert!(missing.len() <= 2, "lost scans {missing:?}");
+}
+
+#[test]
+fn a_localizer_started_late_receives_the_map() {
+    let p = prefix("late");
+    let mut map = Command::new(exe())
+        .args(["stage", "mapserver", "--map", "apartment", "--prefix", &p])
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    std::thread::sleep(Duration::from_millis(1500));
+    let mut loc =
+        Command::new(exe()).args(["stage", "localize", "--prefix", &p]).stderr(Stdio::piped()).spawn().unwrap();
+    let mut lines = BufReader::new(loc.stderr.take().unwrap()).lines();
+    let got = lines.next().and_then(Result::ok).unwrap_or_default();
+    assert!(got.contains("map version 1 (38 walls)"), "{got}");
+    for c in [&mut loc, &mut map] {
+        // SAFETY: kill(2) on a child of this test.
+        unsafe { libc_kill(c.id() as i32, 15) };
+        let status = c.wait().unwrap();
+        assert!(status.success(), "a stage did not stop cleanly on SIGTERM: {status}");
+    }
+}
+
+#[test]
+fn a_payload_type_mismatch_across_processes_names_the_service() {
+    let p = prefix("types");
+    let mut map = Command::new(exe())
+        .args(["stage", "mapserver", "--map", "apartment", "--prefix", &p])
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    std::thread::sleep(Duration::from_millis(1500));
+    let node = messages::create_node("typetest").unwrap();
+    let err = messages::open_pubsub::<messages::ScanMsg>(&node, &format!("{p}/map"), messages::Topic::Map.settings())
+        .err()
+        .unwrap()
+        .to_string();
+    assert!(err.contains(&format!("{p}/map")) && err.contains("IncompatibleTypes"), "{err}");
+    // SAFETY: kill(2) on a child of this test.
+    unsafe { libc_kill(map.id() as i32, 15) };
+    assert!(map.wait().unwrap().success());
+}
+
+#[test]
+fn ctrl_c_stops_every_stage_and_leaves_no_dead_resources() {
+    let dir = tempfile::tempdir().unwrap();
+    let (_, pipeline) = setup(dir.path(), 100, "20");
+    let p = prefix("sigint");
+    let run = run_in_background(&pipeline, &p, 100, &dir.path().join("p.csv"));
+    wait_for("all stages", Duration::from_secs(30), || !stage_pids("acquire", &p).is_empty());
+    std::thread::sleep(Duration::from_millis(500));
+    // SAFETY: kill(2) on a child of this test.
+    unsafe { libc_kill(run.id() as i32, 2) };
+    let start = Instant::now();
+    let out = run.wait_with_output().unwrap();
+    assert!(start.elapsed() < Duration::from_secs(10));
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    for kind in ["acquire", "segment", "localize", "mapserver"] {
+        assert!(stage_pids(kind, &p).is_empty(), "{kind} still running");
+    }
+    assert_eq!(messages::cleanup_dead_nodes(), 0, "dead iceoryx2 nodes were left behind");
+}
