@@ -26,6 +26,52 @@ pub struct BenchArgs {
     /// Wall counts of the scaling table.
     #[arg(long, value_delimiter = ',', default_value = "50,200,1000,5000")]
     pub walls: Vec<usize>,
+    /// Measure the process pipeline instead: latency at 10 Hz with stages on separate cores and
+    /// on one core, and throughput at --rate max.
+    #[arg(long)]
+    pub pipeline: bool,
+    /// Seconds of each pipeline measurement.
+    #[arg(long, default_value_t = 10.0)]
+    pub seconds: f64,
+}
+
+/// A pipeline file for the simulator in the office with the given cores (acquire, segment,
+/// localize).
+fn pipeline_file(cores: [usize; 3]) -> String {
+    format!(
+        "[[stage]]\nname = \"mapserver\"\nkind = \"mapserver\"\nargs = [\"--map\", \"office\"]\n\n\
+         [[stage]]\nname = \"localize\"\nkind = \"localize\"\ncpu = {}\n\n\
+         [[stage]]\nname = \"segment\"\nkind = \"segment\"\ncpu = {}\n\n\
+         [[stage]]\nname = \"acquire\"\nkind = \"acquire\"\nargs = [\"--map\", \"office\"]\ncpu = {}\nrestart = \"never\"\n",
+        cores[2], cores[1], cores[0]
+    )
+}
+
+fn bench_pipeline(a: &BenchArgs) -> Result<()> {
+    let dir = std::env::temp_dir().join(format!("gema2-bench-{}", std::process::id()));
+    std::fs::create_dir_all(&dir)?;
+    let cores = std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1);
+    let runs: [(&str, [usize; 3], &str, f64); 3] = [
+        ("stages on separate cores, 10 Hz", [0, 0, 1.min(cores - 1)], "10", 10.0),
+        ("all stages on one core, 10 Hz", [0, 0, 0], "10", 10.0),
+        ("separate cores, --rate max", [0, 0, 1.min(cores - 1)], "max", 2000.0),
+    ];
+    for (k, (title, cpus, rate, hz)) in runs.iter().enumerate() {
+        let file = dir.join(format!("p{k}.toml"));
+        std::fs::write(&file, pipeline_file(*cpus))?;
+        println!("== {title} (acquire, segment, localize on cores {cpus:?})");
+        let scans = (hz * a.seconds).round() as u64;
+        crate::supervisor::run(crate::supervisor::RunArgs {
+            pipeline: Some(file),
+            scans: Some(scans),
+            rate: Some((*rate).into()),
+            prefix: format!("bench{}_{k}", std::process::id()),
+            out: None,
+            timeout: Some(a.seconds * 6.0 + 30.0),
+        })?;
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+    Ok(())
 }
 
 struct Run {
@@ -72,6 +118,9 @@ fn median(run: &Run, k: usize) -> f64 {
 }
 
 pub fn run_bench(a: BenchArgs) -> Result<()> {
+    if a.pipeline {
+        return bench_pipeline(&a);
+    }
     let office = mapserver::load_map("office")?;
     println!(
         "GEMA2 per-stage time per scan: bundled office ({} walls), URG-04LX 682 beams, clean, {} scans",
