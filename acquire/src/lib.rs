@@ -3,6 +3,7 @@
 
 pub mod carmen;
 pub mod node;
+pub mod scip;
 pub mod sim;
 
 pub use carmen::{write_robotlaser1, CarmenReader, FlaserLayout, LogError, LogScan};

@@ -1,0 +1,290 @@
+//! An emulated URG-04LX: answers SCIP 2.0 commands on any byte transport (a pseudo-terminal in
+//! practice) with scans from any source, and can misbehave on purpose for tests.
+
+use super::codec::{checksum, data_lines, encode};
+use std::io::{ErrorKind, Read, Write};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::{Duration, Instant};
+
+/// Ways to misbehave.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct EmulatorFaults {
+    /// Corrupt the checksum of this scan's first data line (0-based scan count).
+    pub corrupt_scan: Option<u64>,
+    /// Write garbage and a partial line before this scan.
+    pub garbage_before_scan: Option<u64>,
+    /// Stop serving (the caller then closes the port) after this many scans.
+    pub close_after_scans: Option<u64>,
+    /// Refuse to switch the laser on (`BM` answers status 01).
+    pub laser_broken: bool,
+    /// Sensor clock at start, milliseconds (set near 2^24 to test the wrap).
+    pub start_time_ms: u32,
+}
+
+/// Why serving ended.
+#[derive(Debug, PartialEq, Eq)]
+pub enum ServeEnd {
+    Stopped,
+    CloseRequested,
+    PortClosed,
+}
+
+/// Steps of a URG-04LX turn, first and last measurable step, front step.
+const ARES: u32 = 1024;
+const AMIN: u32 = 44;
+const AMAX: u32 = 725;
+const AFRT: u32 = 384;
+
+pub type ScanSource = Box<dyn FnMut() -> Vec<u32> + Send>;
+
+pub struct UrgEmulator {
+    source: ScanSource,
+    pub period: Duration,
+    pub faults: EmulatorFaults,
+    laser_on: bool,
+    origin: Instant,
+    pub scans_sent: u64,
+    /// (echo prefix, three-character?, first, last, cluster, remaining or 0 for endless)
+    stream: Option<(String, bool, u32, u32, u32, u32)>,
+    next_scan: Instant,
+}
+
+fn info_line(key: &str, value: &str, out: &mut Vec<u8>) {
+    let body = format!("{key}:{value}");
+    out.extend_from_slice(body.as_bytes());
+    out.push(b';');
+    out.push(checksum(body.as_bytes()));
+    out.push(b'\n');
+}
+
+fn status(code: &str, out: &mut Vec<u8>) {
+    out.extend_from_slice(code.as_bytes());
+    out.push(checksum(code.as_bytes()));
+    out.push(b'\n');
+}
+
+impl UrgEmulator {
+    /// An emulator whose scans come from `source` (682 readings in mm, steps 44..=725), one
+    /// every `period`.
+    pub fn urg04lx(source: ScanSource, period: Duration, faults: EmulatorFaults) -> Self {
+        UrgEmulator {
+            source,
+            period,
+            faults,
+            laser_on: false,
+            origin: Instant::now(),
+            scans_sent: 0,
+            stream: None,
+            next_scan: Instant::now(),
+        }
+    }
+
+    fn now_ms(&self) -> u32 {
+        (self.faults.start_time_ms as u64 + self.origin.elapsed().as_millis() as u64) as u32 & 0xFF_FFFF
+    }
+
+    /// Serves until `stop`, a requested close, or the port closing.
+    pub fn serve<P: Read + Write>(&mut self, port: &mut P, stop: &AtomicBool) -> std::io::Result<ServeEnd> {
+        let mut pending: Vec<u8> = Vec::new();
+        let mut buf = [0u8; 512];
+        loop {
+            if stop.load(Ordering::Relaxed) {
+                return Ok(ServeEnd::Stopped);
+            }
+            match port.read(&mut buf) {
+                Ok(0) => return Ok(ServeEnd::PortClosed),
+                Ok(n) => pending.extend_from_slice(&buf[..n]),
+                Err(e) if matches!(e.kind(), ErrorKind::TimedOut | ErrorKind::WouldBlock | ErrorKind::Interrupted) => {}
+                Err(_) => return Ok(ServeEnd::PortClosed),
+            }
+            while let Some(k) = pending.iter().position(|&b| b == b'\n' || b == b'\r') {
+                let line: Vec<u8> = pending.drain(..=k).collect();
+                let cmd = String::from_utf8_lossy(&line[..line.len() - 1]).trim().to_owned();
+                if !cmd.is_empty() {
+                    let reply = self.answer(&cmd);
+                    if port.write_all(&reply).is_err() {
+                        return Ok(ServeEnd::PortClosed);
+                    }
+                }
+            }
+            if self.stream.is_some() && Instant::now() >= self.next_scan {
+                if self.faults.close_after_scans.is_some_and(|n| self.scans_sent >= n) {
+                    return Ok(ServeEnd::CloseRequested);
+                }
+                let out = self.scan_frame();
+                if port.write_all(&out).is_err() {
+                    return Ok(ServeEnd::PortClosed);
+                }
+                let _ = port.flush();
+                self.next_scan += self.period;
+            }
+        }
+    }
+
+    fn answer(&mut self, cmd: &str) -> Vec<u8> {
+        let mut out = cmd.as_bytes().to_vec();
+        out.push(b'\n');
+        let code = cmd.get(..2).unwrap_or("");
+        match code {
+            "QT" => {
+                self.stream = None;
+                self.laser_on = false;
+                status("00", &mut out);
+            }
+            "RS" => {
+                self.stream = None;
+                self.laser_on = false;
+                status("00", &mut out);
+            }
+            "BM" if self.faults.laser_broken => status("01", &mut out),
+            "BM" => {
+                status(if self.laser_on { "02" } else { "00" }, &mut out);
+                self.laser_on = true;
+            }
+            "VV" => {
+                status("00", &mut out);
+                info_line("VEND", "Hokuyo Automatic Co.,Ltd.", &mut out);
+                info_line("PROD", "SOKUIKI Sensor URG-04LX", &mut out);
+                info_line("FIRM", "3.4.03(gema2 emulator)", &mut out);
+                info_line("PROT", "SCIP 2.0", &mut out);
+                info_line("SERI", "H0000000", &mut out);
+            }
+            "PP" => {
+                status("00", &mut out);
+                for (k, v) in [
+                    ("MODL", "URG-04LX(Hokuyo Automatic Co.,Ltd.)"),
+                    ("DMIN", "20"),
+                    ("DMAX", "5600"),
+                    ("ARES", "1024"),
+                    ("AMIN", "44"),
+                    ("AMAX", "725"),
+                    ("AFRT", "384"),
+                    ("SCAN", "600"),
+                ] {
+                    info_line(k, v, &mut out);
+                }
+            }
+            "II" => {
+                status("00", &mut out);
+                let mut t = Vec::new();
+                encode(self.now_ms(), 4, &mut t);
+                info_line("MODL", "URG-04LX(Hokuyo Automatic Co.,Ltd.)", &mut out);
+                info_line("LASR", if self.laser_on { "ON" } else { "OFF" }, &mut out);
+                info_line("SCSP", "600", &mut out);
+                info_line("MESM", "Measuring mode", &mut out);
+                info_line("SBPS", "115200", &mut out);
+                info_line("TIME", &String::from_utf8_lossy(&t), &mut out);
+                info_line("STAT", "Sensor works well.", &mut out);
+            }
+            "TM" => match cmd {
+                "TM0" | "TM2" => status("00", &mut out),
+                "TM1" => {
+                    status("00", &mut out);
+                    let mut t = Vec::new();
+                    encode(self.now_ms(), 4, &mut t);
+                    data_lines(&t, &mut out);
+                }
+                _ => status("0F", &mut out),
+            },
+            "MD" | "MS" | "GD" | "GS" => self.scan_command(cmd, &mut out),
+            _ if cmd == "SCIP2.0" => status("0E", &mut out),
+            _ => status("0E", &mut out),
+        }
+        out.push(b'\n');
+        out
+    }
+
+    fn scan_command(&mut self, cmd: &str, out: &mut Vec<u8>) {
+        let num = |a: usize, b: usize| cmd.get(a..b).and_then(|s| s.parse::<u32>().ok());
+        let (Some(first), Some(last), Some(cluster)) = (num(2, 6), num(6, 10), num(10, 12)) else {
+            status("01", out);
+            return;
+        };
+        if last > AMAX || first < AMIN.min(first) || last < first {
+            status("04", out);
+            return;
+        }
+        let three = cmd.starts_with("MD") || cmd.starts_with("GD");
+        if cmd.starts_with('G') {
+            if !self.laser_on {
+                status("10", out);
+                return;
+            }
+            status("00", out);
+            self.scan_data(three, first, last, cluster.max(1), out);
+            return;
+        }
+        let Some(scans) = num(13, 15) else {
+            status("07", out);
+            return;
+        };
+        status("00", out);
+        self.laser_on = true;
+        self.stream = Some((cmd[..13].to_owned(), three, first, last, cluster.max(1), scans));
+        self.next_scan = Instant::now() + self.period;
+    }
+
+    /// Timestamp and data lines of one scan.
+    fn scan_data(&mut self, three: bool, first: u32, last: u32, cluster: u32, out: &mut Vec<u8>) {
+        let mut t = Vec::new();
+        encode(self.now_ms(), 4, &mut t);
+        data_lines(&t, out);
+        let readings = (self.source)();
+        let mut data = Vec::new();
+        let width = if three { 3 } else { 2 };
+        let mut step = first;
+        while step <= last {
+            let group: Vec<u32> = (step..(step + cluster).min(last + 1))
+                .map(|s| {
+                    if (AMIN..=AMAX).contains(&s) {
+                        readings.get((s - AMIN) as usize).copied().unwrap_or(0)
+                    } else {
+                        0
+                    }
+                })
+                .collect();
+            // the sensor reports the nearest reading of a cluster
+            let v = group.iter().copied().filter(|&v| v >= 20).min().unwrap_or(group.first().copied().unwrap_or(0));
+            encode(if three { v.min(0x3FFFF) } else { v.min(4095) }, width, &mut data);
+            step += cluster;
+        }
+        data_lines(&data, out);
+    }
+
+    fn scan_frame(&mut self) -> Vec<u8> {
+        let Some((prefix, three, first, last, cluster, remaining)) = self.stream.clone() else { return Vec::new() };
+        let mut out = Vec::new();
+        if self.faults.garbage_before_scan == Some(self.scans_sent) {
+            out.extend_from_slice(b"\x07#garbage!!\n\nMD00440725\n");
+            out.extend_from_slice(&[0x30; 300]);
+            out.push(b'\n');
+            out.push(b'\n');
+        }
+        let left = if remaining > 0 { remaining - 1 } else { 0 };
+        out.extend_from_slice(format!("{prefix}{left:02}\n").as_bytes());
+        status("99", &mut out);
+        let start = out.len();
+        self.scan_data(three, first, last, cluster, &mut out);
+        if self.faults.corrupt_scan == Some(self.scans_sent) {
+            // the checksum of the first data line (after the timestamp line: 4 + sum + LF)
+            let k = start + 6 + 64;
+            if k < out.len() {
+                out[k] = if out[k] == b'0' { b'1' } else { b'0' };
+            }
+        }
+        out.push(b'\n');
+        self.scans_sent += 1;
+        if remaining == 1 {
+            self.stream = None;
+        } else if remaining > 1 {
+            if let Some(s) = self.stream.as_mut() {
+                s.5 = remaining - 1;
+            }
+        }
+        out
+    }
+}
+
+/// The URG-04LX's step of each of its 682 readings, and the front step (for callers building
+/// sources).
+pub const URG_STEPS: (u32, u32, u32, u32) = (ARES, AMIN, AMAX, AFRT);

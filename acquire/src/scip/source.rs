@@ -1,0 +1,117 @@
+//! Scans from a URG-04LX on a serial port, surviving what serial links do: a scan that fails
+//! its checksum is dropped and counted; garbage is skipped; a port that disappears (cable
+//! pulled, sensor reset) is reopened with backoff until it comes back.
+
+use super::driver::{Encoding, LinkStats, Urg};
+use super::ScipError;
+use laser::LaserScan;
+use serialport::TTYPort;
+use std::time::{Duration, Instant};
+
+pub struct SerialSource {
+    pub path: String,
+    pub baud: u32,
+    urg: Option<Urg<TTYPort>>,
+    backoff: Duration,
+    /// Totals over every connection.
+    pub stats: LinkStats,
+    pub reconnects: u64,
+    started: Instant,
+}
+
+/// Errors that reconnecting cannot fix.
+fn fatal(e: &ScipError) -> bool {
+    matches!(e, ScipError::Status { .. })
+}
+
+impl SerialSource {
+    pub fn new(path: &str, baud: u32) -> Self {
+        SerialSource {
+            path: path.into(),
+            baud,
+            urg: None,
+            backoff: Duration::from_millis(100),
+            stats: LinkStats::default(),
+            reconnects: 0,
+            started: Instant::now(),
+        }
+    }
+
+    fn open(&mut self) -> Result<(), ScipError> {
+        let port = serialport::new(&self.path, self.baud)
+            .timeout(Duration::from_millis(500))
+            .open_native()
+            .map_err(|e| ScipError::Io(std::io::Error::other(format!("{}: {e}", self.path))))?;
+        let mut urg = Urg::new(port, Duration::from_secs(2));
+        let info = urg.connect()?.clone();
+        urg.laser_on()?;
+        urg.start(Encoding::Three, info.amin, info.amax, 1, 0)?;
+        self.urg = Some(urg);
+        self.backoff = Duration::from_millis(100);
+        Ok(())
+    }
+
+    fn retire(&mut self) {
+        if let Some(u) = self.urg.take() {
+            self.stats.scans += u.stats.scans;
+            self.stats.checksum_drops += u.stats.checksum_drops;
+            self.stats.resyncs += u.stats.resyncs;
+        }
+    }
+
+    /// Counters including the current connection.
+    pub fn totals(&self) -> LinkStats {
+        let mut t = self.stats;
+        if let Some(u) = &self.urg {
+            t.scans += u.stats.scans;
+            t.checksum_drops += u.stats.checksum_drops;
+            t.resyncs += u.stats.resyncs;
+        }
+        t
+    }
+
+    /// The next scan. Transient failures are handled here; `keep_going` is asked before each
+    /// wait so the caller can stop. Returns `None` when told to stop, `Err` for what retrying
+    /// cannot fix (a status such as a broken laser).
+    pub fn next_scan(&mut self, keep_going: &mut dyn FnMut(Duration) -> bool) -> Option<Result<LaserScan, ScipError>> {
+        loop {
+            if self.urg.is_none() {
+                match self.open() {
+                    Ok(()) => eprintln!("acquire: {} connected", self.path),
+                    Err(e) if fatal(&e) => return Some(Err(e)),
+                    Err(e) => {
+                        eprintln!("acquire: {}: {e}; retrying in {:?}", self.path, self.backoff);
+                        self.urg = None;
+                        if !keep_going(self.backoff) {
+                            return None;
+                        }
+                        self.backoff = (self.backoff * 2).min(Duration::from_secs(2));
+                        self.reconnects += 1;
+                        continue;
+                    }
+                }
+            }
+            if !keep_going(Duration::ZERO) {
+                return None;
+            }
+            let urg = self.urg.as_mut()?;
+            match urg.next_scan() {
+                Ok(raw) => {
+                    let stamp = raw.timestamp_ms as f64 / 1000.0;
+                    let info = urg.info.clone();
+                    return Some(Ok(raw.to_laser_scan(&info, stamp)));
+                }
+                Err(ScipError::Checksum(_)) | Err(ScipError::Malformed(_)) => continue,
+                Err(e) if fatal(&e) => return Some(Err(e)),
+                Err(e) => {
+                    eprintln!("acquire: {}: {e}; reconnecting", self.path);
+                    self.retire();
+                }
+            }
+        }
+    }
+
+    pub fn uptime(&self) -> Duration {
+        self.started.elapsed()
+    }
+}

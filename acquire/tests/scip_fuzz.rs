@@ -1,0 +1,64 @@
+//! The SCIP decoder on arbitrary bytes: it may refuse them, it must never panic.
+
+use acquire::scip::frame::{read_frame, LineReader};
+use acquire::scip::{Encoding, Urg};
+use proptest::prelude::*;
+use std::io::{Cursor, Read, Write};
+use std::time::Duration;
+
+/// Reads canned bytes; writes vanish.
+struct Canned(Cursor<Vec<u8>>);
+
+impl Read for Canned {
+    fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+        self.0.read(buf)
+    }
+}
+
+impl Write for Canned {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        Ok(buf.len())
+    }
+    fn flush(&mut self) -> std::io::Result<()> {
+        Ok(())
+    }
+}
+
+/// Bytes that look like SCIP often enough to reach deep into the decoder.
+fn scipish() -> impl Strategy<Value = Vec<u8>> {
+    let piece = prop_oneof![
+        Just(b"MD0044072501000\n".to_vec()),
+        Just(b"99b\n".to_vec()),
+        Just(b"00P\n".to_vec()),
+        Just(b"\n".to_vec()),
+        Just(b"0000\x30\n".to_vec()),
+        proptest::collection::vec(0x30u8..0x70, 0..70).prop_map(|mut v| {
+            v.push(b'\n');
+            v
+        }),
+        proptest::collection::vec(any::<u8>(), 0..20),
+    ];
+    proptest::collection::vec(piece, 0..30).prop_map(|v| v.concat())
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 100_000, ..ProptestConfig::default() })]
+    #[test]
+    fn frames_and_scans_never_panic(bytes in scipish()) {
+        let mut r = LineReader::new(Cursor::new(bytes.clone()));
+        let mut resyncs = 0;
+        for _ in 0..50 {
+            if read_frame(&mut r, &mut resyncs).is_err() {
+                break;
+            }
+        }
+        // the same bytes as a stream of scans
+        let mut urg = Urg::new(Canned(Cursor::new(bytes)), Duration::from_millis(1));
+        let _ = urg.start(Encoding::Three, 44, 725, 1, 0);
+        for _ in 0..20 {
+            if urg.next_scan().is_err() {
+                break;
+            }
+        }
+    }
+}
