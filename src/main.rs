@@ -27,6 +27,10 @@ enum Command {
     Run(supervisor::RunArgs),
     /// Replace a stage's implementation in a running pipeline.
     Swap(supervisor::swap::SwapArgs),
+    /// An emulated Hokuyo URG-04LX on a pseudo-terminal (prints its path).
+    EmulateUrg(cmd::emulate::EmulateArgs),
+    /// Segmentation alone over a log: lines and corners per scan, time per scan.
+    Lines(cmd::lines::LinesArgs),
     /// Run one stage in this process (what `gema2 run` starts).
     #[command(subcommand)]
     Stage(StageCommand),
@@ -53,6 +57,8 @@ fn main() -> anyhow::Result<()> {
         Some(Command::Bench(a)) => cmd::bench::run_bench(a),
         Some(Command::Demo(a)) => cmd::demo::run(a),
         Some(Command::Run(a)) => supervisor::run(a),
+        Some(Command::EmulateUrg(a)) => cmd::emulate::run(a),
+        Some(Command::Lines(a)) => cmd::lines::run(a),
         Some(Command::Swap(a)) => supervisor::swap::request(a),
         Some(Command::Stage(s)) => match s {
             StageCommand::Acquire(a) => acquire::node::run(a),

@@ -268,3 +268,42 @@ fn ctrl_c_stops_every_stage_and_leaves_no_dead_resources() {
     }
     assert_eq!(messages::cleanup_dead_nodes(), 0, "dead iceoryx2 nodes were left behind");
 }
+
+#[test]
+fn the_whole_pipeline_runs_on_an_emulated_urg04lx() {
+    let dir = tempfile::tempdir().unwrap();
+    let link = dir.path().join("urg");
+    let recorded = dir.path().join("recorded.log");
+    let mut emu = Command::new(exe())
+        .args(["emulate-urg", "--map", "office", "--period-ms", "25", "--link", link.to_str().unwrap()])
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    wait_for("the emulator's pty", Duration::from_secs(10), || link.exists());
+    let pipeline = dir.path().join("serial.toml");
+    std::fs::write(
+        &pipeline,
+        format!(
+            "[[stage]]\nname = \"mapserver\"\nkind = \"mapserver\"\nargs = [\"--map\", \"office\"]\n\n\
+             [[stage]]\nname = \"localize\"\nkind = \"localize\"\n\n\
+             [[stage]]\nname = \"segment\"\nkind = \"segment\"\n\n\
+             [[stage]]\nname = \"acquire\"\nkind = \"acquire\"\nargs = [\"--serial\", \"{}\", \"--carmen-out\", \"{}\"]\n",
+            link.display(),
+            recorded.display()
+        ),
+    )
+    .unwrap();
+    let p = prefix("urg");
+    let out =
+        gema2(&["run", "--pipeline", pipeline.to_str().unwrap(), "--prefix", &p, "--scans", "20", "--timeout", "60"]);
+    // SAFETY: kill(2) on a child of this test.
+    unsafe { libc_kill(emu.id() as i32, 15) };
+    let _ = emu.wait();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let report = String::from_utf8_lossy(&out.stdout);
+    assert!(report.contains("poses received 20 of 20"), "{report}");
+    let text = std::fs::read_to_string(&recorded).unwrap();
+    assert!(text.starts_with("# gema2: poses are not ground truth"));
+    assert!(text.lines().filter(|l| l.starts_with("ROBOTLASER1")).count() >= 20);
+}

@@ -27,6 +27,10 @@ pub enum LogError {
     Line { path: PathBuf, line: usize, message: String },
 }
 
+/// The comment that opens a log whose poses are not ground truth (recorded from a sensor):
+/// ROBOTLASER1 lines must carry a pose, and zeros would otherwise read as the truth.
+pub const NO_TRUTH_MARKER: &str = "# gema2: poses are not ground truth";
+
 /// How FLASER lines (which carry no angles) are laid out.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct FlaserLayout {
@@ -59,6 +63,7 @@ pub struct CarmenReader {
     line: usize,
     buf: String,
     layout: FlaserLayout,
+    no_truth: bool,
 }
 
 impl CarmenReader {
@@ -75,7 +80,7 @@ impl CarmenReader {
 
     /// Reads from any source; `path` names it in errors.
     pub fn from_reader(reader: Box<dyn BufRead + Send>, path: &Path, layout: FlaserLayout) -> Self {
-        CarmenReader { reader, path: path.to_owned(), line: 0, buf: String::new(), layout }
+        CarmenReader { reader, path: path.to_owned(), line: 0, buf: String::new(), layout, no_truth: false }
     }
 
     fn error(&self, message: impl Into<String>) -> LogError {
@@ -95,6 +100,10 @@ impl Iterator for CarmenReader {
                 Err(source) => return Some(Err(LogError::Io { path: self.path.clone(), source })),
             }
             self.line += 1;
+            if self.buf.trim_end() == NO_TRUTH_MARKER {
+                self.no_truth = true;
+                continue;
+            }
             let mut tokens = self.buf.split_ascii_whitespace();
             let parsed = match tokens.next() {
                 Some("ROBOTLASER1") => parse_robotlaser1(&tokens.collect::<Vec<_>>()),
@@ -102,7 +111,12 @@ impl Iterator for CarmenReader {
                 _ => continue,
             };
             return Some(match parsed {
-                Ok(scan) => Ok(LogScan { line: self.line, scan }),
+                Ok(mut scan) => {
+                    if self.no_truth {
+                        scan.truth = None;
+                    }
+                    Ok(LogScan { line: self.line, scan })
+                }
                 Err(message) => Err(self.error(message)),
             });
         }
@@ -268,6 +282,15 @@ mod tests {
         let t = got.scan.truth.unwrap();
         assert!((t.translation.x - 1.0).abs() < 1e-9 && (laser::pose_theta(&t) - 0.5).abs() < 1e-9);
         assert!((got.scan.stamp - 12.5).abs() < 1e-9);
+    }
+
+    #[test]
+    fn a_log_marked_without_truth_has_none() {
+        let scan = LaserScan { geometry: ScanGeometry::urg04lx(), ranges: vec![1.0; 682], stamp: 0.0, truth: None };
+        let mut out = format!("{NO_TRUTH_MARKER}\n").into_bytes();
+        write_robotlaser1(&mut out, &scan).unwrap();
+        let got = read(&String::from_utf8(out).unwrap()).remove(0).unwrap();
+        assert_eq!(got.scan.truth, None);
     }
 
     #[test]

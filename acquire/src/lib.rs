@@ -5,6 +5,7 @@ pub mod carmen;
 pub mod node;
 pub mod scip;
 pub mod sim;
+pub mod urg_log;
 
-pub use carmen::{write_robotlaser1, CarmenReader, FlaserLayout, LogError, LogScan};
+pub use carmen::{write_robotlaser1, CarmenReader, FlaserLayout, LogError, LogScan, NO_TRUTH_MARKER};
 pub use sim::{Obstacles, Scenario, SensorModel, Simulator};

@@ -23,6 +23,18 @@ pub struct AcquireArgs {
     /// Replay this CARMEN log instead of simulating.
     #[arg(long)]
     pub log: Option<PathBuf>,
+    /// Replay a URG-04LX log (the format of datasets/urg04lx) instead of simulating.
+    #[arg(long)]
+    pub urg_log: Option<PathBuf>,
+    /// Read a real Hokuyo URG-04LX on this serial port (SCIP 2.0).
+    #[arg(long)]
+    pub serial: Option<String>,
+    /// Baud rate of the serial port (ignored by USB models).
+    #[arg(long, default_value_t = 115_200)]
+    pub baud: u32,
+    /// Also write every scan as a ROBOTLASER1 line to this file.
+    #[arg(long)]
+    pub carmen_out: Option<PathBuf>,
     /// Simulator: a bundled map's name or a JSON map file.
     #[arg(long, default_value = "office")]
     pub map: String,
@@ -62,6 +74,23 @@ pub fn scan_to_msg(scan: &LaserScan, seq: u64, stamp_ns: u64, m: &mut ScanMsg) {
 type Source = Box<dyn Iterator<Item = Result<LaserScan>>>;
 
 fn source(a: &AcquireArgs) -> Result<(Source, &'static str)> {
+    if let Some(port) = &a.serial {
+        let mut serial = crate::scip::SerialSource::new(port, a.baud);
+        let scans = std::iter::from_fn(move || {
+            // stops when iceoryx2 saw SIGINT/SIGTERM; waits for reconnection otherwise
+            serial
+                .next_scan(&mut |wait| {
+                    std::thread::sleep(wait);
+                    !stop_requested()
+                })
+                .map(|r| r.map_err(anyhow::Error::from))
+        });
+        return Ok((Box::new(scans), "urg04lx-scip2"));
+    }
+    if let Some(path) = &a.urg_log {
+        let reader = crate::urg_log::UrgLogReader::open(path)?;
+        return Ok((Box::new(reader.map(|r| r.map_err(anyhow::Error::from))), "urg04lx-log"));
+    }
     if let Some(path) = &a.log {
         let reader = CarmenReader::open(path, FlaserLayout::default())?;
         return Ok((Box::new(reader.map(|r| r.map(|s| s.scan).map_err(anyhow::Error::from))), "carmen-log"));
@@ -71,11 +100,31 @@ fn source(a: &AcquireArgs) -> Result<(Source, &'static str)> {
     Ok((Box::new(std::iter::from_fn(move || Some(Ok(sim.next_scan())))), "simulator"))
 }
 
+static STOP: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+
+fn stop_requested() -> bool {
+    STOP.load(std::sync::atomic::Ordering::Relaxed)
+}
+
+extern "C" fn on_stop(_: libc::c_int) {
+    STOP.store(true, std::sync::atomic::Ordering::Relaxed);
+}
+
 pub fn run(a: AcquireArgs) -> Result<()> {
+    if a.serial.is_some() {
+        // a sensor source can block on the port: notice SIGINT/SIGTERM ourselves too
+        // SAFETY: the handler only stores to an atomic.
+        unsafe {
+            libc::signal(libc::SIGINT, on_stop as *const () as libc::sighandler_t);
+            libc::signal(libc::SIGTERM, on_stop as *const () as libc::sighandler_t);
+        }
+    }
     if let Some(cpu) = a.cpu {
         messages::pin_to_cpu(cpu)?;
     }
     let period = match a.rate.as_str() {
+        // a sensor paces itself
+        _ if a.serial.is_some() => None,
         "max" => None,
         r => match r.parse::<f64>() {
             Ok(hz) if hz > 0.0 && hz.is_finite() => Some(Duration::from_secs_f64(1.0 / hz)),
@@ -94,6 +143,17 @@ pub fn run(a: AcquireArgs) -> Result<()> {
         .create()
         .map_err(|e| anyhow!("{}: publisher: {e:?}", topic.name))?;
     let notifier = topic.event.notifier_builder().create().map_err(|e| anyhow!("{}: notifier: {e:?}", topic.name))?;
+    let mut carmen = match &a.carmen_out {
+        Some(p) => {
+            let mut w =
+                std::io::BufWriter::new(std::fs::File::create(p).with_context(|| format!("creating {}", p.display()))?);
+            if a.serial.is_some() || a.urg_log.is_some() {
+                std::io::Write::write_all(&mut w, format!("{}\n", crate::NO_TRUTH_MARKER).as_bytes())?;
+            }
+            Some(w)
+        }
+        None => None,
+    };
     let mut seq = a.first_seq;
     let mut next = monotonic_ns();
     loop {
@@ -102,13 +162,16 @@ pub fn run(a: AcquireArgs) -> Result<()> {
         }
         let Some(scan) = scans.next() else { break };
         let scan = scan.context("acquire: reading the source")?;
+        if let Some(w) = carmen.as_mut() {
+            crate::write_robotlaser1(w, &scan).context("acquire: writing --carmen-out")?;
+        }
         if let Some(p) = period {
             let now = monotonic_ns();
             if next > now && node.wait(Duration::from_nanos(next - now)).is_err() {
                 break; // SIGINT or SIGTERM
             }
             next = next.max(now) + p.as_nanos() as u64;
-        } else if node.wait(Duration::ZERO).is_err() {
+        } else if node.wait(Duration::ZERO).is_err() || stop_requested() {
             break;
         }
         let enter = monotonic_ns();
@@ -120,6 +183,9 @@ pub fn run(a: AcquireArgs) -> Result<()> {
         })
         .map_err(|e| anyhow!("{}: {e}", topic.name))?;
         seq += 1;
+    }
+    if let Some(mut w) = carmen {
+        std::io::Write::flush(&mut w).context("acquire: writing --carmen-out")?;
     }
     eprintln!("acquire: published {} scans", seq - a.first_seq);
     Ok(())

@@ -2,6 +2,8 @@
 
 pub mod bench;
 pub mod demo;
+pub mod emulate;
+pub mod lines;
 pub mod locate;
 pub mod map;
 pub mod sim;

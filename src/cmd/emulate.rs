@@ -1,0 +1,75 @@
+//! `gema2 emulate-urg`: an emulated Hokuyo URG-04LX speaking SCIP 2.0 on a pseudo-terminal,
+//! fed by the simulator, so the whole pipeline runs without hardware:
+//! `gema2 emulate-urg &` then `gema2 stage acquire --serial <printed path>`.
+
+use acquire::scip::emulator::{EmulatorFaults, ServeEnd, UrgEmulator};
+use acquire::{Scenario, SensorModel, Simulator};
+use anyhow::{Context, Result};
+use clap::Args;
+use serialport::{SerialPort, TTYPort};
+use std::path::PathBuf;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::Duration;
+
+#[derive(Args)]
+pub struct EmulateArgs {
+    #[arg(long, default_value = "office")]
+    pub map: String,
+    #[arg(long, default_value = "clean")]
+    pub scenario: Scenario,
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Milliseconds between scans (the URG-04LX turns at 600 rpm: 100).
+    #[arg(long, default_value_t = 100)]
+    pub period_ms: u64,
+    /// Also make this path a symlink to the pseudo-terminal.
+    #[arg(long)]
+    pub link: Option<PathBuf>,
+}
+
+static STOP: AtomicBool = AtomicBool::new(false);
+
+extern "C" fn on_stop(_: libc::c_int) {
+    STOP.store(true, Ordering::Relaxed);
+}
+
+pub fn run(a: EmulateArgs) -> Result<()> {
+    let map = mapserver::load_map(&a.map)?;
+    let mut sim = Simulator::new(&map, SensorModel::urg04lx(), a.scenario, a.seed);
+    let source = Box::new(move || {
+        let scan = sim.next_scan();
+        let max = scan.geometry.range_max as f32;
+        // the sensor reports no return and lost readings as error codes (below 20 mm)
+        scan.ranges
+            .iter()
+            .map(|&r| if r.is_finite() && r > 0.02 && r < max { (r * 1000.0).round() as u32 } else { 0 })
+            .collect()
+    });
+    let mut emu = UrgEmulator::urg04lx(source, Duration::from_millis(a.period_ms), EmulatorFaults::default());
+    let (mut master, slave) = TTYPort::pair().context("creating a pseudo-terminal")?;
+    master.set_timeout(Duration::from_millis(5))?;
+    let path = slave.name().context("the pseudo-terminal has no name")?;
+    if let Some(link) = &a.link {
+        let _ = std::fs::remove_file(link);
+        std::os::unix::fs::symlink(&path, link).with_context(|| format!("linking {}", link.display()))?;
+    }
+    // SAFETY: the handler only stores to an atomic.
+    unsafe {
+        libc::signal(libc::SIGINT, on_stop as *const () as libc::sighandler_t);
+        libc::signal(libc::SIGTERM, on_stop as *const () as libc::sighandler_t);
+    }
+    println!("{path}");
+    eprintln!("emulated URG-04LX on {path}; Ctrl-C to stop");
+    loop {
+        match emu.serve(&mut master, &STOP)? {
+            ServeEnd::Stopped => break,
+            // no client on the other side (yet, or any more): wait for one
+            _ => std::thread::sleep(Duration::from_millis(50)),
+        }
+    }
+    if let Some(link) = &a.link {
+        let _ = std::fs::remove_file(link);
+    }
+    drop(slave);
+    Ok(())
+}
