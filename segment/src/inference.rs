@@ -26,7 +26,8 @@ pub fn infer_lines(samples: &[Sample], angle_increment: f64, error: &ErrorModel,
     let mut first = 0;
     let mut clusters = 0;
     for (j, s) in samples.iter().enumerate() {
-        if j == 0 || s.gap_before || !visibility.admits(samples, s) {
+        let bounds = visibility.bounds(samples, s);
+        if j == 0 || s.gap_before || !visibility.admits_within(s, bounds) {
             if j > 0 {
                 close(samples, first, j - 1, moments, error, out);
                 clusters += 1;
@@ -35,7 +36,7 @@ pub fn infer_lines(samples: &[Sample], angle_increment: f64, error: &ErrorModel,
             moments = Moments::default();
             visibility.restart(j);
         } else {
-            visibility.include(samples, j);
+            visibility.include_within(samples, j, bounds);
         }
         moments.add(s.point());
     }

@@ -10,6 +10,14 @@
 //! round. When a new sample forces an update, the new most restrictive sample is searched only
 //! from the previous one onwards (Code 2's `pos_min`): samples before it can never become more
 //! restrictive, so there are no rescans.
+//!
+//! The search also skips samples that can never be restrictive: a near bound lying on the
+//! sensor's side of the chord between its neighbours can never hold `V_max` back (any line
+//! beyond both neighbours passes beyond it), and symmetrically for far bounds and `V_min`. The
+//! candidates therefore form a convex chain, kept like a monotone-chain hull as samples arrive;
+//! along it the angle seen from the pivot rises then falls, so the search stops at the first
+//! fall. On a long straight wall this turns Code 2's worst case (every sample forcing a scan
+//! back to the line's first) from quadratic into linear time; the result is the same.
 
 use crate::sample::Sample;
 use nalgebra::{Point2, Vector2};
@@ -35,6 +43,10 @@ pub struct LineVisibility {
     restrictive_min: usize,
     /// +1 when beams turn counter-clockwise, -1 otherwise: which side earlier samples lie on.
     turn: f64,
+    /// Sample indices whose near bound can still constrain `V_max`, in order (a convex chain).
+    chain_near: Vec<usize>,
+    /// Sample indices whose far bound can still constrain `V_min`.
+    chain_far: Vec<usize>,
 }
 
 impl LineVisibility {
@@ -48,6 +60,8 @@ impl LineVisibility {
             restrictive_max: 0,
             restrictive_min: 0,
             turn: if angle_increment < 0.0 { -1.0 } else { 1.0 },
+            chain_near: Vec::new(),
+            chain_far: Vec::new(),
         }
     }
 
@@ -59,6 +73,10 @@ impl LineVisibility {
         self.v_min = None;
         self.restrictive_max = j;
         self.restrictive_min = j;
+        self.chain_near.clear();
+        self.chain_far.clear();
+        self.chain_near.push(j);
+        self.chain_far.push(j);
     }
 
     /// Number of samples in the line.
@@ -86,22 +104,28 @@ impl LineVisibility {
 
     /// Eq. 3: whether `s` can join the line, `[near, far]` overlapping `[d_min, d_max]`.
     pub fn admits(&self, samples: &[Sample], s: &Sample) -> bool {
-        if self.len == 0 {
-            return true;
-        }
-        let (d_min, d_max) = self.bounds(samples, s);
-        s.near <= d_max && s.far >= d_min
+        self.admits_within(s, self.bounds(samples, s))
+    }
+
+    /// Eq. 3 against bounds already computed with [`bounds`](Self::bounds).
+    pub fn admits_within(&self, s: &Sample, (d_min, d_max): (f64, f64)) -> bool {
+        self.len == 0 || (s.near <= d_max && s.far >= d_min)
     }
 
     /// Adds `samples[j]` (which must follow the line's last sample) and updates `V_min` and
     /// `V_max` as in Code 2.
     pub fn include(&mut self, samples: &[Sample], j: usize) {
+        let b = self.bounds(samples, &samples[j]);
+        self.include_within(samples, j, b);
+    }
+
+    /// [`include`](Self::include) with the bounds on `samples[j]`'s beam already computed.
+    pub fn include_within(&mut self, samples: &[Sample], j: usize, (d_min, d_max): (f64, f64)) {
         if self.len == 0 {
             self.restart(j);
             return;
         }
         let s = &samples[j];
-        let (d_min, d_max) = self.bounds(samples, s);
         if s.far < d_max {
             // Case B for V_max: pivot on s's far bound, constrained by an earlier near bound.
             let p = self.most_restrictive(samples, j, s.far_point(), self.restrictive_max, true);
@@ -115,6 +139,8 @@ impl LineVisibility {
             self.v_min = Some(Bound { pivot: j, constraint: p });
             self.restrictive_min = p;
         }
+        push_chain(&mut self.chain_near, samples, j, true);
+        push_chain(&mut self.chain_far, samples, j, false);
         self.len += 1;
     }
 
@@ -122,27 +148,53 @@ impl LineVisibility {
     /// `V_min`) makes the line through `pivot` most restrictive. Measured as the angle between
     /// the line and the direction from `pivot` back to the sensor: `V_max` takes the largest,
     /// `V_min` the smallest. Compared with cross products, no trigonometry.
-    fn most_restrictive(&self, samples: &[Sample], j: usize, pivot: Point2<f64>, from: usize, for_max: bool) -> usize {
+    fn most_restrictive(&self, samples: &[Sample], _j: usize, pivot: Point2<f64>, from: usize, for_max: bool) -> usize {
         let bound = |k: usize| -> Vector2<f64> {
             let q = if for_max { samples[k].near_point() } else { samples[k].far_point() };
             q - pivot
         };
-        let mut best = from;
-        let mut best_dir = bound(from);
-        for k in from + 1..j {
+        let chain = if for_max { &self.chain_near } else { &self.chain_far };
+        // the stored most restrictive sample, or the first candidate after it
+        let mut pos = chain.partition_point(|&k| k < from).min(chain.len() - 1);
+        let mut best = chain[pos];
+        let mut best_dir = bound(best);
+        while pos + 1 < chain.len() {
+            let k = chain[pos + 1];
             let dir = bound(k);
             // Earlier samples lie on one side of the beam; on that side, `dir` makes a larger
             // angle with the direction to the sensor than `best_dir` iff it is turned further
             // against the beams' turning direction.
             let turned = self.turn * cross(&best_dir, &dir);
-            let larger = turned > 0.0;
-            if larger == for_max && turned != 0.0 {
-                best = k;
-                best_dir = dir;
+            if turned == 0.0 || (turned > 0.0) != for_max {
+                break; // past the tangent: the angle only falls from here
             }
+            best = k;
+            best_dir = dir;
+            pos += 1;
         }
         best
     }
+}
+
+/// Appends sample `j`'s bound (near when `near`) to a candidate chain, first dropping the
+/// candidates that can no longer constrain: a near bound on the sensor's side of the chord
+/// from its predecessor to the new one (a far bound on the far side).
+fn push_chain(chain: &mut Vec<usize>, samples: &[Sample], j: usize, near: bool) {
+    let at = |k: usize| if near { samples[k].near_point() } else { samples[k].far_point() };
+    let c = at(j);
+    while chain.len() >= 2 {
+        let (a, b) = (at(chain[chain.len() - 2]), at(chain[chain.len() - 1]));
+        let chord = c - a;
+        let side_b = cross(&chord, &(b - a));
+        let side_origin = cross(&chord, &(Point2::origin() - a));
+        // b with the sensor (near) or against it (far), or on the chord: never restrictive
+        let dominated = if near { side_b * side_origin >= 0.0 } else { side_b * side_origin <= 0.0 };
+        if !dominated {
+            break;
+        }
+        chain.pop();
+    }
+    chain.push(j);
 }
 
 #[inline]
