@@ -48,6 +48,17 @@ impl Default for FlaserLayout {
     }
 }
 
+/// Opens a text log for reading lines, decompressing it if its name ends in `.gz`.
+pub fn open_log(path: &Path) -> Result<Box<dyn BufRead + Send>, LogError> {
+    let file = std::fs::File::open(path).map_err(|source| LogError::Io { path: path.to_owned(), source })?;
+    let inner: Box<dyn Read + Send> = if path.extension().is_some_and(|e| e == "gz") {
+        Box::new(flate2::read::MultiGzDecoder::new(file))
+    } else {
+        Box::new(file)
+    };
+    Ok(Box::new(BufReader::with_capacity(1 << 16, inner)))
+}
+
 /// One laser line of a log.
 #[derive(Clone, Debug, PartialEq)]
 pub struct LogScan {
@@ -69,13 +80,7 @@ pub struct CarmenReader {
 impl CarmenReader {
     /// Opens a log file (`.gz` is decompressed).
     pub fn open(path: &Path, layout: FlaserLayout) -> Result<Self, LogError> {
-        let file = std::fs::File::open(path).map_err(|source| LogError::Io { path: path.to_owned(), source })?;
-        let inner: Box<dyn Read + Send> = if path.extension().is_some_and(|e| e == "gz") {
-            Box::new(flate2::read::MultiGzDecoder::new(file))
-        } else {
-            Box::new(file)
-        };
-        Ok(Self::from_reader(Box::new(BufReader::with_capacity(1 << 16, inner)), path, layout))
+        Ok(Self::from_reader(open_log(path)?, path, layout))
     }
 
     /// Reads from any source; `path` names it in errors.

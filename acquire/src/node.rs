@@ -102,22 +102,34 @@ fn source(a: &AcquireArgs) -> Result<(Source, &'static str)> {
 
 static STOP: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
 
-fn stop_requested() -> bool {
+/// Whether SIGINT or SIGTERM arrived since [`install_stop_handlers`].
+pub fn stop_requested() -> bool {
     STOP.load(std::sync::atomic::Ordering::Relaxed)
+}
+
+/// The flag a blocking source (a serial port, a pty) checks: set on SIGINT and SIGTERM. (Loops
+/// that wait in iceoryx2 see those signals through their node instead.)
+pub fn stop_flag() -> &'static std::sync::atomic::AtomicBool {
+    &STOP
 }
 
 extern "C" fn on_stop(_: libc::c_int) {
     STOP.store(true, std::sync::atomic::Ordering::Relaxed);
 }
 
+/// Makes SIGINT and SIGTERM set [`stop_requested`].
+pub fn install_stop_handlers() {
+    // SAFETY: the handler only stores to an atomic.
+    unsafe {
+        libc::signal(libc::SIGINT, on_stop as *const () as libc::sighandler_t);
+        libc::signal(libc::SIGTERM, on_stop as *const () as libc::sighandler_t);
+    }
+}
+
 pub fn run(a: AcquireArgs) -> Result<()> {
     if a.serial.is_some() {
         // a sensor source can block on the port: notice SIGINT/SIGTERM ourselves too
-        // SAFETY: the handler only stores to an atomic.
-        unsafe {
-            libc::signal(libc::SIGINT, on_stop as *const () as libc::sighandler_t);
-            libc::signal(libc::SIGTERM, on_stop as *const () as libc::sighandler_t);
-        }
+        install_stop_handlers();
     }
     if let Some(cpu) = a.cpu {
         messages::pin_to_cpu(cpu)?;

@@ -2,9 +2,9 @@
 //! a line; token 0 is a timestamp in microseconds, tokens 24 onwards are 682 ranges in mm for
 //! steps 44..=725 (0: no return). Errors name the file and line.
 
-use crate::carmen::LogError;
+use crate::carmen::{open_log, LogError};
 use laser::{LaserScan, ScanGeometry};
-use std::io::{BufRead, BufReader, Read};
+use std::io::BufRead;
 use std::path::{Path, PathBuf};
 
 /// Readings per line.
@@ -21,13 +21,7 @@ pub struct UrgLogReader {
 
 impl UrgLogReader {
     pub fn open(path: &Path) -> Result<Self, LogError> {
-        let file = std::fs::File::open(path).map_err(|source| LogError::Io { path: path.to_owned(), source })?;
-        let inner: Box<dyn Read + Send> = if path.extension().is_some_and(|e| e == "gz") {
-            Box::new(flate2::read::MultiGzDecoder::new(file))
-        } else {
-            Box::new(file)
-        };
-        Ok(UrgLogReader { reader: Box::new(BufReader::new(inner)), path: path.to_owned(), line: 0, buf: String::new() })
+        Ok(UrgLogReader { reader: open_log(path)?, path: path.to_owned(), line: 0, buf: String::new() })
     }
 
     fn parse(&self) -> Result<LaserScan, String> {

@@ -26,16 +26,7 @@ impl DistanceField {
     /// Builds the field at `resolution` (coarsened if the map is very large), with distances
     /// capped at `cap` metres.
     pub fn new(walls: &[Wall], resolution: f64, cap: f64) -> Self {
-        let mut lo = Point2::new(f64::INFINITY, f64::INFINITY);
-        let mut hi = Point2::new(f64::NEG_INFINITY, f64::NEG_INFINITY);
-        for w in walls {
-            lo = lo.inf(&w.a).inf(&w.b);
-            hi = hi.sup(&w.a).sup(&w.b);
-        }
-        if walls.is_empty() {
-            lo = Point2::origin();
-            hi = Point2::origin();
-        }
+        let (lo, hi) = crate::map::bounds_of(walls);
         let (w, h) = (hi.x - lo.x + 2.0 * cap, hi.y - lo.y + 2.0 * cap);
         let resolution = resolution.max((w * h / MAX_CELLS).sqrt());
         let origin = Point2::new(lo.x - cap, lo.y - cap);

@@ -19,16 +19,7 @@ impl WallGrid {
     /// Indexes `walls` in cells of side `cell`; a cell lists every wall closer than `margin` to
     /// any point of the cell.
     pub fn new(walls: &[Wall], cell: f64, margin: f64) -> Self {
-        let mut lo = Point2::new(f64::INFINITY, f64::INFINITY);
-        let mut hi = Point2::new(f64::NEG_INFINITY, f64::NEG_INFINITY);
-        for w in walls {
-            lo = lo.inf(&w.a).inf(&w.b);
-            hi = hi.sup(&w.a).sup(&w.b);
-        }
-        if walls.is_empty() {
-            lo = Point2::origin();
-            hi = Point2::origin();
-        }
+        let (lo, hi) = crate::map::bounds_of(walls);
         let pad = margin + cell;
         let origin = Point2::new(lo.x - pad, lo.y - pad);
         let cols = (((hi.x - lo.x) + 2.0 * pad) / cell).ceil().max(1.0) as usize;

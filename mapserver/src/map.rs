@@ -37,6 +37,20 @@ impl Wall {
     }
 }
 
+/// Axis-aligned bounds (min, max) of `walls`; the origin twice when there are none.
+pub fn bounds_of(walls: &[Wall]) -> (Point2<f64>, Point2<f64>) {
+    if walls.is_empty() {
+        return (Point2::origin(), Point2::origin());
+    }
+    let mut lo = Point2::new(f64::INFINITY, f64::INFINITY);
+    let mut hi = Point2::new(f64::NEG_INFINITY, f64::NEG_INFINITY);
+    for w in walls {
+        lo = lo.inf(&w.a).inf(&w.b);
+        hi = hi.sup(&w.a).sup(&w.b);
+    }
+    (lo, hi)
+}
+
 /// A map of walls.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct WallMap {
@@ -119,15 +133,7 @@ impl WallMap {
 
     /// Axis-aligned bounds (min, max) of all walls.
     pub fn bounds(&self) -> (Point2<f64>, Point2<f64>) {
-        let mut lo = Point2::new(f64::INFINITY, f64::INFINITY);
-        let mut hi = Point2::new(f64::NEG_INFINITY, f64::NEG_INFINITY);
-        for w in &self.walls {
-            for p in [w.a, w.b] {
-                lo = lo.inf(&p);
-                hi = hi.sup(&p);
-            }
-        }
-        (lo, hi)
+        bounds_of(&self.walls)
     }
 }
 

@@ -75,28 +75,34 @@ pub fn instance() -> usize {
     std::env::var("GEMA2_INSTANCE").ok().and_then(|v| v.parse().ok()).filter(|&v| v <= MAX_INSTANCE).unwrap_or(0)
 }
 
-/// Tells the supervisor (listening on `<prefix>/ready`) that this process's ports exist and it
-/// can take data: the event id is the instance number the supervisor gave it.
-pub fn announce_ready(node: &Node<ipc::Service>, prefix: &str) -> Result<(), crate::OpenError> {
+/// The `<prefix>/ready` event service, through which stages tell the supervisor they are
+/// connected.
+fn ready_event(
+    node: &Node<ipc::Service>,
+    prefix: &str,
+) -> Result<iceoryx2::service::port_factory::event::PortFactory<ipc::Service>, crate::OpenError> {
     let service = crate::service_name(prefix, "ready");
     let name = ServiceName::new(&service)
         .map_err(|e| crate::OpenError::Name { service: service.clone(), message: format!("{e:?}") })?;
-    let event = node
-        .service_builder(&name)
+    node.service_builder(&name)
         .event()
         .event_id_max_value(MAX_INSTANCE)
         .max_notifiers(16)
         .max_listeners(4)
         .max_nodes(32)
         .open_or_create()
-        .map_err(|e| crate::OpenError::Open { service: service.clone(), message: format!("{e:?}") })?;
-    let notifier = event
-        .notifier_builder()
-        .create()
-        .map_err(|e| crate::OpenError::Port { service: service.clone(), message: format!("{e:?}") })?;
-    notifier
-        .notify_with_custom_event_id(EventId::new(instance()))
-        .map_err(|e| crate::OpenError::Port { service, message: format!("{e:?}") })?;
+        .map_err(|e| crate::OpenError::Open { service, message: format!("{e:?}") })
+}
+
+/// Tells the supervisor (listening on `<prefix>/ready`) that this process's ports exist and it
+/// can take data: the event id is the instance number the supervisor gave it.
+pub fn announce_ready(node: &Node<ipc::Service>, prefix: &str) -> Result<(), crate::OpenError> {
+    let port = |e: &dyn std::fmt::Debug| crate::OpenError::Port {
+        service: crate::service_name(prefix, "ready"),
+        message: format!("{e:?}"),
+    };
+    let notifier = ready_event(node, prefix)?.notifier_builder().create().map_err(|e| port(&e))?;
+    notifier.notify_with_custom_event_id(EventId::new(instance())).map_err(|e| port(&e))?;
     Ok(())
 }
 
@@ -105,17 +111,8 @@ pub fn ready_listener(
     node: &Node<ipc::Service>,
     prefix: &str,
 ) -> Result<iceoryx2::port::listener::Listener<ipc::Service>, crate::OpenError> {
-    let service = crate::service_name(prefix, "ready");
-    let name = ServiceName::new(&service)
-        .map_err(|e| crate::OpenError::Name { service: service.clone(), message: format!("{e:?}") })?;
-    let event = node
-        .service_builder(&name)
-        .event()
-        .event_id_max_value(MAX_INSTANCE)
-        .max_notifiers(16)
-        .max_listeners(4)
-        .max_nodes(32)
-        .open_or_create()
-        .map_err(|e| crate::OpenError::Open { service: service.clone(), message: format!("{e:?}") })?;
-    event.listener_builder().create().map_err(|e| crate::OpenError::Port { service, message: format!("{e:?}") })
+    ready_event(node, prefix)?.listener_builder().create().map_err(|e| crate::OpenError::Port {
+        service: crate::service_name(prefix, "ready"),
+        message: format!("{e:?}"),
+    })
 }

@@ -8,7 +8,6 @@ use anyhow::{Context, Result};
 use clap::Args;
 use serialport::{SerialPort, TTYPort};
 use std::path::PathBuf;
-use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Duration;
 
 #[derive(Args)]
@@ -25,12 +24,6 @@ pub struct EmulateArgs {
     /// Also make this path a symlink to the pseudo-terminal.
     #[arg(long)]
     pub link: Option<PathBuf>,
-}
-
-static STOP: AtomicBool = AtomicBool::new(false);
-
-extern "C" fn on_stop(_: libc::c_int) {
-    STOP.store(true, Ordering::Relaxed);
 }
 
 pub fn run(a: EmulateArgs) -> Result<()> {
@@ -53,15 +46,11 @@ pub fn run(a: EmulateArgs) -> Result<()> {
         let _ = std::fs::remove_file(link);
         std::os::unix::fs::symlink(&path, link).with_context(|| format!("linking {}", link.display()))?;
     }
-    // SAFETY: the handler only stores to an atomic.
-    unsafe {
-        libc::signal(libc::SIGINT, on_stop as *const () as libc::sighandler_t);
-        libc::signal(libc::SIGTERM, on_stop as *const () as libc::sighandler_t);
-    }
+    acquire::node::install_stop_handlers();
     println!("{path}");
     eprintln!("emulated URG-04LX on {path}; Ctrl-C to stop");
     loop {
-        match emu.serve(&mut master, &STOP)? {
+        match emu.serve(&mut master, acquire::node::stop_flag())? {
             ServeEnd::Stopped => break,
             // no client on the other side (yet, or any more): wait for one
             _ => std::thread::sleep(Duration::from_millis(50)),
