@@ -90,8 +90,8 @@ impl Default for CornerConfig {
         CornerConfig {
             min_angle: 25f64.to_radians(),
             reach: 1.0,
-            long_reach: 3.0,
-            long_line: 1.0,
+            long_reach: 5.0,
+            long_line: 0.6,
             min_arm_length: 0.25,
             max_direction_sigma: 2.5f64.to_radians(),
             ranking: CornerRanking::Length,
