@@ -18,6 +18,8 @@ pub enum MapCommand {
     },
     /// Print a map's size and corner counts.
     Info { map: PathBuf },
+    /// Build a wall map from a log whose poses are true (a SLAM-corrected log).
+    Build(super::build_map::BuildArgs),
 }
 
 pub fn run(c: MapCommand) -> Result<()> {
@@ -35,6 +37,7 @@ pub fn run(c: MapCommand) -> Result<()> {
             eprintln!("{}: {} walls", out.display(), map.walls.len());
             Ok(())
         }
+        MapCommand::Build(a) => super::build_map::run(a),
         MapCommand::Info { map } => {
             let m = mapserver::WallMap::load(&map)?;
             let idx = CornerIndex::build(&m.walls, &MapCornerConfig::default());

@@ -1,6 +1,7 @@
 //! One module per subcommand.
 
 pub mod bench;
+pub mod build_map;
 pub mod demo;
 pub mod emulate;
 pub mod lines;

@@ -1,0 +1,185 @@
+//! `gema2 map build`: a wall map from the scans of a log whose poses are true (a
+//! SLAM-corrected log): every scan's lines are placed in the world, lines on the same wall are
+//! clustered (direction, then offset) and their extents merged; walls seen only once are
+//! clutter and dropped. Evaluate on scans the map was not built from (`--every 2` here,
+//! `locate --every 2 --offset 1` there).
+
+use acquire::{CarmenReader, FlaserLayout};
+use anyhow::{bail, Context, Result};
+use clap::Args;
+use mapserver::{Wall, WallMap};
+use nalgebra::{Point2, Vector2};
+use segment::{LineVisibilitySegmenter, Segmenter, SegmenterConfig};
+use std::f64::consts::PI;
+use std::path::PathBuf;
+
+#[derive(Args)]
+pub struct BuildArgs {
+    /// A CARMEN log with true poses.
+    #[arg(long)]
+    pub log: PathBuf,
+    /// Use every K-th scan...
+    #[arg(long, default_value_t = 2)]
+    pub every: usize,
+    /// ...starting at this one.
+    #[arg(long, default_value_t = 0)]
+    pub offset: usize,
+    /// Lines farther than this from the sensor are left out (metres).
+    #[arg(long, default_value_t = 15.0)]
+    pub max_range: f64,
+    /// Observations a wall needs to be kept.
+    #[arg(long, default_value_t = 2)]
+    pub min_support: usize,
+    #[arg(long)]
+    pub out: PathBuf,
+}
+
+/// A line in the world, with how many scans saw it.
+#[derive(Clone, Copy)]
+struct Observed {
+    a: Point2<f64>,
+    b: Point2<f64>,
+    angle: f64,
+}
+
+pub fn run(a: BuildArgs) -> Result<()> {
+    let reader = CarmenReader::open(&a.log, FlaserLayout::default())?;
+    let mut seg = LineVisibilitySegmenter::new(SegmenterConfig::default());
+    let mut seen = Vec::new();
+    let mut scans = 0;
+    for (k, item) in reader.enumerate() {
+        let item = item?;
+        if k % a.every.max(1) != a.offset % a.every.max(1) {
+            continue;
+        }
+        let Some(truth) = item.scan.truth else {
+            bail!("{}: scan {k} has no pose: a map needs a corrected log", a.log.display())
+        };
+        scans += 1;
+        for l in &seg.segment(&item.scan.view()).lines {
+            if l.start.coords.norm().max(l.end.coords.norm()) > a.max_range || l.length() < 0.3 {
+                continue;
+            }
+            let (p, q) = (truth * l.start, truth * l.end);
+            let d = q - p;
+            seen.push(Observed { a: p, b: q, angle: d.y.atan2(d.x).rem_euclid(PI) });
+        }
+    }
+    let walls = merge(&mut seen, a.min_support);
+    if walls.is_empty() {
+        bail!("{}: no wall was seen twice", a.log.display());
+    }
+    let map = WallMap::new(walls);
+    std::fs::write(&a.out, map.to_json("built")).with_context(|| format!("writing {}", a.out.display()))?;
+    eprintln!("{}: {} walls from {} lines of {scans} scans", a.out.display(), map.walls.len(), seen.len());
+    Ok(())
+}
+
+/// Clusters lines by direction (within 2 degrees) and then offset (within 6 cm), and merges
+/// each cluster's extents along the line, bridging gaps up to 0.3 m.
+fn merge(seen: &mut [Observed], min_support: usize) -> Vec<Wall> {
+    // directions live on a circle of circumference pi: cut it at the widest empty gap, so a wall
+    // seen at 0.1 and 179.9 degrees stays one cluster
+    seen.sort_by(|p, q| p.angle.total_cmp(&q.angle));
+    if seen.len() > 1 {
+        let n = seen.len();
+        let gap =
+            |k: usize| if k == 0 { seen[0].angle + PI - seen[n - 1].angle } else { seen[k].angle - seen[k - 1].angle };
+        let cut = (0..n).max_by(|&a, &b| gap(a).total_cmp(&gap(b))).unwrap_or(0);
+        seen.rotate_left(cut);
+        for o in seen[n - cut..].iter_mut() {
+            o.angle += PI;
+        }
+    }
+    let mut walls = Vec::new();
+    let mut start = 0;
+    while start < seen.len() {
+        let mut end = start + 1;
+        // no chaining: a direction cluster spans at most 3 degrees
+        while end < seen.len() && seen[end].angle - seen[start].angle < 3f64.to_radians() {
+            end += 1;
+        }
+        let group = &seen[start..end];
+        let mean = group.iter().map(|o| o.angle).sum::<f64>() / group.len() as f64;
+        let dir = Vector2::new(mean.cos(), mean.sin());
+        let normal = Vector2::new(-dir.y, dir.x);
+        let mut by_offset: Vec<(f64, usize)> =
+            group.iter().enumerate().map(|(i, o)| (normal.dot(&((o.a.coords + o.b.coords) / 2.0)), i)).collect();
+        by_offset.sort_by(|p, q| p.0.total_cmp(&q.0));
+        let mut k = 0;
+        while k < by_offset.len() {
+            let mut m = k + 1;
+            while m < by_offset.len() && by_offset[m].0 - by_offset[m - 1].0 < 0.06 {
+                m += 1;
+            }
+            // the wall's line: a total least squares fit of its members' endpoints
+            let mut moments = segment::fit::Moments::default();
+            for &(_, i) in &by_offset[k..m] {
+                moments.add(group[i].a);
+                moments.add(group[i].b);
+            }
+            let Some(fit) = moments.fit() else {
+                k = m;
+                continue;
+            };
+            let (d, c) = (fit.direction, fit.centroid);
+            let mut spans: Vec<(f64, f64)> = by_offset[k..m]
+                .iter()
+                .map(|&(_, i)| {
+                    let (s0, s1) = ((group[i].a - c).dot(&d), (group[i].b - c).dot(&d));
+                    (s0.min(s1), s0.max(s1))
+                })
+                .collect();
+            spans.sort_by(|p, q| p.0.total_cmp(&q.0));
+            let (mut lo, mut hi, mut support) = (spans[0].0, spans[0].1, 1);
+            let flush = |lo: f64, hi: f64, support: usize, walls: &mut Vec<Wall>| {
+                if support >= min_support && hi - lo >= 0.3 {
+                    let (p, q) = (c + d * lo, c + d * hi);
+                    walls.push(Wall::new(p.x, p.y, q.x, q.y));
+                }
+            };
+            for &(s0, s1) in spans.iter().skip(1) {
+                if s0 <= hi + 0.3 {
+                    hi = hi.max(s1);
+                    support += 1;
+                } else {
+                    flush(lo, hi, support, &mut walls);
+                    (lo, hi, support) = (s0, s1, 1);
+                }
+            }
+            flush(lo, hi, support, &mut walls);
+            k = m;
+        }
+        start = end;
+    }
+    walls
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn obs(x1: f64, y1: f64, x2: f64, y2: f64) -> Observed {
+        let (a, b) = (Point2::new(x1, y1), Point2::new(x2, y2));
+        let d = b - a;
+        Observed { a, b, angle: d.y.atan2(d.x).rem_euclid(PI) }
+    }
+
+    #[test]
+    fn overlapping_sightings_of_a_wall_merge_and_lone_ones_go() {
+        let mut seen = vec![
+            obs(0.0, 1.0, 2.0, 1.01),
+            obs(1.8, 1.0, 4.0, 0.99),
+            obs(4.2, 1.0, 5.0, 1.0),
+            // a parallel wall 0.5 m away, seen once: clutter
+            obs(0.0, 1.5, 3.0, 1.5),
+            // a perpendicular wall seen twice
+            obs(5.0, 1.0, 5.0, 3.0),
+            obs(5.01, 2.5, 5.0, 4.0),
+        ];
+        let walls = merge(&mut seen, 2);
+        assert_eq!(walls.len(), 2, "{walls:?}");
+        let long = walls.iter().map(|w| w.length()).fold(0.0, f64::max);
+        assert!((long - 5.0).abs() < 0.05, "{long}");
+    }
+}
