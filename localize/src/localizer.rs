@@ -231,13 +231,16 @@ impl Localizer {
             c.pose = refine(&model, &self.refine_pts, &c.pose, &self.config.refine).0;
         }
         let t3 = Instant::now();
+        // never expect the scan to agree with the map better than the map is accurate
+        let final_cfg =
+            CostConfig { sigma_floor: self.config.cost.sigma_floor.max(model.map.sigma), ..self.config.cost };
         for c in &self.candidates {
             let cost = cost(
                 scan,
                 &c.pose,
                 &model.caster,
                 &self.config.error,
-                &self.config.cost,
+                &final_cfg,
                 &mut self.scratch,
                 &mut self.expected,
             );
@@ -316,7 +319,7 @@ impl Localizer {
     fn coarse_cost(&mut self, scan: &ScanView<'_>) {
         let cfg = CostConfig {
             stride: (scan.len() / self.config.coarse_beams.max(1)).max(1),
-            sigma_floor: self.config.coarse_sigma,
+            sigma_floor: self.config.coarse_sigma.max(self.model.map.sigma),
             ..self.config.cost
         };
         for c in self.candidates.iter_mut() {

@@ -40,7 +40,7 @@ pub fn map_from_msg(m: &MapMsg) -> Result<WallMap, String> {
         .position(|w| !(w.a.coords.iter().chain(w.b.coords.iter()).all(|v| v.is_finite()) && w.length() > 0.0))
     {
         Some(k) => Err(format!("map version {}: wall {k} is degenerate", m.version)),
-        None => Ok(WallMap::new(walls)),
+        None => Ok(WallMap { walls, sigma: if m.sigma.is_finite() { m.sigma.max(0.0) } else { 0.0 } }),
     }
 }
 

@@ -55,6 +55,10 @@ pub fn bounds_of(walls: &[Wall]) -> (Point2<f64>, Point2<f64>) {
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct WallMap {
     pub walls: Vec<Wall>,
+    /// How far the walls may be from the real ones, metres (the optional `"sigma"` key): 0 for
+    /// an exact plan, about 0.1 for a map built from scans. The cost function never expects
+    /// the sensor to agree with the map better than this.
+    pub sigma: f64,
 }
 
 /// Why a map was rejected.
@@ -72,7 +76,7 @@ pub enum MapError {
 
 impl WallMap {
     pub fn new(walls: Vec<Wall>) -> Self {
-        WallMap { walls }
+        WallMap { walls, sigma: 0.0 }
     }
 
     /// Loads and validates a JSON map file.
@@ -99,6 +103,18 @@ impl WallMap {
         if list.is_empty() {
             return Err(MapError::Shape { path, message: "\"walls\" is empty: a map needs walls".into() });
         }
+        let sigma = match doc.get("sigma") {
+            None => 0.0,
+            Some(v) => match v.as_f64() {
+                Some(x) if x.is_finite() && x >= 0.0 => x,
+                _ => {
+                    return Err(MapError::Shape {
+                        path,
+                        message: format!("\"sigma\" must be a non-negative number of metres, found {v}"),
+                    })
+                }
+            },
+        };
         let mut walls = Vec::with_capacity(list.len());
         for (index, item) in list.iter().enumerate() {
             let bad = |message: String| MapError::Wall { path: path.clone(), index, message };
@@ -118,12 +134,16 @@ impl WallMap {
             }
             walls.push(wall);
         }
-        Ok(WallMap { walls })
+        Ok(WallMap { walls, sigma })
     }
 
     /// The map as JSON (DESIGN.md's format), with a name.
     pub fn to_json(&self, name: &str) -> String {
-        let mut s = format!("{{\n  \"name\": {},\n  \"walls\": [\n", Value::String(name.into()));
+        let mut s = format!("{{\n  \"name\": {},\n", Value::String(name.into()));
+        if self.sigma > 0.0 {
+            s += &format!("  \"sigma\": {},\n", self.sigma);
+        }
+        s += "  \"walls\": [\n";
         for (k, w) in self.walls.iter().enumerate() {
             let sep = if k + 1 < self.walls.len() { "," } else { "" };
             s += &format!("    [{:.3}, {:.3}, {:.3}, {:.3}]{sep}\n", w.a.x, w.a.y, w.b.x, w.b.y);
@@ -163,6 +183,7 @@ mod tests {
             (r#"{"walls": []}"#, "m.json: \"walls\" is empty"),
             (r#"{"wall": []}"#, "m.json: no \"walls\""),
             (r#"{"walls": 3}"#, "m.json: \"walls\" is not a list"),
+            (r#"{"sigma": -1, "walls": [[0,0,1,0]]}"#, "m.json: \"sigma\" must be"),
             ("{\"walls\": [\n[0,0,1,0],\n]}", "m.json: not valid JSON at line 3"),
         ];
         for (text, want) in cases {

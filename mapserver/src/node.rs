@@ -66,6 +66,7 @@ pub fn run(a: MapServerArgs) -> Result<()> {
         publish(&publisher, &notifier, |m: &mut MapMsg| {
             m.version = version;
             m.count = map.walls.len() as u32;
+            m.sigma = map.sigma;
             for (slot, w) in m.walls.iter_mut().zip(&map.walls) {
                 *slot = [w.a.x, w.a.y, w.b.x, w.b.y];
             }

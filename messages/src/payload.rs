@@ -212,6 +212,8 @@ pub struct MapMsg {
     /// Increases every time the map server (re)loads the map.
     pub version: u32,
     pub count: u32,
+    /// The map's accuracy, metres (see `mapserver::WallMap::sigma`).
+    pub sigma: f64,
     /// Walls as x1, y1, x2, y2 (metres).
     pub walls: [[f64; 4]; MAX_WALLS],
 }

@@ -30,6 +30,9 @@ pub struct BuildArgs {
     /// Observations a wall needs to be kept.
     #[arg(long, default_value_t = 2)]
     pub min_support: usize,
+    /// The map's accuracy written into it, metres: the cost function expects no better.
+    #[arg(long, default_value_t = 0.1)]
+    pub sigma: f64,
     #[arg(long)]
     pub out: PathBuf,
 }
@@ -69,7 +72,8 @@ pub fn run(a: BuildArgs) -> Result<()> {
     if walls.is_empty() {
         bail!("{}: no wall was seen twice", a.log.display());
     }
-    let map = WallMap::new(walls);
+    // a map from scans is good to about a decimetre (pose corrections, merging)
+    let map = WallMap { walls, sigma: a.sigma };
     std::fs::write(&a.out, map.to_json("built")).with_context(|| format!("writing {}", a.out.display()))?;
     eprintln!("{}: {} walls from {} lines of {scans} scans", a.out.display(), map.walls.len(), seen.len());
     Ok(())

@@ -79,6 +79,8 @@ pub fn configs(a: &LocateArgs) -> Result<(SegmenterConfig, LocalizerConfig)> {
             "refined" => loc.refined = v as usize,
             "coarse_beams" => loc.coarse_beams = v as usize,
             "coarse_sigma" => loc.coarse_sigma = v,
+            "arm_slack" => loc.arm_slack = v,
+            "map_sigma" => loc.cost.sigma_floor = v,
             "front_cap" => loc.cost.front_cap = v,
             "through_cap" => loc.cost.through_cap = v,
             "ambiguity" => loc.ambiguity_margin = v,
