@@ -63,6 +63,10 @@ pub struct LocalizerConfig {
     pub max_hypotheses: usize,
     /// Keep every candidate pose of a scan in [`Localization::all_candidates`] (diagnostics).
     pub record_candidates: bool,
+    /// Tracking (section 5.1): after an `ok` scan, only map corners within this many metres of
+    /// the last pose are matched; any other outcome returns to global search. `None`: always
+    /// global.
+    pub track_radius: Option<f64>,
 }
 
 impl Default for LocalizerConfig {
@@ -88,6 +92,7 @@ impl Default for LocalizerConfig {
             max_through: 0.05,
             max_hypotheses: 32,
             record_candidates: false,
+            track_radius: None,
         }
     }
 }
@@ -168,6 +173,8 @@ struct Candidate {
 }
 
 pub struct Localizer {
+    /// Where the last `ok` scan put the sensor, while tracking.
+    prior: Option<Point2<f64>>,
     model: Arc<MapModel>,
     pub config: LocalizerConfig,
     screen_pts: Vec<Point2<f64>>,
@@ -181,6 +188,7 @@ pub struct Localizer {
 impl Localizer {
     pub fn new(model: Arc<MapModel>, config: LocalizerConfig) -> Self {
         Localizer {
+            prior: None,
             model,
             config,
             screen_pts: Vec::new(),
@@ -200,6 +208,7 @@ impl Localizer {
 
     /// Switches to another map (from the next scan on).
     pub fn set_model(&mut self, model: Arc<MapModel>) {
+        self.prior = None;
         self.model = model;
     }
 
@@ -254,6 +263,10 @@ impl Localizer {
             }
         }
         self.rank();
+        self.prior = match (self.config.track_radius, self.out.status, self.out.hypotheses.first()) {
+            (Some(_), Status::Ok, Some(h)) => Some(Point2::from(h.pose.translation.vector)),
+            _ => None,
+        };
         let t4 = Instant::now();
         self.out.times = LocateTimes { matching: t1 - t0, coarse: t2 - t1, refine: t3 - t2, cost: t4 - t3 };
         &self.out
@@ -277,6 +290,11 @@ impl Localizer {
             let range = model.corners.similar_range(c.inner_angle, tolerance);
             for k in range {
                 let m = &model.corners.corners()[k];
+                if let (Some(p), Some(r)) = (self.prior, cfg.track_radius) {
+                    if (m.position - p).norm() > r {
+                        continue;
+                    }
+                }
                 if !arms_fit(c, m, cfg.arm_slack) {
                     continue;
                 }

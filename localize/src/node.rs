@@ -26,6 +26,9 @@ pub struct LocalizeArgs {
     /// Pin to this CPU core.
     #[arg(long)]
     pub cpu: Option<usize>,
+    /// Track: after an ok scan, match only map corners within this radius (metres) of it.
+    #[arg(long)]
+    pub track: Option<f64>,
 }
 
 /// The walls of a map message, if it is well formed.
@@ -70,7 +73,8 @@ pub fn run(a: LocalizeArgs) -> Result<()> {
     // the map may already be waiting in history
     let _poll_map = waitset.attach_interval(std::time::Duration::from_millis(200)).map_err(|e| err("waitset", &e))?;
 
-    let config = Gema2Config::default();
+    let mut config = Gema2Config::default();
+    config.localizer.track_radius = a.track;
     let mut localizer: Option<(Localizer, u32)> = None;
     let mut seg = Segmentation::default();
     let mut last_seq: Option<u64> = None;

@@ -122,3 +122,34 @@ fn hopeless_scans_fail_cleanly() {
     let scan = sim.next_scan();
     assert_ne!(locate(&lone, scan.ranges.clone(), scan.geometry), Status::Ok);
 }
+
+/// Tracking (section 5.1): after an ok scan only nearby map corners are matched, so the same
+/// scene costs fewer candidates; after a failed scan the search is global again.
+#[test]
+fn tracking_restricts_matching_to_the_last_pose() {
+    let map = procedural::office(2024, 3, 8);
+    let mut sim = Simulator::new(&map, SensorModel::urg04lx(), Scenario::Clean, 8);
+    let config = LocalizerConfig { track_radius: Some(6.0), ..LocalizerConfig::default() };
+    let mut gema2 = Gema2::new(model(map.clone()), SegmenterConfig::default(), config);
+    let mut checked = 0;
+    for _ in 0..40 {
+        let scan = sim.next_scan();
+        let (_, first) = gema2.process(&scan.view());
+        if first.status != Status::Ok {
+            continue;
+        }
+        let global = first.candidates;
+        // the same scan again, now with a prior
+        let (_, again) = gema2.process(&scan.view());
+        assert!(again.candidates < global, "tracking matched {} of {global} candidates", again.candidates);
+        assert!(again.best().is_some_and(|h| same_pose(&h.pose, &scan.truth.unwrap(), 0.3, 0.1)));
+        checked += 1;
+        // a hopeless scan drops the prior
+        let (_, none) = gema2.process(&LaserScan { ranges: vec![0.0; scan.ranges.len()], ..scan.clone() }.view());
+        assert_eq!(none.status, Status::Failed);
+        let (_, back) = gema2.process(&scan.view());
+        assert_eq!(back.candidates, global, "global search after a failed scan");
+        gema2.process(&LaserScan { ranges: vec![0.0; scan.ranges.len()], ..scan.clone() }.view());
+    }
+    assert!(checked >= 20, "{checked}");
+}

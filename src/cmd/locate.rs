@@ -39,6 +39,9 @@ pub struct LocateArgs {
     /// Use the paper's e(d) = 2 cm instead of 3 cm + 1.5 % of range.
     #[arg(long)]
     pub paper_error: bool,
+    /// Track: after an ok scan, match only map corners within this radius (metres) of it.
+    #[arg(long)]
+    pub track: Option<f64>,
     /// With truth in the log: print at which stage each scan's right pose was lost.
     #[arg(long)]
     pub diagnose: bool,
@@ -66,6 +69,7 @@ pub fn configs(a: &LocateArgs) -> Result<(SegmenterConfig, LocalizerConfig)> {
         loc.error = segment::ErrorModel::PAPER;
     }
     loc.record_candidates = a.diagnose;
+    loc.track_radius = a.track;
     for kv in &a.set {
         let (k, v) = kv.split_once('=').with_context(|| format!("--set {kv}: expected KEY=VALUE"))?;
         let v: f64 = v.parse().with_context(|| format!("--set {kv}: {v:?} is not a number"))?;
