@@ -1,13 +1,12 @@
 //! GEMA2 maps: the JSON wall map, its corners sorted by inner angle (section 5.1), and the
-//! spatial structures the localizer needs: ray casting for eq. 7's expected ranges, a
-//! truncated distance field, and nearest-wall queries.
+//! spatial structures the localizer needs: ray casting for eq. 7's expected ranges and a
+//! truncated distance field that also names each point's nearest wall.
 
 pub mod bundled;
 pub mod corners;
 pub mod field;
 pub mod grid;
 pub mod map;
-pub mod nearest;
 pub mod node;
 pub mod procedural;
 pub mod raycast;
@@ -16,5 +15,4 @@ pub use bundled::{bundled, load_map, BUNDLED};
 pub use corners::{CornerIndex, MapArm, MapCorner, MapCornerConfig};
 pub use field::DistanceField;
 pub use map::{MapError, Wall, WallMap};
-pub use nearest::{NearestWall, NearestWalls};
 pub use raycast::{RayCaster, RayScratch};

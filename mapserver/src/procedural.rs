@@ -9,7 +9,7 @@
 
 use crate::map::{Wall, WallMap};
 use laser::rng::Rng;
-use nalgebra::{Point2, Vector2};
+use nalgebra::Point2;
 use std::f64::consts::TAU;
 
 /// Collects walls; doors are gaps.
@@ -98,7 +98,7 @@ pub fn office(seed: u64, bands: usize, rooms_per_side: usize) -> WallMap {
         let (cs, cn) = (y + ds, y + ds + cw);
         let top = cn + dn;
         let end_at = |yy: f64| x1 + slant * yy;
-        for (side, (wall_y, back_y)) in [(0, (cs, y)), (1, (cn, top))] {
+        for (wall_y, back_y) in [(cs, y), (cn, top)] {
             let mut xa = x0;
             let widths = partition(&mut rng, length, 2.8, 5.5);
             let n = widths.len();
@@ -110,7 +110,7 @@ pub fn office(seed: u64, bands: usize, rooms_per_side: usize) -> WallMap {
                 if k + 1 < n {
                     p.wall((xb, wall_y), (xb, back_y));
                 }
-                room_features(&mut rng, &mut p, (xa, xb), (wall_y, back_y), side);
+                room_features(&mut rng, &mut p, (xa, xb), (wall_y, back_y));
                 xa = xb;
             }
             p.wall_with_doors((x0, wall_y), (end_at(wall_y), wall_y), &doors_at);
@@ -140,7 +140,7 @@ fn end_at_fn(x1: f64, slant: f64, y: f64) -> f64 {
 }
 
 /// Features that make rooms of one size tell apart: a cut corner, a pillar, a fin.
-fn room_features(rng: &mut Rng, p: &mut Plan, (xa, xb): (f64, f64), (wall_y, back_y): (f64, f64), side: usize) {
+fn room_features(rng: &mut Rng, p: &mut Plan, (xa, xb): (f64, f64), (wall_y, back_y): (f64, f64)) {
     let depth = back_y - wall_y;
     let sign = depth.signum();
     if rng.chance(0.3) {
@@ -159,7 +159,6 @@ fn room_features(rng: &mut Rng, p: &mut Plan, (xa, xb): (f64, f64), (wall_y, bac
         let len = rng.range(0.6, 1.2);
         p.wall((fx, back_y), (fx, back_y - sign * len));
     }
-    let _ = side;
 }
 
 /// An office with about `walls` walls (for scaling benchmarks): a building about twice as
@@ -313,7 +312,6 @@ pub fn radial(seed: u64) -> WallMap {
             p.block(c, (rng.range(0.4, 1.2), rng.range(0.4, 0.8)), rng.range(0.0, 3.0));
         }
     }
-    let _ = Vector2::<f64>::zeros();
     p.done()
 }
 

@@ -61,7 +61,7 @@ fn mergeable(a: &Line, b: &Line, error: &ErrorModel, cfg: &FilterConfig) -> bool
 mod tests {
     use super::*;
     use crate::fit::Moments;
-    use nalgebra::{Point2, Vector2};
+    use nalgebra::Point2;
 
     /// Samples along a segment from `a` to `b`, `n` of them, as if seen from the origin.
     fn samples_on(a: Point2<f64>, b: Point2<f64>, n: usize, gap_before: bool) -> Vec<Sample> {
@@ -111,6 +111,5 @@ mod tests {
         let mut out = Vec::new();
         filter_lines(&lines, &s, &ErrorModel::PAPER, &FilterConfig::default(), &mut out);
         assert_eq!(out.len(), 2);
-        let _ = Vector2::<f64>::zeros();
     }
 }

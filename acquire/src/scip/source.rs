@@ -6,7 +6,7 @@ use super::driver::{Encoding, LinkStats, Urg};
 use super::ScipError;
 use laser::LaserScan;
 use serialport::TTYPort;
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 pub struct SerialSource {
     pub path: String,
@@ -16,7 +16,6 @@ pub struct SerialSource {
     /// Totals over every connection.
     pub stats: LinkStats,
     pub reconnects: u64,
-    started: Instant,
 }
 
 /// Errors that reconnecting cannot fix.
@@ -33,7 +32,6 @@ impl SerialSource {
             backoff: Duration::from_millis(100),
             stats: LinkStats::default(),
             reconnects: 0,
-            started: Instant::now(),
         }
     }
 
@@ -109,9 +107,5 @@ impl SerialSource {
                 }
             }
         }
-    }
-
-    pub fn uptime(&self) -> Duration {
-        self.started.elapsed()
     }
 }
