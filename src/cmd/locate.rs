@@ -45,8 +45,9 @@ pub struct LocateArgs {
     /// With truth in the log: print at which stage each scan's right pose was lost.
     #[arg(long)]
     pub diagnose: bool,
-    /// Override a parameter, KEY=VALUE (repeatable): reach, min_arm, corners, screened,
-    /// refined, coarse_beams, coarse_sigma, front_cap, through_cap, ambiguity, min_inliers,
+    /// Override a parameter, KEY=VALUE (repeatable): reach, long_reach, long_line, min_arm,
+    /// corners, screened, refined, coarse_beams, coarse_sigma, arm_slack, map_sigma (a floor on
+    /// the map's accuracy), front_cap, through_cap, ambiguity, min_inliers, max_through,
     /// merge_angle (degrees), min_samples, error_constant, error_proportional.
     #[arg(long = "set", value_name = "KEY=VALUE")]
     pub set: Vec<String>,
