@@ -59,6 +59,25 @@ pub fn open_log(path: &Path) -> Result<Box<dyn BufRead + Send>, LogError> {
     Ok(Box::new(BufReader::with_capacity(1 << 16, inner)))
 }
 
+/// Reads the next line of a log into `buf` and counts it: `None` at the end, `Some(Err)` on an
+/// I/O error naming the file.
+pub(crate) fn next_line(
+    reader: &mut dyn BufRead,
+    buf: &mut String,
+    line: &mut usize,
+    path: &Path,
+) -> Option<Result<(), LogError>> {
+    buf.clear();
+    match reader.read_line(buf) {
+        Ok(0) => None,
+        Ok(_) => {
+            *line += 1;
+            Some(Ok(()))
+        }
+        Err(source) => Some(Err(LogError::Io { path: path.to_owned(), source })),
+    }
+}
+
 /// One laser line of a log.
 #[derive(Clone, Debug, PartialEq)]
 pub struct LogScan {
@@ -98,13 +117,9 @@ impl Iterator for CarmenReader {
 
     fn next(&mut self) -> Option<Self::Item> {
         loop {
-            self.buf.clear();
-            match self.reader.read_line(&mut self.buf) {
-                Ok(0) => return None,
-                Ok(_) => {}
-                Err(source) => return Some(Err(LogError::Io { path: self.path.clone(), source })),
+            if let Err(e) = next_line(&mut self.reader, &mut self.buf, &mut self.line, &self.path)? {
+                return Some(Err(e));
             }
-            self.line += 1;
             if self.buf.trim_end() == NO_TRUTH_MARKER {
                 self.no_truth = true;
                 continue;

@@ -2,7 +2,7 @@
 //! a line; token 0 is a timestamp in microseconds, tokens 24 onwards are 682 ranges in mm for
 //! steps 44..=725 (0: no return). Errors name the file and line.
 
-use crate::carmen::{open_log, LogError};
+use crate::carmen::{next_line, open_log, LogError};
 use laser::{LaserScan, ScanGeometry};
 use std::io::BufRead;
 use std::path::{Path, PathBuf};
@@ -49,13 +49,9 @@ impl Iterator for UrgLogReader {
 
     fn next(&mut self) -> Option<Self::Item> {
         loop {
-            self.buf.clear();
-            match self.reader.read_line(&mut self.buf) {
-                Ok(0) => return None,
-                Ok(_) => {}
-                Err(source) => return Some(Err(LogError::Io { path: self.path.clone(), source })),
+            if let Err(e) = next_line(&mut self.reader, &mut self.buf, &mut self.line, &self.path)? {
+                return Some(Err(e));
             }
-            self.line += 1;
             if self.buf.trim().is_empty() {
                 continue;
             }
