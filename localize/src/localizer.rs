@@ -178,6 +178,8 @@ pub struct Localizer {
     model: Arc<MapModel>,
     pub config: LocalizerConfig,
     screen_pts: Vec<Point2<f64>>,
+    /// Every fourth screening point: the first screening pass.
+    screen_few: Vec<Point2<f64>>,
     refine_pts: Vec<Point2<f64>>,
     candidates: Vec<Candidate>,
     scratch: RayScratch,
@@ -192,6 +194,7 @@ impl Localizer {
             model,
             config,
             screen_pts: Vec::new(),
+            screen_few: Vec::new(),
             refine_pts: Vec::new(),
             candidates: Vec::new(),
             scratch: RayScratch::default(),
@@ -281,7 +284,9 @@ impl Localizer {
         let field = &model.field;
         // screening in two passes: every fourth point for all poses, then every point for the
         // best few times `screened`
-        let few: Vec<Point2<f64>> = self.screen_pts.iter().step_by(4).copied().collect();
+        self.screen_few.clear();
+        self.screen_few.extend(self.screen_pts.iter().step_by(4));
+        let few = &self.screen_few;
         let score = |pose: &Pose, pts: &[Point2<f64>]| {
             pts.iter().map(|q| field.distance(pose * q).powi(2)).sum::<f64>() / pts.len().max(1) as f64
         };
@@ -299,7 +304,7 @@ impl Localizer {
                     continue;
                 }
                 let pose = pose_from_corners(c, m);
-                let score = score(&pose, &few);
+                let score = score(&pose, few);
                 // a pose that puts every point far from the walls is not worth more work
                 if score < FIELD_CAP * FIELD_CAP * 0.95 {
                     self.candidates.push(Candidate { pose, score, scan_corner: ci as u16, map_corner: k as u32 });
@@ -359,14 +364,16 @@ impl Localizer {
         let cfg = self.config;
         let hyps = &mut self.out.hypotheses;
         hyps.sort_by(|a, b| a.cost.value.total_cmp(&b.cost.value));
-        let mut kept: Vec<Hypothesis> = Vec::with_capacity(hyps.len());
-        for h in hyps.drain(..) {
-            if !kept.iter().any(|k| same_pose(&k.pose, &h.pose, 0.05, 1f64.to_radians())) {
-                kept.push(h);
+        // keep the first (cheapest) of hypotheses that converged to the same pose, in place
+        let mut kept = 0;
+        for k in 0..hyps.len() {
+            let h = hyps[k];
+            if !hyps[..kept].iter().any(|q| same_pose(&q.pose, &h.pose, 0.05, 1f64.to_radians())) {
+                hyps[kept] = h;
+                kept += 1;
             }
         }
-        kept.truncate(cfg.max_hypotheses);
-        *hyps = kept;
+        hyps.truncate(kept.min(cfg.max_hypotheses));
         let Some(best) = hyps.first() else {
             self.out.status = Status::Failed;
             return;

@@ -128,14 +128,14 @@ impl LineVisibility {
         let s = &samples[j];
         if s.far < d_max {
             // Case B for V_max: pivot on s's far bound, constrained by an earlier near bound.
-            let p = self.most_restrictive(samples, j, s.far_point(), self.restrictive_max, true);
+            let p = self.most_restrictive(samples, s.far_point(), self.restrictive_max, true);
             self.v_max = Some(Bound { pivot: j, constraint: p });
             self.restrictive_max = p;
         }
         if s.near > d_min {
             // The symmetric update of V_min: pivot on s's near bound, constrained by an
             // earlier far bound.
-            let p = self.most_restrictive(samples, j, s.near_point(), self.restrictive_min, false);
+            let p = self.most_restrictive(samples, s.near_point(), self.restrictive_min, false);
             self.v_min = Some(Bound { pivot: j, constraint: p });
             self.restrictive_min = p;
         }
@@ -148,7 +148,7 @@ impl LineVisibility {
     /// `V_min`) makes the line through `pivot` most restrictive. Measured as the angle between
     /// the line and the direction from `pivot` back to the sensor: `V_max` takes the largest,
     /// `V_min` the smallest. Compared with cross products, no trigonometry.
-    fn most_restrictive(&self, samples: &[Sample], _j: usize, pivot: Point2<f64>, from: usize, for_max: bool) -> usize {
+    fn most_restrictive(&self, samples: &[Sample], pivot: Point2<f64>, from: usize, for_max: bool) -> usize {
         let bound = |k: usize| -> Vector2<f64> {
             let q = if for_max { samples[k].near_point() } else { samples[k].far_point() };
             q - pivot
