@@ -115,6 +115,26 @@ fn run_in_background(pipeline: &Path, prefix: &str, scans: usize, csv: &Path) ->
         .unwrap()
 }
 
+/// A pipeline replaying `scans` simulated scans at `rate`, run in the background under its own
+/// prefix, returned once every stage is up and `settle` has passed.
+struct Running {
+    _dir: tempfile::TempDir,
+    csv: PathBuf,
+    prefix: String,
+    run: Child,
+}
+
+fn start_running(test: &str, scans: usize, rate: &str, settle: Duration) -> Running {
+    let dir = tempfile::tempdir().unwrap();
+    let (_, pipeline) = setup(dir.path(), scans, rate);
+    let csv = dir.path().join("poses.csv");
+    let p = prefix(test);
+    let run = run_in_background(&pipeline, &p, scans, &csv);
+    wait_for("all stages", Duration::from_secs(30), || !stage_pids("acquire", &p).is_empty());
+    std::thread::sleep(settle);
+    Running { _dir: dir, csv, prefix: p, run }
+}
+
 #[test]
 fn the_pipeline_publishes_exactly_what_locate_computes_offline() {
     let dir = tempfile::tempdir().unwrap();
@@ -152,13 +172,7 @@ fn the_pipeline_publishes_exactly_what_locate_computes_offline() {
 
 #[test]
 fn a_killed_stage_is_restarted_and_nothing_else_restarts() {
-    let dir = tempfile::tempdir().unwrap();
-    let (_, pipeline) = setup(dir.path(), 240, "40");
-    let csv = dir.path().join("poses.csv");
-    let p = prefix("kill");
-    let run = run_in_background(&pipeline, &p, 240, &csv);
-    wait_for("all stages", Duration::from_secs(30), || !stage_pids("acquire", &p).is_empty());
-    std::thread::sleep(Duration::from_secs(1));
+    let Running { _dir, csv, prefix: p, run } = start_running("kill", 240, "40", Duration::from_secs(1));
     let (segment, localize, mapserver) =
         (stage_pids("segment", &p), stage_pids("localize", &p), stage_pids("mapserver", &p));
     assert_eq!((segment.len(), localize.len(), mapserver.len()), (1, 1, 1));
@@ -184,13 +198,7 @@ extern "C" {
 
 #[test]
 fn a_hot_swap_of_segment_loses_at_most_two_scans() {
-    let dir = tempfile::tempdir().unwrap();
-    let (_, pipeline) = setup(dir.path(), 240, "40");
-    let csv = dir.path().join("poses.csv");
-    let p = prefix("swap");
-    let run = run_in_background(&pipeline, &p, 240, &csv);
-    wait_for("all stages", Duration::from_secs(30), || !stage_pids("acquire", &p).is_empty());
-    std::thread::sleep(Duration::from_secs(1));
+    let Running { _dir, csv, prefix: p, run } = start_running("swap", 240, "40", Duration::from_secs(1));
     let old = stage_pids("segment", &p);
     let swap = gema2(&["swap", "segment", "--impl", "split-and-merge", "--prefix", &p]);
     assert!(swap.status.success(), "{}", String::from_utf8_lossy(&swap.stderr));
@@ -251,12 +259,7 @@ fn a_payload_type_mismatch_across_processes_names_the_service() {
 
 #[test]
 fn ctrl_c_stops_every_stage_and_leaves_no_dead_resources() {
-    let dir = tempfile::tempdir().unwrap();
-    let (_, pipeline) = setup(dir.path(), 100, "20");
-    let p = prefix("sigint");
-    let run = run_in_background(&pipeline, &p, 100, &dir.path().join("p.csv"));
-    wait_for("all stages", Duration::from_secs(30), || !stage_pids("acquire", &p).is_empty());
-    std::thread::sleep(Duration::from_millis(500));
+    let Running { _dir, prefix: p, run, .. } = start_running("sigint", 100, "20", Duration::from_millis(500));
     // SAFETY: kill(2) on a child of this test.
     unsafe { libc_kill(run.id() as i32, 2) };
     let start = Instant::now();
