@@ -25,6 +25,8 @@ enum Command {
     Locate(cmd::locate::LocateArgs),
     /// Run the pipeline of separate processes over shared memory (supervisor).
     Run(supervisor::RunArgs),
+    /// What a rerun recording of a run holds (through the `viewer` program).
+    Inspect(cmd::inspect::InspectArgs),
     /// Replace a stage's implementation in a running pipeline.
     Swap(supervisor::swap::SwapArgs),
     /// An emulated Hokuyo URG-04LX on a pseudo-terminal (prints its path).
@@ -59,6 +61,7 @@ fn main() -> anyhow::Result<()> {
         Some(Command::Run(a)) => supervisor::run(a),
         Some(Command::EmulateUrg(a)) => cmd::emulate::run(a),
         Some(Command::Lines(a)) => cmd::lines::run(a),
+        Some(Command::Inspect(a)) => cmd::inspect::run(a),
         Some(Command::Swap(a)) => supervisor::swap::request(a),
         Some(Command::Stage(s)) => match s {
             StageCommand::Acquire(a) => acquire::node::run(a),

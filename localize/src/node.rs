@@ -7,11 +7,12 @@ use crate::{Gema2Config, Localizer, MapModel, Status};
 use anyhow::{anyhow, Context, Result};
 use clap::Args;
 use laser::pose_theta;
-use mapserver::{MapCornerConfig, Wall, WallMap};
+use mapserver::wire::map_from_msg;
+use mapserver::MapCornerConfig;
 use messages::iceoryx2::prelude::*;
 use messages::{
     monotonic_ns, open_topic, publish, CornersMsg, HypothesisMsg, MapMsg, PoseMsg, PoseMsgXyt, Stage, Topic,
-    MAX_HYPOTHESES, MAX_WALLS, STATUS_AMBIGUOUS, STATUS_FAILED, STATUS_OK,
+    MAX_HYPOTHESES, STATUS_AMBIGUOUS, STATUS_FAILED, STATUS_OK,
 };
 use segment::sample::build_samples;
 use segment::wire::{corner_from_msg, scan_view};
@@ -29,22 +30,6 @@ pub struct LocalizeArgs {
     /// Track: after an ok scan, match only map corners within this radius (metres) of it.
     #[arg(long)]
     pub track: Option<f64>,
-}
-
-/// The walls of a map message, if it is well formed.
-pub fn map_from_msg(m: &MapMsg) -> Result<WallMap, String> {
-    let n = m.count as usize;
-    if n == 0 || n > MAX_WALLS {
-        return Err(format!("map version {}: {n} walls", m.version));
-    }
-    let walls: Vec<Wall> = m.walls[..n].iter().map(|w| Wall::new(w[0], w[1], w[2], w[3])).collect();
-    match walls
-        .iter()
-        .position(|w| !(w.a.coords.iter().chain(w.b.coords.iter()).all(|v| v.is_finite()) && w.length() > 0.0))
-    {
-        Some(k) => Err(format!("map version {}: wall {k} is degenerate", m.version)),
-        None => Ok(WallMap { walls, sigma: if m.sigma.is_finite() { m.sigma.max(0.0) } else { 0.0 } }),
-    }
 }
 
 pub fn run(a: LocalizeArgs) -> Result<()> {

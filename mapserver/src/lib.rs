@@ -10,6 +10,7 @@ pub mod map;
 pub mod node;
 pub mod procedural;
 pub mod raycast;
+pub mod wire;
 
 pub use bundled::{bundled, load_map, BUNDLED};
 pub use corners::{CornerIndex, MapArm, MapCorner, MapCornerConfig};

@@ -63,15 +63,10 @@ pub fn run(a: MapServerArgs) -> Result<()> {
     let server = queries.server_builder().create().map_err(|e| anyhow!("corner queries: server: {e:?}"))?;
     let mut version = 1u32;
     let send_map = |map: &WallMap, version: u32| {
-        publish(&publisher, &notifier, |m: &mut MapMsg| {
-            m.version = version;
-            m.count = map.walls.len() as u32;
-            m.sigma = map.sigma;
-            for (slot, w) in m.walls.iter_mut().zip(&map.walls) {
-                *slot = [w.a.x, w.a.y, w.b.x, w.b.y];
-            }
-        })
-        .map_err(|e| anyhow!("{}: {e}", topic.name))
+        let mut written = Ok(());
+        publish(&publisher, &notifier, |m: &mut MapMsg| written = crate::wire::map_to_msg(map, version, m))
+            .and(written)
+            .map_err(|e| anyhow!("{}: {e}", topic.name))
     };
     send_map(&map, version)?;
     messages::announce_ready(&node, &a.prefix)?;

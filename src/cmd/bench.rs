@@ -51,15 +51,24 @@ fn bench_pipeline(a: &BenchArgs) -> Result<()> {
     let dir = std::env::temp_dir().join(format!("gema2-bench-{}", std::process::id()));
     std::fs::create_dir_all(&dir)?;
     let cores = std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1);
-    let runs: [(&str, [usize; 3], &str, f64); 3] = [
-        ("stages on separate cores, 10 Hz", [0, 0, 1.min(cores - 1)], "10", 10.0),
-        ("all stages on one core, 10 Hz", [0, 0, 0], "10", 10.0),
-        ("separate cores, --rate max", [0, 0, 1.min(cores - 1)], "max", 2000.0),
+    let recorder = crate::supervisor::child::viewer_binary();
+    let runs: [(&str, [usize; 3], &str, f64, bool); 4] = [
+        ("stages on separate cores, 10 Hz", [0, 0, 1.min(cores - 1)], "10", 10.0, false),
+        ("all stages on one core, 10 Hz", [0, 0, 0], "10", 10.0, false),
+        ("separate cores, --rate max", [0, 0, 1.min(cores - 1)], "max", 2000.0, false),
+        ("separate cores, --rate max, recorded by the viewer", [0, 0, 1.min(cores - 1)], "max", 2000.0, true),
     ];
-    for (k, (title, cpus, rate, hz)) in runs.iter().enumerate() {
+    for (k, (title, cpus, rate, hz, record)) in runs.iter().enumerate() {
         let file = dir.join(format!("p{k}.toml"));
         std::fs::write(&file, pipeline_file(*cpus))?;
         println!("== {title} (acquire, segment, localize on cores {cpus:?})");
+        if *record {
+            if let Err(e) = &recorder {
+                println!("skipped: {e:#}");
+                continue;
+            }
+            println!("(the viewer's own counts, recorded and missed per topic, are on stderr)");
+        }
         let scans = (hz * a.seconds).round() as u64;
         crate::supervisor::run(crate::supervisor::RunArgs {
             pipeline: Some(file),
@@ -68,7 +77,13 @@ fn bench_pipeline(a: &BenchArgs) -> Result<()> {
             prefix: format!("bench{}_{k}", std::process::id()),
             out: None,
             timeout: Some(a.seconds * 6.0 + 30.0),
+            record: record.then(|| dir.join("bench.rrd")),
+            max_size: None,
         })?;
+        if *record {
+            let size = std::fs::metadata(dir.join("bench.rrd")).map(|m| m.len()).unwrap_or(0);
+            println!("recording: {:.1} MB", size as f64 / 1e6);
+        }
     }
     let _ = std::fs::remove_dir_all(&dir);
     Ok(())

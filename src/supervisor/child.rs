@@ -47,6 +47,7 @@ impl StageProcess {
 pub fn spawn(spec: &StageSpec, prefix: &str, implementation: Option<&str>, instance: usize) -> Result<Child> {
     let mut cmd = match &spec.binary {
         Some(b) => Command::new(b),
+        None if spec.kind == Kind::Viewer => Command::new(viewer_binary()?),
         None => {
             let mut c = Command::new(std::env::current_exe().context("locating the gema2 binary")?);
             c.arg("stage").arg(spec.kind.as_str());
@@ -65,6 +66,29 @@ pub fn spawn(spec: &StageSpec, prefix: &str, implementation: Option<&str>, insta
     cmd.env("GEMA2_INSTANCE", instance.to_string());
     cmd.stdin(Stdio::null());
     cmd.spawn().with_context(|| format!("starting stage {}", spec.name))
+}
+
+/// The recorder's program: `GEMA2_VIEWER` if set, else `viewer` beside the gema2 binary (where
+/// cargo builds it), else `viewer` on PATH. rerun is compiled into that program only.
+pub fn viewer_binary() -> Result<std::path::PathBuf> {
+    if let Some(p) = std::env::var_os("GEMA2_VIEWER") {
+        return Ok(p.into());
+    }
+    let exe = std::env::current_exe().context("locating the gema2 binary")?;
+    let beside = exe.with_file_name("viewer");
+    if beside.is_file() {
+        return Ok(beside);
+    }
+    let on_path = std::env::var_os("PATH")
+        .map(|p| std::env::split_paths(&p).map(|d| d.join("viewer")).find(|c| c.is_file()))
+        .unwrap_or_default();
+    on_path.with_context(|| {
+        format!(
+            "no viewer program: not beside {} nor on PATH; build it with `cargo build --release -p viewer` \
+             or set GEMA2_VIEWER",
+            exe.display()
+        )
+    })
 }
 
 /// Sends SIGTERM, waits up to `grace`, then SIGKILL; always reaps.

@@ -23,6 +23,8 @@ pub enum Kind {
     Segment,
     Localize,
     Mapserver,
+    /// The recorder (`viewer` binary): every message to a rerun recording.
+    Viewer,
 }
 
 impl Kind {
@@ -32,6 +34,7 @@ impl Kind {
             Kind::Segment => "segment",
             Kind::Localize => "localize",
             Kind::Mapserver => "mapserver",
+            Kind::Viewer => "viewer",
         }
     }
 }

@@ -2,7 +2,7 @@
 
 use super::child::{stop, StageProcess};
 use super::monitor::Monitor;
-use super::pipeline::{set_arg, Kind, Pipeline};
+use super::pipeline::{set_arg, Kind, Pipeline, Restart, StageSpec};
 use super::swap::{Swap, SwapOutcome};
 use anyhow::{anyhow, bail, Context, Result};
 use clap::Args;
@@ -32,6 +32,12 @@ pub struct RunArgs {
     /// Give up after this many seconds.
     #[arg(long)]
     pub timeout: Option<f64>,
+    /// Record every message to this rerun file through the `viewer` program.
+    #[arg(long)]
+    pub record: Option<PathBuf>,
+    /// With --record: start a new numbered file past this size (e.g. 500M).
+    #[arg(long, requires = "record")]
+    pub max_size: Option<String>,
 }
 
 /// Hands out instance numbers 1..=MAX_INSTANCE.
@@ -79,6 +85,25 @@ pub fn run(a: RunArgs) -> Result<()> {
         if let Some(r) = &a.rate {
             set_arg(&mut s.args, "--rate", r);
         }
+    }
+    if let Some(file) = &a.record {
+        let mut args = vec!["--out".to_owned(), file.display().to_string()];
+        if let Some(size) = &a.max_size {
+            args.extend(["--max-size".to_owned(), size.clone()]);
+        }
+        // first, so it is subscribed before anything is published
+        pipeline.stages.insert(
+            0,
+            StageSpec {
+                name: "viewer".into(),
+                kind: Kind::Viewer,
+                binary: None,
+                implementation: None,
+                args,
+                cpu: None,
+                restart: Restart::OnFailure,
+            },
+        );
     }
     let stale = messages::cleanup_dead_nodes();
     if stale > 0 {
@@ -188,9 +213,15 @@ pub fn run(a: RunArgs) -> Result<()> {
     };
     let waited = waitset.wait_and_process(on_event);
     // stop every stage: SIGTERM, a grace period, then SIGKILL; then clean up
-    for st in stages.iter_mut() {
+    // the recorder last, so it records everything the others sent; it flushes on SIGTERM
+    for st in stages.iter_mut().filter(|s| s.spec.kind != Kind::Viewer) {
         if let Some(mut c) = st.child.take() {
             stop(&mut c, Duration::from_secs(3));
+        }
+    }
+    for st in stages.iter_mut().filter(|s| s.spec.kind == Kind::Viewer) {
+        if let Some(mut c) = st.child.take() {
+            stop(&mut c, Duration::from_secs(30));
         }
     }
     drop(swap);

@@ -1,0 +1,256 @@
+//! What a recording holds, read back with rerun's own decoder: per scan the instance count of
+//! every entity, the latencies, the status and accuracy metrics, and the text log.
+
+use crate::entities::*;
+use re_log_encoding::DecoderApp;
+use rerun::log::{Chunk, LogMsg};
+use rerun::{Arrows2D, LineStrips2D, Points2D, Scalars, TextLog};
+use std::collections::BTreeMap;
+use std::io::BufReader;
+use std::path::{Path, PathBuf};
+use thiserror::Error;
+
+#[derive(Debug, Error)]
+pub enum InspectError {
+    #[error("{path}: {message}")]
+    Open { path: PathBuf, message: String },
+    #[error("{path}: not a clean rerun recording, message {index}: {message}")]
+    Decode { path: PathBuf, index: usize, message: String },
+}
+
+/// One recording (all its parts), summarised.
+#[derive(Clone, Debug, Default)]
+pub struct Inspection {
+    /// Decoded messages, over all parts.
+    pub messages: usize,
+    /// Per scan sequence number: per entity path, the instances logged.
+    pub scans: BTreeMap<i64, BTreeMap<String, usize>>,
+    /// Acquisition time span, nanoseconds on the source's monotonic clock.
+    pub acquired: Option<(i64, i64)>,
+    /// Per latency name (`acquire`, `hop/scan`, ...): every value, microseconds.
+    pub latencies: BTreeMap<String, Vec<f64>>,
+    /// Per scan: the status (0 ok, 1 ambiguous, 2 failed).
+    pub status: BTreeMap<i64, u32>,
+    /// Per scan with truth: success.
+    pub success: BTreeMap<i64, bool>,
+    /// Per scan with truth: position error, metres.
+    pub position_error: BTreeMap<i64, f64>,
+    /// Text log entries, with their scan (None for static ones).
+    pub log: Vec<(Option<i64>, String)>,
+    /// Static entities: instances of the map's walls and corners.
+    pub map_walls: usize,
+    pub map_corners: usize,
+}
+
+/// The component whose list length is an entity's instance count.
+fn counted_component(path: &str) -> Option<rerun::ComponentIdentifier> {
+    Some(match path {
+        SCAN_READINGS | SCAN_CORNERS | SCAN_CHOSEN_CORNER | WORLD_READINGS | MAP_CORNERS => {
+            Points2D::descriptor_positions().component
+        }
+        SCAN_LINES | MAP_WALLS => LineStrips2D::descriptor_strips().component,
+        WORLD_HYPOTHESES | WORLD_POSE | WORLD_TRUTH => Arrows2D::descriptor_vectors().component,
+        _ => return None,
+    })
+}
+
+impl Inspection {
+    /// Decodes the parts of one recording, in order.
+    pub fn read(paths: &[PathBuf]) -> Result<Self, InspectError> {
+        let mut out = Inspection::default();
+        for p in paths {
+            out.read_part(p)?;
+        }
+        Ok(out)
+    }
+
+    fn read_part(&mut self, path: &Path) -> Result<(), InspectError> {
+        let file = std::fs::File::open(path)
+            .map_err(|e| InspectError::Open { path: path.to_path_buf(), message: e.to_string() })?;
+        let decode_err =
+            |index: usize, message: String| InspectError::Decode { path: path.to_path_buf(), index, message };
+        let size = file.metadata().map(|m| m.len()).unwrap_or(0);
+        let mut messages = DecoderApp::decode_lazy(BufReader::new(file));
+        let mut index = 0;
+        for msg in messages.by_ref() {
+            let msg = msg.map_err(|e| decode_err(index, e.to_string()))?;
+            index += 1;
+            if let LogMsg::ArrowMsg(_, arrow) = msg {
+                let chunk = Chunk::from_arrow_msg(&arrow).map_err(|e| decode_err(index, e.to_string()))?;
+                self.add_chunk(&chunk);
+            }
+        }
+        self.messages += index;
+        let decoded = messages.num_bytes_processed();
+        if decoded < size {
+            return Err(decode_err(index, format!("truncated: only {decoded} of {size} bytes form whole messages")));
+        }
+        let footers = messages.rrd_manifests().map_err(|e| decode_err(index, e.to_string()))?;
+        if footers.is_empty() {
+            return Err(decode_err(index, "no footer: the recorder did not close the file".into()));
+        }
+        Ok(())
+    }
+
+    fn add_chunk(&mut self, chunk: &Chunk) {
+        let path = chunk.entity_path().to_string();
+        let path = path.trim_start_matches('/');
+        let scan_timeline = rerun::TimelineName::from_static_str(TIMELINE_SCAN);
+        if let Some(times) = chunk.timelines().get(&rerun::TimelineName::from_static_str(TIMELINE_ACQUIRED)) {
+            for t in times.times() {
+                let t = t.as_i64();
+                let (lo, hi) = self.acquired.get_or_insert((t, t));
+                *lo = (*lo).min(t);
+                *hi = (*hi).max(t);
+            }
+        }
+        if let Some(component) = counted_component(path) {
+            let rows = chunk.iter_component_indices(scan_timeline, component);
+            let lens = chunk.iter_component_offsets(component).map(|s| s.len);
+            for ((time, _), len) in rows.zip(lens) {
+                if chunk.is_static() {
+                    match path {
+                        MAP_WALLS => self.map_walls = len,
+                        MAP_CORNERS => self.map_corners = len,
+                        _ => {}
+                    }
+                } else {
+                    *self.scans.entry(time.as_i64()).or_default().entry(path.to_owned()).or_default() += len;
+                }
+            }
+            return;
+        }
+        if path == LOG {
+            let component = TextLog::descriptor_text().component;
+            let timed = chunk.timelines().contains_key(&scan_timeline);
+            let rows = chunk.iter_component_offsets(component);
+            let times: Vec<Option<i64>> = if timed && !chunk.is_static() {
+                chunk.iter_component_indices(scan_timeline, component).map(|(t, _)| Some(t.as_i64())).collect()
+            } else {
+                rows.map(|_| None).collect()
+            };
+            for (scan, texts) in times.into_iter().zip(chunk.iter_slices::<String>(component)) {
+                for t in texts {
+                    self.log.push((scan, t.to_string()));
+                }
+            }
+            return;
+        }
+        let component = Scalars::descriptor_scalars().component;
+        let rows = chunk.iter_component_indices(scan_timeline, component);
+        for ((time, _), values) in rows.zip(chunk.iter_slices::<f64>(component)) {
+            let (scan, Some(&v)) = (time.as_i64(), values.first()) else { continue };
+            if let Some(name) = path.strip_prefix(LATENCY).and_then(|p| p.strip_prefix('/')) {
+                self.latencies.entry(name.to_owned()).or_default().push(v);
+            } else if path == METRICS_STATUS {
+                self.status.insert(scan, v as u32);
+                self.scans.entry(scan).or_default().insert(METRICS_STATUS.to_owned(), 1);
+            } else if path == METRICS_SUCCESS {
+                self.success.insert(scan, v > 0.5);
+            } else if path == METRICS_POSITION_ERROR {
+                self.position_error.insert(scan, v);
+            }
+        }
+    }
+
+    /// Scans with a given status.
+    pub fn scans_with_status(&self, status: u32) -> Vec<i64> {
+        self.status.iter().filter(|(_, &s)| s == status).map(|(&k, _)| k).collect()
+    }
+
+    /// The human summary `viewer inspect` prints.
+    pub fn render(&self) -> String {
+        let mut out = Vec::new();
+        match (self.scans.keys().next(), self.scans.keys().next_back()) {
+            (Some(a), Some(b)) => out.push(format!("scans: {} (seq {a}..={b})", self.scans.len())),
+            _ => out.push("scans: 0".to_owned()),
+        }
+        if let Some((lo, hi)) = self.acquired {
+            out.push(format!("time span: {:.3} s", (hi - lo) as f64 / 1e9));
+        }
+        out.push(format!("map: {} walls, {} corners", self.map_walls, self.map_corners));
+        if !self.success.is_empty() {
+            let ok = self.success.values().filter(|&&s| s).count();
+            let errors: Vec<f64> = self
+                .success
+                .iter()
+                .filter(|(_, &s)| s)
+                .filter_map(|(k, _)| self.position_error.get(k))
+                .copied()
+                .collect();
+            let mean = if errors.is_empty() { f64::NAN } else { errors.iter().sum::<f64>() / errors.len() as f64 };
+            out.push(format!(
+                "success: {:.1} % of {} scans with truth (mean error of successes {:.1} cm)",
+                100.0 * ok as f64 / self.success.len() as f64,
+                self.success.len(),
+                100.0 * mean
+            ));
+        }
+        if !self.latencies.is_empty() {
+            out.push("latency (µs)        p50       p99     count".to_owned());
+            for (name, values) in &self.latencies {
+                let (p50, p99) = percentiles(values);
+                out.push(format!("  {name:<14} {p50:>9.1} {p99:>9.1} {:>9}", values.len()));
+            }
+        }
+        for (label, status) in [("ambiguous", messages::STATUS_AMBIGUOUS), ("failed", messages::STATUS_FAILED)] {
+            let scans = self.scans_with_status(status);
+            out.push(format!("{label}: {} scans{}", scans.len(), compact(&scans)));
+        }
+        let errors = self.log.iter().filter(|(_, t)| t.contains("bad ") || t.contains("unusable")).count();
+        out.push(format!("log entries: {} ({errors} about bad messages)", self.log.len()));
+        out.join("\n")
+    }
+
+    /// Per scan, tab-separated: seq, then each of [`PER_SCAN`]'s instance counts (`-` if the
+    /// entity was not logged for that scan).
+    pub fn render_per_scan(&self) -> String {
+        let mut out = vec![format!("seq\t{}", PER_SCAN.join("\t"))];
+        for (seq, entities) in &self.scans {
+            let cols: Vec<String> =
+                PER_SCAN.iter().map(|e| entities.get(*e).map_or("-".to_owned(), |n| n.to_string())).collect();
+            out.push(format!("{seq}\t{}", cols.join("\t")));
+        }
+        out.join("\n")
+    }
+}
+
+/// p50 and p99 of `values` (nearest rank).
+pub fn percentiles(values: &[f64]) -> (f64, f64) {
+    if values.is_empty() {
+        return (f64::NAN, f64::NAN);
+    }
+    let mut v = values.to_vec();
+    v.sort_by(f64::total_cmp);
+    let at = |q: f64| v[((q * v.len() as f64).ceil() as usize).clamp(1, v.len()) - 1];
+    (at(0.5), at(0.99))
+}
+
+/// `: 3, 17, 40-42` for a sorted list of scans.
+fn compact(scans: &[i64]) -> String {
+    if scans.is_empty() {
+        return String::new();
+    }
+    let mut runs: Vec<(i64, i64)> = Vec::new();
+    for &s in scans {
+        match runs.last_mut() {
+            Some((_, hi)) if *hi + 1 == s => *hi = s,
+            _ => runs.push((s, s)),
+        }
+    }
+    let parts: Vec<String> =
+        runs.iter().map(|&(a, b)| if a == b { a.to_string() } else { format!("{a}-{b}") }).collect();
+    format!(": {}", parts.join(", "))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn percentiles_and_runs() {
+        assert_eq!(percentiles(&[3.0, 1.0, 2.0]), (2.0, 3.0));
+        assert_eq!(compact(&[3, 17, 40, 41, 42]), ": 3, 17, 40-42");
+        assert_eq!(compact(&[]), "");
+    }
+}

@@ -1,0 +1,458 @@
+//! Messages to rerun: each pipeline message becomes the entities of [`crate::entities`] at its
+//! scan's time. Pure of IPC, so it is tested with hand-made messages.
+
+use crate::entities::*;
+use crate::output::{Output, OutputError};
+use laser::ScanGeometry;
+use mapserver::wire::map_from_msg;
+use mapserver::{CornerIndex, MapCornerConfig};
+use messages::{
+    CornersMsg, Header, LinesMsg, MapMsg, PoseMsg, PoseMsgXyt, ScanMsg, Stage, StageSpan, Topic, MAX_BEAMS,
+    MAX_CORNERS, MAX_HYPOTHESES, MAX_LINES, STATUS_AMBIGUOUS, STATUS_FAILED, STATUS_OK,
+};
+use rerun::datatypes::Rgba32;
+use rerun::{Arrows2D, Color, LineStrips2D, Points2D, RecordingStream, Scalars, TextLog};
+use std::collections::VecDeque;
+use std::time::Duration;
+
+/// Success, as `gema2 locate` counts it: within this distance of the truth...
+pub const SUCCESS_DISTANCE: f64 = 0.30;
+/// ... and within this heading.
+pub const SUCCESS_HEADING_DEG: f64 = 5.0;
+
+/// Scans (and their corners) kept to place readings at a pose that arrives later.
+const KEPT_SCANS: usize = 128;
+/// Length of the arrows drawn for poses, metres.
+const ARROW: f32 = 0.5;
+
+const OK_COLOUR: Color = Color(Rgba32::from_rgb(40, 190, 80));
+const AMBIGUOUS_COLOUR: Color = Color(Rgba32::from_rgb(240, 160, 20));
+const FAILED_COLOUR: Color = Color(Rgba32::from_rgb(220, 40, 40));
+const TRUTH_COLOUR: Color = Color(Rgba32::from_rgb(60, 120, 250));
+const HYPOTHESIS_COLOUR: Color = Color(Rgba32::from_rgb(150, 150, 150));
+
+/// What one topic delivered to the recorder.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct TopicCount {
+    /// Messages recorded.
+    pub recorded: u64,
+    /// Sequence numbers skipped between recorded messages: messages this recorder never saw.
+    pub missed: u64,
+    /// Messages seen twice (two producers during a hot swap), not recorded again.
+    pub duplicates: u64,
+    /// Messages refused as malformed (logged as errors in the recording).
+    pub malformed: u64,
+    pub first_seq: Option<u64>,
+    pub last_seq: Option<u64>,
+}
+
+impl TopicCount {
+    /// Whether `seq` is new; counts gaps and duplicates (the caller counts it recorded).
+    fn accept(&mut self, seq: u64) -> bool {
+        match self.last_seq {
+            Some(last) if seq <= last => {
+                self.duplicates += 1;
+                false
+            }
+            Some(last) => {
+                self.missed += seq - last - 1;
+                self.last_seq = Some(seq);
+                true
+            }
+            None => {
+                self.first_seq = Some(seq);
+                self.last_seq = Some(seq);
+                true
+            }
+        }
+    }
+}
+
+/// Per-topic counts, indexed by [`Topic`].
+#[derive(Clone, Debug, Default)]
+pub struct Counts {
+    pub scan: TopicCount,
+    pub lines: TopicCount,
+    pub corners: TopicCount,
+    pub pose: TopicCount,
+    pub map: TopicCount,
+}
+
+impl Counts {
+    pub fn of(&self, topic: Topic) -> &TopicCount {
+        match topic {
+            Topic::Scan => &self.scan,
+            Topic::Lines => &self.lines,
+            Topic::Corners => &self.corners,
+            Topic::Pose => &self.pose,
+            Topic::Map => &self.map,
+        }
+    }
+
+    /// One line per topic, for the log and stderr.
+    pub fn render(&self) -> String {
+        messages::ALL_TOPICS
+            .iter()
+            .map(|&t| {
+                let c = self.of(t);
+                let span = match (c.first_seq, c.last_seq) {
+                    (Some(a), Some(b)) => format!(", seq {a}..={b}"),
+                    _ => String::new(),
+                };
+                format!(
+                    "{}: {} recorded, {} missed, {} duplicates, {} malformed{span}",
+                    t.suffix(),
+                    c.recorded,
+                    c.missed,
+                    c.duplicates,
+                    c.malformed
+                )
+            })
+            .collect::<Vec<_>>()
+            .join("\n")
+    }
+}
+
+/// A scan kept until its pose arrives.
+struct KeptScan {
+    seq: u64,
+    /// Valid readings in the sensor frame.
+    points: Vec<[f32; 2]>,
+    /// Corner positions in the sensor frame, once the corners arrive.
+    corners: Vec<[f32; 2]>,
+}
+
+/// Turns pipeline messages into a rerun recording.
+pub struct Recorder {
+    output: Output,
+    counts: Counts,
+    kept: VecDeque<KeptScan>,
+    map_version: Option<u32>,
+    /// The last map, kept to log again into each new file part.
+    map_static: Option<(LineStrips2D, Points2D)>,
+    last_status: Option<u32>,
+}
+
+fn span_us(s: &StageSpan) -> Option<f64> {
+    (s.enter_ns > 0 && s.leave_ns >= s.enter_ns).then(|| (s.leave_ns - s.enter_ns) as f64 / 1e3)
+}
+
+fn between_us(from_ns: u64, to_ns: u64) -> Option<f64> {
+    (from_ns > 0 && to_ns >= from_ns).then(|| (to_ns - from_ns) as f64 / 1e3)
+}
+
+fn arrow(p: &PoseMsgXyt) -> ([f32; 2], [f32; 2]) {
+    ([p.x as f32, p.y as f32], [ARROW * p.theta.cos() as f32, ARROW * p.theta.sin() as f32])
+}
+
+fn status_name(status: u32) -> &'static str {
+    match status {
+        STATUS_OK => "ok",
+        STATUS_AMBIGUOUS => "ambiguous",
+        STATUS_FAILED => "failed",
+        _ => "unknown",
+    }
+}
+
+impl Recorder {
+    pub fn new(output: Output) -> Self {
+        Recorder {
+            output,
+            counts: Counts::default(),
+            kept: VecDeque::with_capacity(KEPT_SCANS),
+            map_version: None,
+            map_static: None,
+            last_status: None,
+        }
+    }
+
+    pub fn counts(&self) -> &Counts {
+        &self.counts
+    }
+
+    fn rec(&self) -> &RecordingStream {
+        self.output.stream()
+    }
+
+    fn at(&self, h: &Header) {
+        let rec = self.rec();
+        rec.set_time_sequence(TIMELINE_SCAN, h.seq.min(i64::MAX as u64) as i64);
+        rec.set_time(TIMELINE_ACQUIRED, Duration::from_nanos(h.stamp_ns));
+    }
+
+    fn log_text(&self, level: &str, text: String) -> Result<(), OutputError> {
+        self.rec().log(LOG, &TextLog::new(text).with_level(level)).map_err(stream_err)
+    }
+
+    fn scalar(&self, path: &str, value: Option<f64>) -> Result<(), OutputError> {
+        match value {
+            Some(v) => self.rec().log(path, &Scalars::single(v)).map_err(stream_err),
+            None => Ok(()),
+        }
+    }
+
+    /// A new map version: walls and corners as static entities.
+    pub fn map(&mut self, m: &MapMsg) -> Result<(), OutputError> {
+        if self.map_version == Some(m.version) {
+            self.counts.map.duplicates += 1;
+            return Ok(());
+        }
+        let walls = match map_from_msg(m) {
+            Ok(w) => w,
+            Err(e) => {
+                self.counts.map.malformed += 1;
+                return self.log_text(TextLogLevel::ERROR, format!("bad map ignored: {e}"));
+            }
+        };
+        self.counts.map.recorded += 1;
+        self.counts.map.first_seq.get_or_insert(m.version as u64);
+        self.counts.map.last_seq = Some(m.version as u64);
+        self.map_version = Some(m.version);
+        let corners = CornerIndex::build(&walls.walls, &MapCornerConfig::default());
+        let strips =
+            LineStrips2D::new(walls.walls.iter().map(|w| [[w.a.x as f32, w.a.y as f32], [w.b.x as f32, w.b.y as f32]]))
+                .with_radii([0.03]);
+        let points = Points2D::new(corners.corners().iter().map(|c| [c.position.x as f32, c.position.y as f32]))
+            .with_labels(corners.corners().iter().map(|c| format!("{:.0}°", c.inner_angle.to_degrees())))
+            .with_radii([0.06]);
+        self.log_text(
+            TextLogLevel::INFO,
+            format!("map version {}: {} walls, {} corners", m.version, walls.walls.len(), corners.corners().len()),
+        )?;
+        self.map_static = Some((strips, points));
+        self.log_map()
+    }
+
+    fn log_map(&self) -> Result<(), OutputError> {
+        if let Some((strips, points)) = &self.map_static {
+            self.rec().log_static(MAP_WALLS, strips).map_err(stream_err)?;
+            self.rec().log_static(MAP_CORNERS, points).map_err(stream_err)?;
+        }
+        Ok(())
+    }
+
+    /// A scan: readings in the sensor frame, the truth if known, acquisition latency.
+    pub fn scan(&mut self, m: &ScanMsg) -> Result<(), OutputError> {
+        if !self.counts.scan.accept(m.header.seq) {
+            return Ok(());
+        }
+        self.at(&m.header);
+        let geometry = ScanGeometry {
+            angle_min: m.angle_min,
+            angle_increment: m.angle_increment,
+            range_min: m.range_min,
+            range_max: m.range_max,
+        };
+        let count = m.count as usize;
+        if !geometry.is_well_formed() || count > MAX_BEAMS {
+            self.counts.scan.malformed += 1;
+            return self.log_text(
+                TextLogLevel::ERROR,
+                format!("scan {}: unusable ({count} readings, layout {geometry:?})", m.header.seq),
+            );
+        }
+        let mut kept = if self.kept.len() >= KEPT_SCANS {
+            self.kept.pop_front().unwrap_or_else(|| KeptScan { seq: 0, points: Vec::new(), corners: Vec::new() })
+        } else {
+            KeptScan { seq: 0, points: Vec::with_capacity(count), corners: Vec::new() }
+        };
+        kept.seq = m.header.seq;
+        kept.points.clear();
+        kept.corners.clear();
+        for (i, &r) in m.ranges[..count].iter().enumerate() {
+            let r = r as f64;
+            if geometry.is_valid(r) {
+                let a = geometry.angle(i);
+                kept.points.push([(r * a.cos()) as f32, (r * a.sin()) as f32]);
+            }
+        }
+        let rec = self.rec();
+        rec.log(SCAN_READINGS, &Points2D::new(kept.points.iter().copied()).with_radii([0.015])).map_err(stream_err)?;
+        if m.has_truth != 0 {
+            let (origin, vector) = arrow(&m.truth);
+            rec.log(WORLD_TRUTH, &Arrows2D::from_vectors([vector]).with_origins([origin]).with_colors([TRUTH_COLOUR]))
+                .map_err(stream_err)?;
+        }
+        self.scalar(&latency("acquire"), span_us(&m.header.stages[Stage::Acquire as usize]))?;
+        self.output.account(512 + 8 * kept.points.len() as u64);
+        self.kept.push_back(kept);
+        self.counts.scan.recorded += 1;
+        Ok(())
+    }
+
+    /// A line set: the lines in the sensor frame with their sample counts.
+    pub fn lines(&mut self, m: &LinesMsg) -> Result<(), OutputError> {
+        if !self.counts.lines.accept(m.header.seq) {
+            return Ok(());
+        }
+        self.at(&m.header);
+        let n = (m.count as usize).min(MAX_LINES);
+        if m.count as usize > MAX_LINES {
+            self.counts.lines.malformed += 1;
+            self.log_text(TextLogLevel::WARN, format!("lines {}: count {} cut to {MAX_LINES}", m.header.seq, m.count))?;
+        }
+        let lines = &m.lines[..n];
+        let strips = LineStrips2D::new(
+            lines.iter().map(|l| [[l.start[0] as f32, l.start[1] as f32], [l.end[0] as f32, l.end[1] as f32]]),
+        )
+        .with_labels(lines.iter().map(|l| l.samples.to_string()))
+        .with_radii([0.02]);
+        self.rec().log(SCAN_LINES, &strips).map_err(stream_err)?;
+        let h = &m.header;
+        self.scalar(&latency("segment"), span_us(&h.stages[Stage::Segment as usize]))?;
+        self.scalar(
+            &latency("hop/scan"),
+            between_us(h.stages[Stage::Acquire as usize].leave_ns, h.stages[Stage::Segment as usize].enter_ns),
+        )?;
+        self.output.account(512 + 24 * n as u64);
+        self.counts.lines.recorded += 1;
+        Ok(())
+    }
+
+    /// A corner set: the corners in the sensor frame, labelled by inner angle.
+    pub fn corners(&mut self, m: &CornersMsg) -> Result<(), OutputError> {
+        let h = &m.scan.header;
+        if !self.counts.corners.accept(h.seq) {
+            return Ok(());
+        }
+        self.at(h);
+        let n = (m.count as usize).min(MAX_CORNERS);
+        let corners = &m.corners[..n];
+        let positions: Vec<[f32; 2]> = corners.iter().map(|c| [c.position[0] as f32, c.position[1] as f32]).collect();
+        self.rec()
+            .log(
+                SCAN_CORNERS,
+                &Points2D::new(positions.iter().copied())
+                    .with_labels(corners.iter().map(|c| format!("{:.0}°", c.inner_angle.to_degrees())))
+                    .with_radii([0.05]),
+            )
+            .map_err(stream_err)?;
+        self.output.account(512 + 16 * n as u64);
+        if let Some(k) = self.kept.iter_mut().rev().find(|k| k.seq == h.seq) {
+            k.corners = positions;
+        }
+        self.counts.corners.recorded += 1;
+        Ok(())
+    }
+
+    /// Ranked poses: every hypothesis with its cost, the chosen pose, the readings placed at it,
+    /// the chosen scan corner, status, accuracy against the truth and the latencies.
+    pub fn pose(&mut self, m: &PoseMsg) -> Result<(), OutputError> {
+        let h = &m.header;
+        if !self.counts.pose.accept(h.seq) {
+            return Ok(());
+        }
+        self.at(h);
+        let n = (m.count as usize).min(MAX_HYPOTHESES);
+        let hyps = &m.hypotheses[..n];
+        let (origins, vectors): (Vec<_>, Vec<_>) = hyps.iter().map(|h| arrow(&h.pose)).unzip();
+        let rec = self.rec();
+        rec.log(
+            WORLD_HYPOTHESES,
+            &Arrows2D::from_vectors(vectors)
+                .with_origins(origins)
+                .with_labels(hyps.iter().map(|h| format!("{:.4}", h.cost)))
+                .with_colors([HYPOTHESIS_COLOUR]),
+        )
+        .map_err(stream_err)?;
+        let colour = match m.status {
+            STATUS_OK => OK_COLOUR,
+            STATUS_AMBIGUOUS => AMBIGUOUS_COLOUR,
+            _ => FAILED_COLOUR,
+        };
+        let best = hyps.first();
+        let kept = self.kept.iter().rev().find(|k| k.seq == h.seq);
+        let (pose_arrow, placed, chosen): (Vec<_>, Vec<[f32; 2]>, Vec<[f32; 2]>) = match best {
+            Some(b) => {
+                let (c, s) = (b.pose.theta.cos() as f32, b.pose.theta.sin() as f32);
+                let (x, y) = (b.pose.x as f32, b.pose.y as f32);
+                let placed = kept
+                    .map(|k| k.points.iter().map(|p| [x + c * p[0] - s * p[1], y + s * p[0] + c * p[1]]).collect())
+                    .unwrap_or_default();
+                let chosen = kept.and_then(|k| k.corners.get(b.scan_corner as usize)).copied().into_iter().collect();
+                (vec![arrow(&b.pose)], placed, chosen)
+            }
+            None => (Vec::new(), Vec::new(), Vec::new()),
+        };
+        let placed_len = placed.len();
+        let (o, v): (Vec<_>, Vec<_>) = pose_arrow.into_iter().unzip();
+        rec.log(WORLD_POSE, &Arrows2D::from_vectors(v).with_origins(o).with_colors([colour]).with_radii([0.05]))
+            .map_err(stream_err)?;
+        rec.log(WORLD_READINGS, &Points2D::new(placed).with_colors([colour]).with_radii([0.015]))
+            .map_err(stream_err)?;
+        rec.log(SCAN_CHOSEN_CORNER, &Points2D::new(chosen).with_colors([colour]).with_radii([0.12]))
+            .map_err(stream_err)?;
+        rec.log(METRICS_STATUS, &Scalars::single(m.status as f64)).map_err(stream_err)?;
+        if m.has_truth != 0 {
+            // as `gema2 locate` counts it: a scan without a pose is a miss
+            let success = best.is_some_and(|b| {
+                let error = (b.pose.x - m.truth.x).hypot(b.pose.y - m.truth.y);
+                let heading = laser::angle_diff(b.pose.theta, m.truth.theta).abs().to_degrees();
+                error <= SUCCESS_DISTANCE && heading <= SUCCESS_HEADING_DEG
+            });
+            if let Some(b) = best {
+                self.scalar(METRICS_POSITION_ERROR, Some((b.pose.x - m.truth.x).hypot(b.pose.y - m.truth.y)))?;
+            }
+            self.scalar(METRICS_SUCCESS, Some(if success { 1.0 } else { 0.0 }))?;
+        }
+        let st = &h.stages;
+        self.scalar(&latency("localize"), span_us(&st[Stage::Localize as usize]))?;
+        self.scalar(
+            &latency("hop/corners"),
+            between_us(st[Stage::Segment as usize].leave_ns, st[Stage::Localize as usize].enter_ns),
+        )?;
+        self.scalar(&latency("end_to_end"), between_us(h.stamp_ns, st[Stage::Localize as usize].leave_ns))?;
+        if self.last_status != Some(m.status) {
+            let level = match m.status {
+                STATUS_OK => TextLogLevel::INFO,
+                STATUS_AMBIGUOUS => TextLogLevel::WARN,
+                _ => TextLogLevel::ERROR,
+            };
+            let was = self.last_status.map(status_name).unwrap_or("none");
+            self.log_text(
+                level,
+                format!(
+                    "scan {}: status {} (was {was}), {} hypotheses from {} candidates, by {}",
+                    h.seq,
+                    status_name(m.status),
+                    n,
+                    m.candidates,
+                    h.producer()
+                ),
+            )?;
+            self.last_status = Some(m.status);
+        }
+        self.counts.pose.recorded += 1;
+        // ~12 bytes per point or arrow, plus per-entity overhead
+        self.output.account(512 + 12 * (placed_len + 2 * n) as u64);
+        if self.output.roll_if_full()? {
+            self.log_map()?;
+        }
+        Ok(())
+    }
+
+    /// Records one text entry (errors seen by the process around the recorder).
+    pub fn note(&self, level: &str, text: String) -> Result<(), OutputError> {
+        self.log_text(level, text)
+    }
+
+    /// Flushes and closes; returns the files written.
+    pub fn finish(self) -> Result<(Counts, Vec<std::path::PathBuf>), OutputError> {
+        let counts = self.counts;
+        let parts = self.output.close()?;
+        Ok((counts, parts))
+    }
+}
+
+/// TextLog levels, as rerun spells them.
+pub struct TextLogLevel;
+
+impl TextLogLevel {
+    pub const INFO: &'static str = "INFO";
+    pub const WARN: &'static str = "WARN";
+    pub const ERROR: &'static str = "ERROR";
+}
+
+fn stream_err(e: impl std::fmt::Display) -> OutputError {
+    OutputError::Stream(e.to_string())
+}
