@@ -75,7 +75,11 @@ impl Inspection {
         for msg in messages.by_ref() {
             let msg = msg.map_err(|e| decode_err(index, e.to_string()))?;
             index += 1;
-            if let LogMsg::ArrowMsg(_, arrow) = msg {
+            // the recording's data; the layout (a blueprint store) says nothing about the run
+            if let LogMsg::ArrowMsg(store, arrow) = msg {
+                if store.kind() != rerun::StoreKind::Recording {
+                    continue;
+                }
                 let chunk = Chunk::from_arrow_msg(&arrow).map_err(|e| decode_err(index, e.to_string()))?;
                 self.add_chunk(&chunk);
             }

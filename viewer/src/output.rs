@@ -1,6 +1,9 @@
 //! Where a recording goes: a `.rrd` file (rolling over to numbered files past a size), a live
 //! rerun viewer (spawned, or at an address), or both at once.
 
+use rerun::blueprint::{
+    Blueprint, BlueprintActivation, Horizontal, Spatial2DView, TextLogView, TimePanel, TimeSeriesView, Vertical,
+};
 use rerun::sink::{FileSink, GrpcSink, LogSink};
 use rerun::{RecordingStream, RecordingStreamBuilder};
 use std::path::{Path, PathBuf};
@@ -36,6 +39,24 @@ pub struct OutputSpec {
     pub connect: Option<String>,
     /// The recording id; every part shares it, so a viewer merges the parts into one recording.
     pub recording_id: Option<String>,
+}
+
+/// How a viewer lays out a gema2 recording: the map frame large, the sensor frame, latencies,
+/// status and the log beside it, on the `scan` timeline.
+pub fn layout() -> Blueprint {
+    use crate::entities::*;
+    let left = Vertical::new([
+        Spatial2DView::new("map frame: poses, hypotheses, readings at the pose").with_origin("world").into(),
+        TextLogView::new("log").with_origin(LOG).into(),
+    ])
+    .with_row_shares([4.0, 1.0]);
+    let right = Vertical::new([
+        Spatial2DView::new("sensor frame: readings, lines, corners").with_origin("scan").into(),
+        TimeSeriesView::new("latency (µs)").with_origin(LATENCY).into(),
+        TimeSeriesView::new("status (0 ok, 1 ambiguous, 2 failed), success, error (m)").with_origin("metrics").into(),
+    ]);
+    Blueprint::new(Horizontal::new([left.into(), right.into()]).with_column_shares([3.0, 2.0]))
+        .with_time_panel(TimePanel::new().with_timeline(TIMELINE_SCAN))
 }
 
 /// The path of part `k` of a recording: part 0 is `file` itself, part k > 0 is
@@ -112,10 +133,14 @@ impl Output {
             };
             sinks.push(Box::new(GrpcSink::new(uri)));
         }
-        RecordingStreamBuilder::new(APPLICATION_ID)
+        let stream = RecordingStreamBuilder::new(APPLICATION_ID)
             .recording_id(recording_id)
             .set_sinks(sinks)
-            .map_err(|e| OutputError::Stream(e.to_string()))
+            .map_err(|e| OutputError::Stream(e.to_string()))?;
+        layout()
+            .send(&stream, BlueprintActivation { make_active: true, make_default: true })
+            .map_err(|e| OutputError::Stream(e.to_string()))?;
+        Ok(stream)
     }
 
     pub fn stream(&self) -> &RecordingStream {
