@@ -3,13 +3,14 @@
 //! and closes the file, so nothing already received is lost.
 
 use crate::output::{Output, OutputSpec};
-use crate::record::{Counts, Recorder, TextLogLevel};
+use crate::record::{Counts, Recorder};
 use anyhow::{anyhow, Context, Result};
 use clap::Args;
 use messages::iceoryx2::port::listener::Listener;
 use messages::iceoryx2::port::subscriber::Subscriber;
 use messages::iceoryx2::prelude::*;
 use messages::{open_topic, CornersMsg, LinesMsg, MapMsg, PoseMsg, ScanMsg, Topic};
+use rerun::components::TextLogLevel;
 use std::fmt::Debug;
 use std::path::PathBuf;
 use std::time::Duration;

@@ -10,6 +10,7 @@ use messages::{
     CornersMsg, Header, LinesMsg, MapMsg, PoseMsg, PoseMsgXyt, ScanMsg, Stage, StageSpan, Topic, MAX_BEAMS,
     MAX_CORNERS, MAX_HYPOTHESES, MAX_LINES, STATUS_AMBIGUOUS, STATUS_FAILED, STATUS_OK,
 };
+use rerun::components::TextLogLevel;
 use rerun::datatypes::Rgba32;
 use rerun::{Arrows2D, Color, LineStrips2D, Points2D, RecordingStream, Scalars, TextLog};
 use std::collections::VecDeque;
@@ -385,14 +386,12 @@ impl Recorder {
         rec.log(METRICS_STATUS, &Scalars::single(m.status as f64)).map_err(stream_err)?;
         if m.has_truth != 0 {
             // as `gema2 locate` counts it: a scan without a pose is a miss
-            let success = best.is_some_and(|b| {
-                let error = (b.pose.x - m.truth.x).hypot(b.pose.y - m.truth.y);
+            let error = best.map(|b| (b.pose.x - m.truth.x).hypot(b.pose.y - m.truth.y));
+            let success = best.zip(error).is_some_and(|(b, error)| {
                 let heading = laser::angle_diff(b.pose.theta, m.truth.theta).abs().to_degrees();
                 error <= SUCCESS_DISTANCE && heading <= SUCCESS_HEADING_DEG
             });
-            if let Some(b) = best {
-                self.scalar(METRICS_POSITION_ERROR, Some((b.pose.x - m.truth.x).hypot(b.pose.y - m.truth.y)))?;
-            }
+            self.scalar(METRICS_POSITION_ERROR, error)?;
             self.scalar(METRICS_SUCCESS, Some(if success { 1.0 } else { 0.0 }))?;
         }
         let st = &h.stages;
@@ -442,15 +441,6 @@ impl Recorder {
         let parts = self.output.close()?;
         Ok((counts, parts))
     }
-}
-
-/// TextLog levels, as rerun spells them.
-pub struct TextLogLevel;
-
-impl TextLogLevel {
-    pub const INFO: &'static str = "INFO";
-    pub const WARN: &'static str = "WARN";
-    pub const ERROR: &'static str = "ERROR";
 }
 
 fn stream_err(e: impl std::fmt::Display) -> OutputError {
