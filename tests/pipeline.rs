@@ -1,6 +1,8 @@
 //! The pipeline as real processes over shared memory. Every test uses its own service prefix,
 //! so tests can run in parallel.
 
+mod common;
+
 use std::collections::BTreeSet;
 use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
@@ -36,35 +38,8 @@ fn setup(dir: &Path, scans: usize, rate: &str) -> (PathBuf, PathBuf) {
         log.to_str().unwrap(),
     ]);
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-    let pipeline = dir.join("pipeline.toml");
-    std::fs::write(
-        &pipeline,
-        format!(
-            r#"
-[[stage]]
-name = "mapserver"
-kind = "mapserver"
-args = ["--map", "office"]
-
-[[stage]]
-name = "localize"
-kind = "localize"
-
-[[stage]]
-name = "segment"
-kind = "segment"
-implementation = "line-visibility"
-
-[[stage]]
-name = "acquire"
-kind = "acquire"
-args = ["--log", "{}", "--rate", "{rate}"]
-restart = "never"
-"#,
-            log.display()
-        ),
-    )
-    .unwrap();
+    let pipeline =
+        common::write_pipeline(dir, "pipeline.toml", "office", &["--log", log.to_str().unwrap(), "--rate", rate]);
     (log, pipeline)
 }
 
@@ -284,19 +259,12 @@ fn the_whole_pipeline_runs_on_an_emulated_urg04lx() {
         .spawn()
         .unwrap();
     wait_for("the emulator's pty", Duration::from_secs(10), || link.exists());
-    let pipeline = dir.path().join("serial.toml");
-    std::fs::write(
-        &pipeline,
-        format!(
-            "[[stage]]\nname = \"mapserver\"\nkind = \"mapserver\"\nargs = [\"--map\", \"office\"]\n\n\
-             [[stage]]\nname = \"localize\"\nkind = \"localize\"\n\n\
-             [[stage]]\nname = \"segment\"\nkind = \"segment\"\n\n\
-             [[stage]]\nname = \"acquire\"\nkind = \"acquire\"\nargs = [\"--serial\", \"{}\", \"--carmen-out\", \"{}\"]\n",
-            link.display(),
-            recorded.display()
-        ),
-    )
-    .unwrap();
+    let pipeline = common::write_pipeline(
+        dir.path(),
+        "serial.toml",
+        "office",
+        &["--serial", link.to_str().unwrap(), "--carmen-out", recorded.to_str().unwrap()],
+    );
     let p = prefix("urg");
     let out =
         gema2(&["run", "--pipeline", pipeline.to_str().unwrap(), "--prefix", &p, "--scans", "20", "--timeout", "60"]);

@@ -2,6 +2,8 @@
 //! rerun's decoder (`viewer inspect`). The test subscribes to the same topics itself, so it knows
 //! what the run published and compares that with what the recording holds, scan by scan.
 
+mod common;
+
 use messages::{open_topic, CornersMsg, LinesMsg, PoseMsg, ScanMsg, Topic};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -39,20 +41,7 @@ fn simulate(dir: &Path, scans: usize) -> PathBuf {
 }
 
 fn pipeline(dir: &Path, log: &Path, rate: &str) -> PathBuf {
-    let p = dir.join("pipeline.toml");
-    std::fs::write(
-        &p,
-        format!(
-            "[[stage]]\nname = \"mapserver\"\nkind = \"mapserver\"\nargs = [\"--map\", \"apartment\"]\n\n\
-             [[stage]]\nname = \"localize\"\nkind = \"localize\"\n\n\
-             [[stage]]\nname = \"segment\"\nkind = \"segment\"\n\n\
-             [[stage]]\nname = \"acquire\"\nkind = \"acquire\"\nargs = [\"--log\", \"{}\", \"--rate\", \"{rate}\"]\n\
-             restart = \"never\"\n",
-            log.display()
-        ),
-    )
-    .unwrap();
-    p
+    common::write_pipeline(dir, "pipeline.toml", "apartment", &["--log", log.to_str().unwrap(), "--rate", rate])
 }
 
 /// Per scan, what the run published: valid readings, lines, corners, hypotheses, and whether a

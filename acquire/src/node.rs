@@ -14,12 +14,8 @@ use std::time::Duration;
 
 #[derive(Args, Debug, Clone)]
 pub struct AcquireArgs {
-    /// Service name prefix.
-    #[arg(long, default_value = "gema2")]
-    pub prefix: String,
-    /// Pin to this CPU core.
-    #[arg(long)]
-    pub cpu: Option<usize>,
+    #[command(flatten)]
+    pub stage: messages::StageArgs,
     /// Replay this CARMEN log instead of simulating.
     #[arg(long)]
     pub log: Option<PathBuf>,
@@ -131,9 +127,7 @@ pub fn run(a: AcquireArgs) -> Result<()> {
         // a sensor source can block on the port: notice SIGINT/SIGTERM ourselves too
         install_stop_handlers();
     }
-    if let Some(cpu) = a.cpu {
-        messages::pin_to_cpu(cpu)?;
-    }
+    a.stage.pin()?;
     let period = match a.rate.as_str() {
         // a sensor paces itself
         _ if a.serial.is_some() => None,
@@ -145,7 +139,7 @@ pub fn run(a: AcquireArgs) -> Result<()> {
     };
     let (mut scans, producer) = source(&a)?;
     let node = messages::create_node("acquire")?;
-    let topic = open_topic::<ScanMsg>(&node, &a.prefix, Topic::Scan)?;
+    let topic = open_topic::<ScanMsg>(&node, &a.stage.prefix, Topic::Scan)?;
     let strategy =
         if period.is_none() { BackpressureStrategy::RetryUntilDelivered } else { BackpressureStrategy::DiscardData };
     let publisher = topic

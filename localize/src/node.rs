@@ -21,25 +21,19 @@ use std::sync::Arc;
 
 #[derive(Args, Debug, Clone)]
 pub struct LocalizeArgs {
-    /// Service name prefix.
-    #[arg(long, default_value = "gema2")]
-    pub prefix: String,
-    /// Pin to this CPU core.
-    #[arg(long)]
-    pub cpu: Option<usize>,
+    #[command(flatten)]
+    pub stage: messages::StageArgs,
     /// Track: after an ok scan, match only map corners within this radius (metres) of it.
     #[arg(long)]
     pub track: Option<f64>,
 }
 
 pub fn run(a: LocalizeArgs) -> Result<()> {
-    if let Some(cpu) = a.cpu {
-        messages::pin_to_cpu(cpu)?;
-    }
+    a.stage.pin()?;
     let node = messages::create_node("localize")?;
-    let corners = open_topic::<CornersMsg>(&node, &a.prefix, Topic::Corners)?;
-    let map = open_topic::<MapMsg>(&node, &a.prefix, Topic::Map)?;
-    let poses = open_topic::<PoseMsg>(&node, &a.prefix, Topic::Pose)?;
+    let corners = open_topic::<CornersMsg>(&node, &a.stage.prefix, Topic::Corners)?;
+    let map = open_topic::<MapMsg>(&node, &a.stage.prefix, Topic::Map)?;
+    let poses = open_topic::<PoseMsg>(&node, &a.stage.prefix, Topic::Pose)?;
     let err = |what: &str, e: &dyn std::fmt::Debug| anyhow!("localize: {what}: {e:?}");
     let corners_in = corners.data.subscriber_builder().create().map_err(|e| err(&corners.name, &e))?;
     let corners_wake = corners.event.listener_builder().create().map_err(|e| err(&corners.name, &e))?;
@@ -83,7 +77,7 @@ pub fn run(a: LocalizeArgs) -> Result<()> {
                         None => {
                             localizer = Some((Localizer::new(model, config.localizer), m.version));
                             // ready once there is a map to localize against
-                            if let Err(e) = messages::announce_ready(&node, &a.prefix) {
+                            if let Err(e) = messages::announce_ready(&node, &a.stage.prefix) {
                                 eprintln!("localize: {e}");
                             }
                         }

@@ -17,12 +17,8 @@ use std::time::{Duration, SystemTime};
 
 #[derive(Args, Debug, Clone)]
 pub struct MapServerArgs {
-    /// Service name prefix.
-    #[arg(long, default_value = "gema2")]
-    pub prefix: String,
-    /// Pin to this CPU core.
-    #[arg(long)]
-    pub cpu: Option<usize>,
+    #[command(flatten)]
+    pub stage: messages::StageArgs,
     /// A bundled map's name or a JSON map file (watched for changes).
     #[arg(long, default_value = "office")]
     pub map: String,
@@ -48,18 +44,16 @@ fn load(spec: &str) -> Result<(WallMap, CornerIndex)> {
 }
 
 pub fn run(a: MapServerArgs) -> Result<()> {
-    if let Some(cpu) = a.cpu {
-        messages::pin_to_cpu(cpu)?;
-    }
+    a.stage.pin()?;
     // SAFETY: the handler only stores to an atomic.
     unsafe { libc::signal(libc::SIGHUP, on_sighup as *const () as libc::sighandler_t) };
     let (mut map, mut index) = load(&a.map)?;
     let mut stamp = modified(&a.map);
     let node = messages::create_node("mapserver")?;
-    let topic = open_topic::<MapMsg>(&node, &a.prefix, Topic::Map)?;
+    let topic = open_topic::<MapMsg>(&node, &a.stage.prefix, Topic::Map)?;
     let publisher = topic.data.publisher_builder().create().map_err(|e| anyhow!("{}: publisher: {e:?}", topic.name))?;
     let notifier = topic.event.notifier_builder().create().map_err(|e| anyhow!("{}: notifier: {e:?}", topic.name))?;
-    let queries = open_corner_queries(&node, &a.prefix)?;
+    let queries = open_corner_queries(&node, &a.stage.prefix)?;
     let server = queries.server_builder().create().map_err(|e| anyhow!("corner queries: server: {e:?}"))?;
     let mut version = 1u32;
     let send_map = |map: &WallMap, version: u32| {
@@ -69,7 +63,7 @@ pub fn run(a: MapServerArgs) -> Result<()> {
             .map_err(|e| anyhow!("{}: {e}", topic.name))
     };
     send_map(&map, version)?;
-    messages::announce_ready(&node, &a.prefix)?;
+    messages::announce_ready(&node, &a.stage.prefix)?;
     eprintln!(
         "mapserver: {} ({} walls, {} corners) as version {version}",
         a.map,

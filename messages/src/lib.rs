@@ -17,7 +17,7 @@ pub use payload::*;
 pub use publish::{publish, Zeroable};
 pub use runtime::{
     announce_ready, cleanup_dead_nodes, create_node, instance, monotonic_ns, pin_to_cpu, ready_listener, RuntimeError,
-    MAX_INSTANCE,
+    StageArgs, MAX_INSTANCE,
 };
 pub use topic::{
     open_control, open_corner_queries, open_pubsub, open_topic, service_name, OpenError, Topic, TopicPorts,

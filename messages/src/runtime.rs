@@ -27,6 +27,24 @@ pub fn create_node(name: &str) -> Result<Node<ipc::Service>, RuntimeError> {
         .map_err(|e| RuntimeError::Node { name: name.into(), message: format!("{e:?}") })
 }
 
+/// The arguments every stage process takes, declared once.
+#[derive(clap::Args, Debug, Clone, PartialEq, Eq)]
+pub struct StageArgs {
+    /// Service name prefix: runs with different prefixes never share services.
+    #[arg(long, default_value = "gema2")]
+    pub prefix: String,
+    /// Pin to this CPU core.
+    #[arg(long)]
+    pub cpu: Option<usize>,
+}
+
+impl StageArgs {
+    /// Pins the process to `--cpu`, when given.
+    pub fn pin(&self) -> Result<(), RuntimeError> {
+        self.cpu.map_or(Ok(()), pin_to_cpu)
+    }
+}
+
 /// Pins the calling process (all its threads) to one CPU core.
 pub fn pin_to_cpu(cpu: usize) -> Result<(), RuntimeError> {
     let cores = std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1);

@@ -1,6 +1,5 @@
 //! Real iceoryx2 services between ports of one process.
 
-use messages::iceoryx2::prelude::*;
 use messages::*;
 
 fn prefix(test: &str) -> String {

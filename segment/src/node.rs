@@ -16,27 +16,21 @@ use messages::{
 
 #[derive(Args, Debug, Clone)]
 pub struct SegmentArgs {
-    /// Service name prefix.
-    #[arg(long, default_value = "gema2")]
-    pub prefix: String,
-    /// Pin to this CPU core.
-    #[arg(long)]
-    pub cpu: Option<usize>,
+    #[command(flatten)]
+    pub stage: messages::StageArgs,
     /// Implementation: line-visibility (the paper's) or split-and-merge.
     #[arg(long = "impl", default_value = "line-visibility")]
     pub implementation: String,
 }
 
 pub fn run(a: SegmentArgs) -> Result<()> {
-    if let Some(cpu) = a.cpu {
-        messages::pin_to_cpu(cpu)?;
-    }
+    a.stage.pin()?;
     let mut segmenter = segmenter_by_name(&a.implementation, SegmenterConfig::default())
         .ok_or_else(|| anyhow!("unknown segment implementation {:?}: one of {SEGMENTERS:?}", a.implementation))?;
     let node = messages::create_node(&format!("segment-{}", a.implementation))?;
-    let scans = open_topic::<ScanMsg>(&node, &a.prefix, Topic::Scan)?;
-    let lines = open_topic::<LinesMsg>(&node, &a.prefix, Topic::Lines)?;
-    let corners = open_topic::<CornersMsg>(&node, &a.prefix, Topic::Corners)?;
+    let scans = open_topic::<ScanMsg>(&node, &a.stage.prefix, Topic::Scan)?;
+    let lines = open_topic::<LinesMsg>(&node, &a.stage.prefix, Topic::Lines)?;
+    let corners = open_topic::<CornersMsg>(&node, &a.stage.prefix, Topic::Corners)?;
     let subscriber =
         scans.data.subscriber_builder().create().map_err(|e| anyhow!("{}: subscriber: {e:?}", scans.name))?;
     let listener = scans.event.listener_builder().create().map_err(|e| anyhow!("{}: listener: {e:?}", scans.name))?;
@@ -58,7 +52,7 @@ pub fn run(a: SegmentArgs) -> Result<()> {
         corners.event.notifier_builder().create().map_err(|e| anyhow!("{}: notifier: {e:?}", corners.name))?;
     let waitset = WaitSetBuilder::new().create::<ipc::Service>().map_err(|e| anyhow!("waitset: {e:?}"))?;
     let guard = waitset.attach_notification(&listener).map_err(|e| anyhow!("waitset: {e:?}"))?;
-    messages::announce_ready(&node, &a.prefix)?;
+    messages::announce_ready(&node, &a.stage.prefix)?;
     let name = segmenter.name();
     let mut failure: Option<anyhow::Error> = None;
     let mut bad_scans = 0u64;

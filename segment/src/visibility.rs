@@ -222,14 +222,14 @@ mod tests {
     use laser::{ScanGeometry, ScanView};
     use proptest::prelude::*;
 
-    /// Samples of a straight wall `n . p = c` seen by beams `first..first + n` of `g`, plus
-    /// deterministic noise (`noise[k]` in metres, or in error bands when `in_bands`).
+    /// Samples of a straight wall `n . p = c`, given as `(angle of n, c)`, seen by beams
+    /// `first..first + n` of `g`, plus deterministic noise (`noise[k]` in metres, or in error
+    /// bands when `in_bands`).
     fn wall_samples(
         g: &ScanGeometry,
         first: usize,
         n: usize,
-        normal_angle: f64,
-        c: f64,
+        (normal_angle, c): (f64, f64),
         e: &ErrorModel,
         noise: &[f64],
         in_bands: bool,
@@ -285,7 +285,7 @@ mod tests {
         let g = ScanGeometry::urg04lx();
         // noise of 80 % of e(d) at every reading, alternating sign: the worst zig-zag
         let e = ErrorModel::default();
-        let seen = wall_samples(&g, 200, 300, 0.3, 2.0, &e, &[0.8, -0.8], true);
+        let seen = wall_samples(&g, 200, 300, (0.3, 2.0), &e, &[0.8, -0.8], true);
         let mut v = LineVisibility::new(g.angle_increment);
         for (j, s) in seen.iter().enumerate() {
             assert!(v.admits(&seen, s), "sample {j} of a straight wall rejected");
@@ -298,7 +298,7 @@ mod tests {
     fn rejects_a_sample_whose_band_misses_every_line_through_the_wall() {
         let g = ScanGeometry::urg04lx();
         let e = ErrorModel::PAPER;
-        let seen = wall_samples(&g, 300, 30, 0.0, 1.5, &e, &[0.0], false);
+        let seen = wall_samples(&g, 300, 30, (0.0, 1.5), &e, &[0.0], false);
         let mut v = LineVisibility::new(g.angle_increment);
         for j in 0..20 {
             v.include(&seen, j);
@@ -330,7 +330,7 @@ mod tests {
         ) {
             let g = ScanGeometry::urg04lx();
             let e = ErrorModel::PAPER;
-            let seen = wall_samples(&g, first, n + 1, normal_angle, c, &e, &noise, false);
+            let seen = wall_samples(&g, first, n + 1, (normal_angle, c), &e, &noise, false);
             let mut v = LineVisibility::new(g.angle_increment);
             for j in 0..n {
                 prop_assert!(v.admits(&seen, &seen[j]));

@@ -29,12 +29,8 @@ pub struct RecordArgs {
     /// Stream to a running rerun viewer as well: HOST:PORT or rerun+http://HOST:PORT/proxy.
     #[arg(long)]
     pub connect: Option<String>,
-    /// Service name prefix of the pipeline to record.
-    #[arg(long, default_value = "gema2")]
-    pub prefix: String,
-    /// Pin to this CPU core.
-    #[arg(long)]
-    pub cpu: Option<usize>,
+    #[command(flatten)]
+    pub stage: messages::StageArgs,
 }
 
 /// `512k`, `64M`, `2G` or plain bytes.
@@ -149,9 +145,7 @@ impl Subscriptions {
 
 /// Runs the recorder until SIGINT or SIGTERM; prints what it recorded.
 pub fn run(a: RecordArgs) -> Result<Counts> {
-    if let Some(cpu) = a.cpu {
-        messages::pin_to_cpu(cpu)?;
-    }
+    a.stage.pin()?;
     let output = Output::open(OutputSpec {
         file: a.out.clone(),
         max_size: a.max_size,
@@ -161,7 +155,7 @@ pub fn run(a: RecordArgs) -> Result<Counts> {
     })?;
     let mut recorder = Recorder::new(output);
     let node = messages::create_node("viewer")?;
-    let subs = Subscriptions::open(&node, &a.prefix)?;
+    let subs = Subscriptions::open(&node, &a.stage.prefix)?;
     let waitset = WaitSetBuilder::new().create::<ipc::Service>().map_err(|e| anyhow!("waitset: {e:?}"))?;
     let mut guards = Vec::new();
     for l in subs.listeners() {
@@ -169,8 +163,8 @@ pub fn run(a: RecordArgs) -> Result<Counts> {
     }
     // the map waits in history without an event; late samples are picked up on the tick too
     let _tick = waitset.attach_interval(Duration::from_millis(200)).map_err(|e| anyhow!("waitset: {e:?}"))?;
-    messages::announce_ready(&node, &a.prefix)?;
-    eprintln!("viewer: recording {} to {}", a.prefix, describe(&a));
+    messages::announce_ready(&node, &a.stage.prefix)?;
+    eprintln!("viewer: recording {} to {}", a.stage.prefix, describe(&a));
     let mut failure = None;
     let waited = waitset.wait_and_process(|_| match subs.drain(&mut recorder) {
         Ok(()) => CallbackProgression::Continue,
