@@ -76,6 +76,17 @@ pub fn dump(seg: &Segmentation, loc: &Localization, truth: &Pose, model: &locali
         eprint!("    corner-wall {:.2} arm-end-wall {:?}", wall_dist(p), ends);
         let theta = laser::pose_theta(truth);
         let o = laser::wrap_angle(c.orientation + theta);
+        for m in model.corners.similar(c.inner_angle, 10f64.to_radians()) {
+            if (m.position - p).norm() < 0.5 {
+                let pose = localize::pose_from_corners(c, m);
+                eprint!(
+                    " [match: right {} arms_fit {} beta {:.1}]",
+                    near(&pose, 0.3, 5.0),
+                    localize::matching::arms_fit(c, m, 0.3),
+                    m.inner_angle.to_degrees()
+                );
+            }
+        }
         match nearest {
             Some(m) => eprintln!(
                 "  c{k}: q {:.2} beta {:6.1} orient {:6.1} arms {:.2}+{:.2}/{:.2}+{:.2} sig {:.2} | map d {:.2} beta {:6.1} orient {:6.1}",

@@ -48,7 +48,11 @@ pub struct MapCorner {
 pub struct MapCornerConfig {
     /// Regions narrower than this, or within this of a straight angle, make no corner.
     pub min_angle: f64,
-    /// How far a junction may lie beyond a wall's end, metres.
+    /// How far a junction may lie beyond a wall's end, metres. The default is the scan's reach
+    /// between long lines (`segment::CornerConfig::long_reach`): every corner a scan can infer
+    /// from two walls' extensions (furniture hiding their junction, a doorway in between) then
+    /// has its map counterpart. At 1 m, 28 % of furnished office scans found no map corner to
+    /// match (`gema2 locate --diagnose`).
     pub reach: f64,
     /// Shortest arm, metres.
     pub min_arm_length: f64,
@@ -58,7 +62,7 @@ pub struct MapCornerConfig {
 
 impl Default for MapCornerConfig {
     fn default() -> Self {
-        MapCornerConfig { min_angle: 25f64.to_radians(), reach: 1.0, min_arm_length: 0.1, max_gap: 3.0 }
+        MapCornerConfig { min_angle: 25f64.to_radians(), reach: 5.0, min_arm_length: 0.1, max_gap: 3.0 }
     }
 }
 

@@ -46,7 +46,7 @@ pub struct LocateArgs {
     #[arg(long)]
     pub diagnose: bool,
     /// Override a parameter, KEY=VALUE (repeatable): reach, long_reach, long_line, min_arm,
-    /// corners, screened, refined, coarse_beams, coarse_sigma, arm_slack, map_sigma (a floor on
+    /// corners, screen_points, prescreen_step, prescreened, screen_cap, screened, map_reach, refined, coarse_beams, coarse_sigma, arm_slack, map_sigma (a floor on
     /// the map's accuracy), front_cap, through_cap, ambiguity, min_inliers, max_through,
     /// merge_angle (degrees), min_samples, error_constant, error_proportional.
     #[arg(long = "set", value_name = "KEY=VALUE")]
@@ -56,8 +56,10 @@ pub struct LocateArgs {
     pub dump_scan: Vec<String>,
 }
 
-pub fn configs(a: &LocateArgs) -> Result<(SegmenterConfig, LocalizerConfig)> {
+/// The segmenter, localizer and map-corner settings of `a`.
+pub fn configs(a: &LocateArgs) -> Result<(SegmenterConfig, LocalizerConfig, MapCornerConfig)> {
     let mut seg = SegmenterConfig::default();
+    let mut map_corners = MapCornerConfig::default();
     let mut loc = LocalizerConfig::default();
     if let Some(k) = a.corners {
         loc.corners_tried = k.max(1);
@@ -81,6 +83,11 @@ pub fn configs(a: &LocateArgs) -> Result<(SegmenterConfig, LocalizerConfig)> {
             "min_arm" => seg.corner.min_arm_length = v,
             "corners" => loc.corners_tried = v as usize,
             "screened" => loc.screened = v as usize,
+            "screen_points" => loc.screen_points = v as usize,
+            "prescreen_step" => loc.prescreen_step = v as usize,
+            "prescreened" => loc.prescreened = v as usize,
+            "screen_cap" => loc.screen_cap = v,
+            "map_reach" => map_corners.reach = v,
             "refined" => loc.refined = v as usize,
             "coarse_beams" => loc.coarse_beams = v as usize,
             "coarse_sigma" => loc.coarse_sigma = v,
@@ -104,13 +111,13 @@ pub fn configs(a: &LocateArgs) -> Result<(SegmenterConfig, LocalizerConfig)> {
             _ => anyhow::bail!("--set: unknown parameter {k:?}"),
         }
     }
-    Ok((seg, loc))
+    Ok((seg, loc, map_corners))
 }
 
 pub fn run(a: LocateArgs) -> Result<()> {
     let map = mapserver::load_map(&a.map)?;
-    let model = Arc::new(MapModel::new(map, &MapCornerConfig::default()));
-    let (seg_cfg, loc_cfg) = configs(&a)?;
+    let (seg_cfg, loc_cfg, corner_cfg) = configs(&a)?;
+    let model = Arc::new(MapModel::new(map, &corner_cfg));
     let mut gema2 = Gema2::new(Arc::clone(&model), seg_cfg, loc_cfg);
     let reader = CarmenReader::open(&a.log, FlaserLayout::default())?;
     let mut csv = match &a.out {
