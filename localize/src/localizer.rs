@@ -17,9 +17,10 @@ use crate::matching::{arms_fit, pose_from_corners};
 use crate::model::{MapModel, FIELD_CAP};
 use crate::refine::{refine, RefineConfig};
 use laser::{angle_diff, pose_theta, Pose, ScanView};
-use mapserver::RayScratch;
+use mapserver::{DistanceField, RayScratch};
 use nalgebra::Point2;
 use segment::{ErrorModel, Segmentation};
+use std::collections::BinaryHeap;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
@@ -192,6 +193,8 @@ pub struct Localizer {
     screen_pts: Vec<Point2<f64>>,
     /// Every fourth screening point: the first screening pass.
     screen_few: Vec<Point2<f64>>,
+    /// The first screening pass's best sums (a max-heap of their bit patterns).
+    best_sums: BinaryHeap<u64>,
     refine_pts: Vec<Point2<f64>>,
     candidates: Vec<Candidate>,
     scratch: RayScratch,
@@ -207,6 +210,7 @@ impl Localizer {
             config,
             screen_pts: Vec::new(),
             screen_few: Vec::new(),
+            best_sums: BinaryHeap::new(),
             refine_pts: Vec::new(),
             candidates: Vec::new(),
             scratch: RayScratch::default(),
@@ -300,9 +304,15 @@ impl Localizer {
         self.screen_few.extend(self.screen_pts.iter().step_by(cfg.prescreen_step.max(1)));
         let few = &self.screen_few;
         let cap = cfg.screen_cap.min(FIELD_CAP);
-        let score = |pose: &Pose, pts: &[Point2<f64>]| {
-            pts.iter().map(|q| field.distance(pose * q).min(cap).powi(2)).sum::<f64>() / pts.len().max(1) as f64
-        };
+        let keep = cfg.prescreened.max(cfg.screened);
+        // the first pass keeps the `keep` best sums: a pose is dropped as soon as its partial
+        // sum reaches the `keep`-th best so far (sums only grow), which leaves the kept set as
+        // it was and stops most wrong poses after a few points; a pose that puts every point
+        // far from the walls is never worth more work
+        let n_few = few.len().max(1) as f64;
+        let mut limit = cap * cap * 0.95 * n_few;
+        let best = &mut self.best_sums;
+        best.clear();
         for (ci, c) in seg.corners.iter().take(cfg.corners_tried).enumerate() {
             let tolerance = (3.0 * c.inner_angle_sigma()).clamp(cfg.min_angle_tolerance, cfg.max_angle_tolerance);
             let range = model.corners.similar_range(c.inner_angle, tolerance);
@@ -317,20 +327,34 @@ impl Localizer {
                     continue;
                 }
                 let pose = pose_from_corners(c, m);
-                let score = score(&pose, few);
-                // a pose that puts every point far from the walls is not worth more work
-                if score < cap * cap * 0.95 {
-                    self.candidates.push(Candidate { pose, score, scan_corner: ci as u16, map_corner: k as u32 });
+                let Some(sum) = screen_sum(field, &pose, few, cap, limit) else {
+                    continue;
+                };
+                self.candidates.push(Candidate {
+                    pose,
+                    score: sum / n_few,
+                    scan_corner: ci as u16,
+                    map_corner: k as u32,
+                });
+                // sums are non-negative, so their bit patterns order as the sums do
+                if best.len() < keep {
+                    best.push(sum.to_bits());
+                } else if best.peek().is_some_and(|&top| sum.to_bits() < top) {
+                    best.pop();
+                    best.push(sum.to_bits());
+                }
+                if best.len() == keep {
+                    limit = limit.min(best.peek().map_or(limit, |&top| f64::from_bits(top)));
                 }
             }
         }
-        let keep = cfg.prescreened.max(cfg.screened);
         if self.candidates.len() > keep {
             self.candidates.select_nth_unstable_by(keep, |a, b| a.score.total_cmp(&b.score));
             self.candidates.truncate(keep);
         }
+        let n = self.screen_pts.len().max(1) as f64;
         for c in self.candidates.iter_mut() {
-            c.score = score(&c.pose, &self.screen_pts);
+            c.score = screen_sum(field, &c.pose, &self.screen_pts, cap, f64::INFINITY).unwrap_or(f64::INFINITY) / n;
         }
     }
 
@@ -402,6 +426,21 @@ impl Localizer {
             Status::Ok
         };
     }
+}
+
+/// Eq. 7's cheap stand-in for screening: the sum over `points` (sensor frame) placed at `pose`
+/// of their squared distance to the nearest wall, each capped at `cap`; `None` as soon as the
+/// partial sum reaches `limit`.
+#[inline]
+fn screen_sum(field: &DistanceField, pose: &Pose, points: &[Point2<f64>], cap: f64, limit: f64) -> Option<f64> {
+    let mut sum = 0.0;
+    for q in points {
+        sum += field.distance(pose * q).min(cap).powi(2);
+        if sum >= limit {
+            return None;
+        }
+    }
+    Some(sum)
 }
 
 /// Whether two poses are within `position` metres and `heading` radians.

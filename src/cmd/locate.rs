@@ -47,7 +47,7 @@ pub struct LocateArgs {
     pub diagnose: bool,
     /// Override a parameter, KEY=VALUE (repeatable): reach, long_reach, long_line, min_arm,
     /// corners, screen_points, prescreen_step, prescreened, screen_cap, screened, map_reach, refined, coarse_beams, coarse_sigma, arm_slack, map_sigma (a floor on
-    /// the map's accuracy), front_cap, through_cap, ambiguity, min_inliers, max_through,
+    /// the map's accuracy), cost_stride, front_cap, through_cap, ambiguity, min_inliers, max_through,
     /// merge_angle (degrees), min_samples, error_constant, error_proportional.
     #[arg(long = "set", value_name = "KEY=VALUE")]
     pub set: Vec<String>,
@@ -94,6 +94,7 @@ pub fn configs(a: &LocateArgs) -> Result<(SegmenterConfig, LocalizerConfig, MapC
             "arm_slack" => loc.arm_slack = v,
             "map_sigma" => loc.cost.sigma_floor = v,
             "front_cap" => loc.cost.front_cap = v,
+            "cost_stride" => loc.cost.stride = v as usize,
             "through_cap" => loc.cost.through_cap = v,
             "ambiguity" => loc.ambiguity_margin = v,
             "min_inliers" => loc.min_inliers = v,
