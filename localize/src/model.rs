@@ -22,7 +22,7 @@ pub struct MapModel {
 impl MapModel {
     pub fn new(map: WallMap, corners: &MapCornerConfig) -> Self {
         MapModel {
-            corners: CornerIndex::build(&map.walls, corners),
+            corners: CornerIndex::of_map(&map, corners),
             caster: RayCaster::new(&map.walls),
             field: DistanceField::new(&map.walls, FIELD_RESOLUTION, FIELD_CAP),
             normals: map

@@ -39,7 +39,7 @@ fn load(spec: &str) -> Result<(WallMap, CornerIndex)> {
     if map.walls.len() > MAX_WALLS {
         bail!("{spec}: {} walls, at most {MAX_WALLS} can be published", map.walls.len());
     }
-    let index = CornerIndex::build(&map.walls, &MapCornerConfig::default());
+    let index = CornerIndex::of_map(&map, &MapCornerConfig::default());
     Ok((map, index))
 }
 

@@ -7,6 +7,7 @@
 //! returns is in the frame the rest of the project uses.
 
 pub mod corner;
+pub mod end;
 pub mod filter;
 pub mod fit;
 pub mod inference;
@@ -19,6 +20,7 @@ pub mod visibility;
 pub mod wire;
 
 pub use corner::{Arm, Corner, CornerConfig, CornerRanking};
+pub use end::EndConfig;
 pub use filter::FilterConfig;
 pub use line::Line;
 pub use sample::{ErrorModel, Sample};

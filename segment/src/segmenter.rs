@@ -1,6 +1,7 @@
 //! The segmentation stage as one object: scan in, lines and corners out, buffers reused.
 
 use crate::corner::{extract_corners, Corner, CornerConfig};
+use crate::end::{extract_wall_ends, EndConfig};
 use crate::filter::{filter_lines, FilterConfig};
 use crate::inference::infer_lines;
 use crate::line::Line;
@@ -18,6 +19,8 @@ pub struct SegmenterConfig {
     pub averaging: usize,
     pub filter: FilterConfig,
     pub corner: CornerConfig,
+    /// Wall ends, carried after the corners (see [`crate::end`]).
+    pub ends: EndConfig,
 }
 
 impl Default for SegmenterConfig {
@@ -27,6 +30,7 @@ impl Default for SegmenterConfig {
             averaging: 1,
             filter: FilterConfig::default(),
             corner: CornerConfig::default(),
+            ends: EndConfig::default(),
         }
     }
 }
@@ -39,7 +43,7 @@ pub struct Segmentation {
     pub raw_lines: Vec<Line>,
     /// L': lines after filtering (section 4.3).
     pub lines: Vec<Line>,
-    /// C: corners, best quality first.
+    /// C: corners, best quality first, then wall ends (inner angle 2 pi), best first.
     pub corners: Vec<Corner>,
     /// Time spent building samples, inferring lines, and filtering + extracting corners.
     pub times: SegmentTimes,
@@ -89,6 +93,7 @@ impl Segmenter for LineVisibilitySegmenter {
         let t2 = Instant::now();
         filter_lines(&out.raw_lines, &out.samples, &c.error, &c.filter, &mut out.lines);
         extract_corners(&out.lines, &c.corner, &mut out.corners);
+        extract_wall_ends(scan, &out.samples, &out.lines, c.averaging, &c.corner, &c.ends, &mut out.corners);
         let t3 = Instant::now();
         out.times = SegmentTimes { samples: t1 - t0, inference: t2 - t1, corners: t3 - t2 };
         out

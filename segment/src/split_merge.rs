@@ -5,6 +5,7 @@
 //! pipeline.
 
 use crate::corner::extract_corners;
+use crate::end::extract_wall_ends;
 use crate::filter::filter_lines;
 use crate::fit::Moments;
 use crate::line::Line;
@@ -97,6 +98,7 @@ impl Segmenter for SplitAndMergeSegmenter {
         let out = &mut self.out;
         filter_lines(&out.raw_lines, &out.samples, &c.error, &c.filter, &mut out.lines);
         extract_corners(&out.lines, &c.corner, &mut out.corners);
+        extract_wall_ends(scan, &out.samples, &out.lines, c.averaging, &c.corner, &c.ends, &mut out.corners);
         let t3 = Instant::now();
         out.times = SegmentTimes { samples: t1 - t0, inference: t2 - t1, corners: t3 - t2 };
         out

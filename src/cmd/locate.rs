@@ -46,7 +46,7 @@ pub struct LocateArgs {
     #[arg(long)]
     pub diagnose: bool,
     /// Override a parameter, KEY=VALUE (repeatable): reach, long_reach, long_line, min_arm,
-    /// corners, screen_points, prescreen_step, prescreened, screen_cap, screened, map_reach, refined, coarse_beams, coarse_sigma, arm_slack, map_sigma (a floor on
+    /// corners, screen_points, prescreen_step, prescreened, screen_cap, screened, map_reach, wall_ends (0 or 1), refined, coarse_beams, coarse_sigma, arm_slack, map_sigma (a floor on
     /// the map's accuracy), cost_stride, front_cap, through_cap, ambiguity, min_inliers, max_through,
     /// merge_angle (degrees), min_samples, error_constant, error_proportional.
     #[arg(long = "set", value_name = "KEY=VALUE")]
@@ -88,6 +88,10 @@ pub fn configs(a: &LocateArgs) -> Result<(SegmenterConfig, LocalizerConfig, MapC
             "prescreened" => loc.prescreened = v as usize,
             "screen_cap" => loc.screen_cap = v,
             "map_reach" => map_corners.reach = v,
+            "wall_ends" => {
+                seg.ends.enabled = v != 0.0;
+                map_corners.wall_ends = v != 0.0;
+            }
             "refined" => loc.refined = v as usize,
             "coarse_beams" => loc.coarse_beams = v as usize,
             "coarse_sigma" => loc.coarse_sigma = v,

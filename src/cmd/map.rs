@@ -40,7 +40,7 @@ pub fn run(c: MapCommand) -> Result<()> {
         MapCommand::Build(a) => super::build_map::run(a),
         MapCommand::Info { map } => {
             let m = mapserver::WallMap::load(&map)?;
-            let idx = CornerIndex::build(&m.walls, &MapCornerConfig::default());
+            let idx = CornerIndex::of_map(&m, &MapCornerConfig::default());
             let (lo, hi) = m.bounds();
             println!(
                 "{}: {} walls, {} corners, {:.1} x {:.1} m",

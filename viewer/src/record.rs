@@ -209,7 +209,7 @@ impl Recorder {
         self.counts.map.first_seq.get_or_insert(m.version as u64);
         self.counts.map.last_seq = Some(m.version as u64);
         self.map_version = Some(m.version);
-        let corners = CornerIndex::build(&walls.walls, &MapCornerConfig::default());
+        let corners = CornerIndex::of_map(&walls, &MapCornerConfig::default());
         let strips =
             LineStrips2D::new(walls.walls.iter().map(|w| [[w.a.x as f32, w.a.y as f32], [w.b.x as f32, w.b.y as f32]]))
                 .with_radii([0.03]);

@@ -1,0 +1,204 @@
+//! Wall ends: where a line stops because the wall does (a door jamb, the end of a rack), not
+//! because something in front of it hides the rest.
+//!
+//! The paper locates from corners only, so a scan with no corner in view (a corridor, an aisle
+//! between racks) cannot be located at all. A visible wall end pins the pose just as well: its
+//! position gives the translation and the wall's direction the rotation, which is eqs. 5-6 with
+//! both arms on one wall. A wall end is therefore carried as a [`Corner`] whose inner angle is
+//! 2 pi (free space sweeps all the way round the end of a wall) and whose two arms are the same
+//! arm, into the visible wall. Map wall ends (crate `mapserver`) are built the same way, so
+//! matching, the arm test and the cost function treat both alike.
+//!
+//! A line's end is a wall end when, within a few beams past it, the sensor sees beyond the end
+//! (a range clearly farther, or no return at all) before it sees anything nearer: a nearer
+//! reading is an occluder, a reading at about the same range is the next wall of a corner.
+
+use crate::corner::{Arm, Corner, CornerConfig};
+use crate::line::Line;
+use crate::sample::Sample;
+use laser::{Reading, ScanView};
+use serde::{Deserialize, Serialize};
+use std::f64::consts::TAU;
+
+/// Parameters of wall end detection.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct EndConfig {
+    /// Look for wall ends at all.
+    pub enabled: bool,
+    /// How much farther than the line's end a reading past it must be to see beyond the end,
+    /// metres (mixed pixels fall in between and are skipped).
+    pub jump: f64,
+    /// Shortest line whose ends count, metres: a short line's direction is poor.
+    pub min_length: f64,
+    /// A "no return" past the end shows the wall ends only if the end lies this far inside the
+    /// sensor's range, metres.
+    pub range_margin: f64,
+    /// Beams past the end that are examined.
+    pub look: usize,
+}
+
+impl Default for EndConfig {
+    fn default() -> Self {
+        EndConfig { enabled: true, jump: 0.3, min_length: 0.6, range_margin: 0.3, look: 3 }
+    }
+}
+
+/// What the beams past a line's end show.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Past {
+    /// The sensor sees beyond the end: the wall ends here.
+    Beyond,
+    /// Something nearer hides the rest, or nothing decides: not a wall end.
+    Hidden,
+}
+
+/// Appends the wall ends of `lines` to `out` (after whatever it holds), longest line first.
+/// `beams_per_sample` is the sample averaging factor (section 4.1).
+pub fn extract_wall_ends(
+    scan: &ScanView<'_>,
+    samples: &[Sample],
+    lines: &[Line],
+    beams_per_sample: usize,
+    corner: &CornerConfig,
+    cfg: &EndConfig,
+    out: &mut Vec<Corner>,
+) {
+    if !cfg.enabled {
+        return;
+    }
+    let first_new = out.len();
+    for (index, line) in lines.iter().enumerate() {
+        if line.length() < cfg.min_length || line.direction_sigma > corner.max_direction_sigma {
+            continue;
+        }
+        let (Some(first), Some(last)) =
+            (samples.get(line.first_sample as usize), samples.get(line.last_sample as usize))
+        else {
+            continue;
+        };
+        let after = last.beam as usize + beams_per_sample.max(1);
+        // the end side: beams after the last sample; the start side: beams before the first
+        let sides = [
+            (line.end, -line.direction, Some(after)),
+            (line.start, line.direction, (first.beam as usize).checked_sub(1)),
+        ];
+        for (k, (point, into, beam)) in sides.into_iter().enumerate() {
+            let Some(beam) = beam else { continue };
+            if past(scan, point.coords.norm(), beam, k == 0, cfg) != Past::Beyond {
+                continue;
+            }
+            let arm = Arm {
+                direction: into,
+                gap: 0.0,
+                length: line.length(),
+                samples: line.samples as f64,
+                direction_sigma: line.direction_sigma,
+                line: index as u16,
+            };
+            out.push(Corner {
+                position: point,
+                inner_angle: TAU,
+                orientation: into.y.atan2(into.x),
+                quality: line.length() / (1.0 + line.direction_sigma / corner.max_direction_sigma),
+                arms: [arm, arm],
+            });
+        }
+    }
+    out[first_new..].sort_by(|a, b| b.quality.total_cmp(&a.quality));
+}
+
+/// Examines up to `cfg.look` beams from `beam` onwards (`forward`) or backwards, for a line
+/// end at `range` metres.
+fn past(scan: &ScanView<'_>, range: f64, beam: usize, forward: bool, cfg: &EndConfig) -> Past {
+    let n = scan.len();
+    for step in 0..cfg.look {
+        let i = if forward { beam + step } else { beam.wrapping_sub(step) };
+        if i >= n {
+            return Past::Hidden; // the scan's edge: nothing is known past it
+        }
+        match scan.reading(i) {
+            Reading::Valid(d) if d > range + cfg.jump => return Past::Beyond,
+            Reading::Valid(d) if d < range - cfg.jump => return Past::Hidden,
+            // about the same range: a mixed pixel, or the next wall of a corner
+            Reading::Valid(_) | Reading::Unknown => {}
+            Reading::NoReturn if range < scan.geometry.range_max - cfg.range_margin => return Past::Beyond,
+            Reading::NoReturn => return Past::Hidden,
+        }
+    }
+    Past::Hidden
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::segmenter::{LineVisibilitySegmenter, Segmenter, SegmenterConfig};
+    use laser::ScanGeometry;
+
+    /// Ranges of a 181-beam, 180-degree scan (beam i at i - 90 degrees, sensor frame x forward,
+    /// y left) of a wall y = `y` for x in [x0, x1]; the beams that miss it read 10 m (no return).
+    fn wall_scan(y: f64, x0: f64, x1: f64) -> (ScanGeometry, Vec<f32>) {
+        let g = ScanGeometry::centred(181, 180f64.to_radians(), 5.6);
+        let ranges = (0..181)
+            .map(|i| {
+                let (s, c) = g.angle(i).sin_cos();
+                let x = y * c / s;
+                if s > 1e-6 && x >= x0 && x <= x1 {
+                    (y / s) as f32
+                } else {
+                    10.0
+                }
+            })
+            .collect();
+        (g, ranges)
+    }
+
+    fn ends(g: ScanGeometry, ranges: &[f32]) -> Vec<Corner> {
+        let mut seg = LineVisibilitySegmenter::new(SegmenterConfig::default());
+        let out = seg.segment(&ScanView { geometry: g, ranges });
+        out.corners.iter().filter(|c| c.inner_angle == TAU).copied().collect()
+    }
+
+    #[test]
+    fn a_wall_with_nothing_behind_its_ends_has_two_wall_ends() {
+        let (g, ranges) = wall_scan(2.0, 0.5, 2.5);
+        let found = ends(g, &ranges);
+        assert_eq!(found.len(), 2, "{found:?}");
+        for (x, into) in [(0.5, 1.0), (2.5, -1.0)] {
+            let e = found.iter().find(|c| (c.position.x - x).abs() < 0.06).expect("an end at each side");
+            assert!((e.position.y - 2.0).abs() < 0.02, "{e:?}");
+            assert!((e.arms[0].direction.x - into).abs() < 1e-3, "{e:?}");
+            assert_eq!(e.arms[0], e.arms[1]);
+        }
+    }
+
+    #[test]
+    fn an_end_hidden_by_something_nearer_is_not_a_wall_end() {
+        let (g, mut ranges) = wall_scan(2.0, 0.5, 2.5);
+        // a post at 1 m just past the wall's x = 0.5 end hides whether the wall goes on
+        let last = (0..181).rev().find(|&i| ranges[i] < 5.6).unwrap();
+        for r in ranges.iter_mut().skip(last + 1).take(6) {
+            *r = 1.0;
+        }
+        let found = ends(g, &ranges);
+        assert_eq!(found.len(), 1, "{found:?}");
+        assert!((found[0].position.x - 2.5).abs() < 0.06, "{found:?}");
+    }
+
+    #[test]
+    fn a_wall_running_out_of_range_has_no_wall_end() {
+        // the wall y = 5.3 leaves the 5.6 m range on both sides: nothing says it ends
+        let (g, ranges) = wall_scan(5.3, -10.0, 10.0);
+        let ranges: Vec<f32> = ranges.iter().map(|&r| r.min(10.0)).collect();
+        assert!(ranges.iter().filter(|&&r| r < 5.6).count() > 15);
+        assert!(ends(g, &ranges).is_empty());
+    }
+
+    #[test]
+    fn the_scans_edge_is_not_a_wall_end() {
+        // the wall y = 2 from x = -1 to 2.5 is cut by the field of view at x = 0 (beam +90)
+        let (g, ranges) = wall_scan(2.0, -1.0, 2.5);
+        let found = ends(g, &ranges);
+        assert_eq!(found.len(), 1, "{found:?}");
+        assert!((found[0].position.x - 2.5).abs() < 0.06, "{found:?}");
+    }
+}
