@@ -35,11 +35,14 @@ pub struct EndConfig {
     pub range_margin: f64,
     /// Beams past the end that are examined.
     pub look: usize,
+    /// A farther reading within this distance of the line's extension is the same wall seen at
+    /// a grazing angle (ranges along it jump apart), not something beyond its end, metres.
+    pub continuation: f64,
 }
 
 impl Default for EndConfig {
     fn default() -> Self {
-        EndConfig { enabled: true, jump: 0.3, min_length: 0.6, range_margin: 0.3, look: 3 }
+        EndConfig { enabled: true, jump: 0.3, min_length: 0.6, range_margin: 0.3, look: 3, continuation: 0.15 }
     }
 }
 
@@ -84,7 +87,7 @@ pub fn extract_wall_ends(
         ];
         for (k, (point, into, beam)) in sides.into_iter().enumerate() {
             let Some(beam) = beam else { continue };
-            if past(scan, point.coords.norm(), beam, k == 0, cfg) != Past::Beyond {
+            if past(scan, line, point.coords.norm(), beam, k == 0, cfg) != Past::Beyond {
                 continue;
             }
             let arm = Arm {
@@ -107,9 +110,9 @@ pub fn extract_wall_ends(
     out[first_new..].sort_by(|a, b| b.quality.total_cmp(&a.quality));
 }
 
-/// Examines up to `cfg.look` beams from `beam` onwards (`forward`) or backwards, for a line
-/// end at `range` metres.
-fn past(scan: &ScanView<'_>, range: f64, beam: usize, forward: bool, cfg: &EndConfig) -> Past {
+/// Examines up to `cfg.look` beams from `beam` onwards (`forward`) or backwards, for an end
+/// of `line` at `range` metres.
+fn past(scan: &ScanView<'_>, line: &Line, range: f64, beam: usize, forward: bool, cfg: &EndConfig) -> Past {
     let n = scan.len();
     for step in 0..cfg.look {
         let i = if forward { beam + step } else { beam.wrapping_sub(step) };
@@ -117,15 +120,37 @@ fn past(scan: &ScanView<'_>, range: f64, beam: usize, forward: bool, cfg: &EndCo
             return Past::Hidden; // the scan's edge: nothing is known past it
         }
         match scan.reading(i) {
-            Reading::Valid(d) if d > range + cfg.jump => return Past::Beyond,
+            Reading::Valid(d) if d > range + cfg.jump => {
+                let a = scan.geometry.angle(i);
+                let q = nalgebra::Point2::new(d * a.cos(), d * a.sin());
+                return if line.distance_to(q) < cfg.continuation { Past::Hidden } else { Past::Beyond };
+            }
             Reading::Valid(d) if d < range - cfg.jump => return Past::Hidden,
             // about the same range: a mixed pixel, or the next wall of a corner
             Reading::Valid(_) | Reading::Unknown => {}
-            Reading::NoReturn if range < scan.geometry.range_max - cfg.range_margin => return Past::Beyond,
-            Reading::NoReturn => return Past::Hidden,
+            Reading::NoReturn => {
+                // the wall may go on out of range: only if its extension would have been seen
+                // well inside the range does a missing return show that it ends
+                let a = scan.geometry.angle(i);
+                let reach = scan.geometry.range_max - cfg.range_margin;
+                let along = extension_hit(line, nalgebra::Vector2::new(a.cos(), a.sin()));
+                return if range < reach && along < reach { Past::Beyond } else { Past::Hidden };
+            }
         }
     }
     Past::Hidden
+}
+
+/// Distance along the unit beam direction `dir` at which it meets `line`'s infinite extension
+/// (+inf when it never does in front of the sensor).
+fn extension_hit(line: &Line, dir: nalgebra::Vector2<f64>) -> f64 {
+    let den = dir.dot(&line.normal);
+    let t = line.fit.centroid.coords.dot(&line.normal) / den;
+    if den.abs() < 1e-12 || t.is_nan() || t <= 0.0 {
+        f64::INFINITY
+    } else {
+        t
+    }
 }
 
 #[cfg(test)]
@@ -191,6 +216,15 @@ mod tests {
         let ranges: Vec<f32> = ranges.iter().map(|&r| r.min(10.0)).collect();
         assert!(ranges.iter().filter(|&&r| r < 5.6).count() > 15);
         assert!(ends(g, &ranges).is_empty());
+    }
+
+    #[test]
+    fn a_wall_seen_at_a_grazing_angle_does_not_end_where_its_ranges_jump() {
+        // the wall y = 0.6 from x = 0.5 to 9: past about 4 m, neighbouring beams land more than
+        // the jump apart along it, and inference may end the line there; the wall goes on
+        let (g, ranges) = wall_scan(0.6, 0.5, 9.0);
+        let found = ends(g, &ranges);
+        assert!(found.iter().all(|c| c.position.x < 1.0), "{found:?}");
     }
 
     #[test]
