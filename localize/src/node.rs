@@ -126,12 +126,10 @@ pub fn run(a: LocalizeArgs) -> Result<()> {
             let n = (msg.count as usize).min(msg.corners.len());
             seg.corners.extend(msg.corners[..n].iter().filter_map(corner_from_msg));
             let result = loc.locate(&view, &seg);
-            let leave = monotonic_ns();
             let version = *version;
             let sent = publish(&pose_out, &pose_note, |p: &mut PoseMsg| {
                 p.header = msg.scan.header;
                 p.header.span(Stage::Localize).enter_ns = enter;
-                p.header.span(Stage::Localize).leave_ns = leave;
                 p.header.set_producer("gema2");
                 p.status = match result.status {
                     Status::Ok => STATUS_OK,
@@ -158,6 +156,8 @@ pub fn run(a: LocalizeArgs) -> Result<()> {
                         map_corner: h.map_corner,
                     };
                 }
+                // the stage ends as the message is sent: the hop after it is transport only
+                p.header.span(Stage::Localize).leave_ns = monotonic_ns();
             });
             if let Err(e) = sent {
                 failure = Some(anyhow!("localize: publishing pose {seq}: {e}"));

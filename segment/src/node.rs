@@ -81,10 +81,8 @@ pub fn run(a: SegmentArgs) -> Result<()> {
                 }
             };
             let seg = segmenter.segment(&view);
-            let leave = monotonic_ns();
             let mut header = scan.header;
             header.span(Stage::Segment).enter_ns = enter;
-            header.span(Stage::Segment).leave_ns = leave;
             header.set_producer(name);
             let sent = publish(&lines_out, &lines_note, |m: &mut LinesMsg| {
                 m.header = header;
@@ -94,6 +92,8 @@ pub fn run(a: SegmentArgs) -> Result<()> {
                 for (slot, l) in m.lines.iter_mut().zip(&seg.lines[..n]) {
                     *slot = line_to_msg(l);
                 }
+                // each message leaves the stage as it is sent: the hop after it is transport
+                m.header.span(Stage::Segment).leave_ns = monotonic_ns();
             })
             .and_then(|_| {
                 publish(&corners_out, &corners_note, |m: &mut CornersMsg| {
@@ -104,6 +104,7 @@ pub fn run(a: SegmentArgs) -> Result<()> {
                     for (slot, c) in m.corners.iter_mut().zip(&seg.corners[..n]) {
                         *slot = corner_to_msg(c);
                     }
+                    m.scan.header.span(Stage::Segment).leave_ns = monotonic_ns();
                 })
             });
             if let Err(e) = sent {
