@@ -55,8 +55,11 @@ enum Past {
     Hidden,
 }
 
-/// Appends the wall ends of `lines` to `out` (after whatever it holds), longest line first.
-/// `beams_per_sample` is the sample averaging factor (section 4.1).
+/// Adds the wall ends of `lines` to the corners in `out` and ranks them all together by eq. 4's
+/// quality (a wall end's is its line's length, discounted as a corner's arms are): a long
+/// wall's end is a better feature than the corner of a small box. Ranking ends after every
+/// corner instead lost 1.3 points of furnished-scan success in the apartment and radial maps
+/// and gained 1.3 in the warehouse. `beams_per_sample` is the sample averaging factor.
 pub fn extract_wall_ends(
     scan: &ScanView<'_>,
     samples: &[Sample],
@@ -107,7 +110,9 @@ pub fn extract_wall_ends(
             });
         }
     }
-    out[first_new..].sort_by(|a, b| b.quality.total_cmp(&a.quality));
+    if out.len() > first_new {
+        out.sort_by(|a, b| b.quality.total_cmp(&a.quality));
+    }
 }
 
 /// Examines up to `cfg.look` beams from `beam` onwards (`forward`) or backwards, for an end

@@ -19,7 +19,7 @@ pub struct SegmenterConfig {
     pub averaging: usize,
     pub filter: FilterConfig,
     pub corner: CornerConfig,
-    /// Wall ends, carried after the corners (see [`crate::end`]).
+    /// Wall ends, ranked with the corners (see [`crate::end`]).
     pub ends: EndConfig,
 }
 
@@ -43,7 +43,7 @@ pub struct Segmentation {
     pub raw_lines: Vec<Line>,
     /// L': lines after filtering (section 4.3).
     pub lines: Vec<Line>,
-    /// C: corners, best quality first, then wall ends (inner angle 2 pi), best first.
+    /// C: corners and wall ends (inner angle 2 pi), best quality first.
     pub corners: Vec<Corner>,
     /// Time spent building samples, inferring lines, and filtering + extracting corners.
     pub times: SegmentTimes,
