@@ -191,7 +191,7 @@ pub struct Localizer {
     model: Arc<MapModel>,
     pub config: LocalizerConfig,
     screen_pts: Vec<Point2<f64>>,
-    /// Every fourth screening point: the first screening pass.
+    /// One in `prescreen_step` screening points: the first screening pass.
     screen_few: Vec<Point2<f64>>,
     /// The first screening pass's best sums (a max-heap of their bit patterns).
     best_sums: BinaryHeap<u64>,
@@ -298,8 +298,8 @@ impl Localizer {
         let cfg = &self.config;
         let model = &self.model;
         let field = &model.field;
-        // screening in two passes: every fourth point for all poses, then every point for the
-        // best few times `screened`
+        // screening in two passes: one in `prescreen_step` points for all poses, then every
+        // point for the `prescreened` best
         self.screen_few.clear();
         self.screen_few.extend(self.screen_pts.iter().step_by(cfg.prescreen_step.max(1)));
         let few = &self.screen_few;
