@@ -166,11 +166,9 @@ pub fn run(a: AcquireArgs) -> Result<()> {
         if a.scans > 0 && seq - a.first_seq >= a.scans {
             break;
         }
-        let Some(scan) = scans.next() else { break };
-        let scan = scan.context("acquire: reading the source")?;
-        if let Some(w) = carmen.as_mut() {
-            crate::write_robotlaser1(w, &scan).context("acquire: writing --carmen-out")?;
-        }
+        // Wait first, then acquire and publish, then go straight back to waiting: work done
+        // after publishing (simulating or parsing the next scan) would hold up a consumer that
+        // shares this core, and count as transport in the hop after this stage.
         if let Some(p) = period {
             let now = monotonic_ns();
             if next > now && node.wait(Duration::from_nanos(next - now)).is_err() {
@@ -181,6 +179,8 @@ pub fn run(a: AcquireArgs) -> Result<()> {
             break;
         }
         let enter = monotonic_ns();
+        let Some(scan) = scans.next() else { break };
+        let scan = scan.context("acquire: reading the source")?;
         publish(&publisher, &notifier, |m: &mut ScanMsg| {
             scan_to_msg(&scan, seq, enter, m);
             m.header.span(Stage::Acquire).enter_ns = enter;
@@ -188,6 +188,9 @@ pub fn run(a: AcquireArgs) -> Result<()> {
             m.header.set_producer(producer);
         })
         .map_err(|e| anyhow!("{}: {e}", topic.name))?;
+        if let Some(w) = carmen.as_mut() {
+            crate::write_robotlaser1(w, &scan).context("acquire: writing --carmen-out")?;
+        }
         seq += 1;
     }
     if let Some(mut w) = carmen {
