@@ -82,7 +82,7 @@ pub fn dump(seg: &Segmentation, loc: &Localization, truth: &Pose, model: &locali
                 eprint!(
                     " [match: right {} arms_fit {} beta {:.1}]",
                     near(&pose, 0.3, 5.0),
-                    localize::matching::arms_fit(c, m, 0.3),
+                    localize::matching::arms_fit(c, m, localize::LocalizerConfig::default().arm_slack),
                     m.inner_angle.to_degrees()
                 );
             }

@@ -181,6 +181,9 @@ pub fn run(a: AcquireArgs) -> Result<()> {
         let enter = monotonic_ns();
         let Some(scan) = scans.next() else { break };
         let scan = scan.context("acquire: reading the source")?;
+        if let Some(w) = carmen.as_mut() {
+            crate::write_robotlaser1(w, &scan).context("acquire: writing --carmen-out")?;
+        }
         publish(&publisher, &notifier, |m: &mut ScanMsg| {
             scan_to_msg(&scan, seq, enter, m);
             m.header.span(Stage::Acquire).enter_ns = enter;
@@ -188,9 +191,6 @@ pub fn run(a: AcquireArgs) -> Result<()> {
             m.header.set_producer(producer);
         })
         .map_err(|e| anyhow!("{}: {e}", topic.name))?;
-        if let Some(w) = carmen.as_mut() {
-            crate::write_robotlaser1(w, &scan).context("acquire: writing --carmen-out")?;
-        }
         seq += 1;
     }
     if let Some(mut w) = carmen {

@@ -16,6 +16,7 @@
 use crate::corner::{Arm, Corner, CornerConfig};
 use crate::line::Line;
 use crate::sample::Sample;
+use crate::visibility::hit;
 use laser::{Reading, ScanView};
 use serde::{Deserialize, Serialize};
 use std::f64::consts::TAU;
@@ -138,24 +139,13 @@ fn past(scan: &ScanView<'_>, line: &Line, range: f64, beam: usize, forward: bool
                 // well inside the range does a missing return show that it ends
                 let a = scan.geometry.angle(i);
                 let reach = scan.geometry.range_max - cfg.range_margin;
-                let along = extension_hit(line, nalgebra::Vector2::new(a.cos(), a.sin()));
+                let along =
+                    hit(line.start, line.end, nalgebra::Vector2::new(a.cos(), a.sin())).unwrap_or(f64::INFINITY);
                 return if range < reach && along < reach { Past::Beyond } else { Past::Hidden };
             }
         }
     }
     Past::Hidden
-}
-
-/// Distance along the unit beam direction `dir` at which it meets `line`'s infinite extension
-/// (+inf when it never does in front of the sensor).
-fn extension_hit(line: &Line, dir: nalgebra::Vector2<f64>) -> f64 {
-    let den = dir.dot(&line.normal);
-    let t = line.fit.centroid.coords.dot(&line.normal) / den;
-    if den.abs() < 1e-12 || t.is_nan() || t <= 0.0 {
-        f64::INFINITY
-    } else {
-        t
-    }
 }
 
 #[cfg(test)]
