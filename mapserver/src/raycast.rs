@@ -8,30 +8,37 @@ use crate::map::Wall;
 use laser::{Pose, ScanGeometry};
 use nalgebra::{Point2, Vector2};
 use std::f64::consts::TAU;
+use std::sync::OnceLock;
 
 /// Expected ranges d'_i of eq. 7: what an ideal sensor at a pose would read in the map.
 #[derive(Clone, Debug)]
 pub struct RayCaster {
     walls: Vec<Wall>,
     grid: WallGrid,
+    /// Built on the first cast: for each cell, every wall within the sensor's reach of it (the
+    /// reach of that first cast), so a cast reads one list instead of gathering and
+    /// de-duplicating the walls of the hundred-odd cells around the sensor. `None` when the
+    /// lists would be too large (a long-range sensor in a large map).
+    reach: OnceLock<Option<(f64, WallGrid)>>,
 }
 
-/// Per-caller scratch space: beam directions for the current layout and wall de-duplication
-/// marks. Reused across calls so casting allocates nothing.
+/// Per-caller scratch space: the direction of every beam of the current layout and wall
+/// de-duplication marks. Reused across calls (whatever their stride) so casting allocates
+/// nothing and computes no trigonometry per beam.
 #[derive(Clone, Debug, Default)]
 pub struct RayScratch {
-    key: Option<(u64, u64, usize, usize)>,
+    key: Option<(u64, u64, usize)>,
     dirs: Vec<Vector2<f64>>,
     mark: Vec<u32>,
     epoch: u32,
 }
 
 impl RayScratch {
-    fn prepare(&mut self, g: &ScanGeometry, beams: usize, stride: usize, walls: usize) {
-        let key = (g.angle_min.to_bits(), g.angle_increment.to_bits(), beams, stride);
+    fn prepare(&mut self, g: &ScanGeometry, beams: usize, walls: usize) {
+        let key = (g.angle_min.to_bits(), g.angle_increment.to_bits(), beams);
         if self.key != Some(key) {
             self.dirs.clear();
-            self.dirs.extend((0..beams).step_by(stride).map(|i| {
+            self.dirs.extend((0..beams).map(|i| {
                 let a = g.angle(i);
                 Vector2::new(a.cos(), a.sin())
             }));
@@ -49,12 +56,38 @@ impl RayScratch {
     }
 }
 
-/// Cell side of the caster's wall grid, metres.
+/// Cell side of the caster's wall grids, metres.
 const CELL: f64 = 1.0;
+
+/// Largest number of wall entries the per-cell reach lists may hold (4 bytes each).
+const MAX_REACH_ENTRIES: f64 = 8.0e6;
 
 impl RayCaster {
     pub fn new(walls: &[Wall]) -> Self {
-        RayCaster { walls: walls.to_vec(), grid: WallGrid::new(walls, CELL, 0.0) }
+        RayCaster { walls: walls.to_vec(), grid: WallGrid::new(walls, CELL, 0.0), reach: OnceLock::new() }
+    }
+
+    /// The walls within `range` of the cell holding `p`, when the reach lists cover that range
+    /// and point.
+    fn walls_in_reach(&self, p: Point2<f64>, range: f64) -> Option<&[u32]> {
+        let lists = self.reach.get_or_init(|| {
+            // each wall is listed in about (its extent + 2 range)^2 / CELL^2 cells
+            let entries: f64 = self
+                .walls
+                .iter()
+                .map(|w| {
+                    let (dx, dy) = ((w.b.x - w.a.x).abs(), (w.b.y - w.a.y).abs());
+                    (dx + 2.0 * range + 2.0 * CELL) * (dy + 2.0 * range + 2.0 * CELL) / (CELL * CELL)
+                })
+                .sum();
+            (range.is_finite() && entries <= MAX_REACH_ENTRIES)
+                .then(|| (range, WallGrid::new(&self.walls, CELL, range)))
+        });
+        let (reach, grid) = lists.as_ref()?;
+        if range > *reach {
+            return None;
+        }
+        grid.cell_of(p).map(|(c, r)| grid.walls_in(c, r))
     }
 
     pub fn walls(&self) -> &[Wall] {
@@ -74,9 +107,9 @@ impl RayCaster {
         out: &mut Vec<f64>,
     ) {
         let stride = stride.max(1);
-        scratch.prepare(g, beams, stride, self.walls.len());
+        scratch.prepare(g, beams, self.walls.len());
         out.clear();
-        out.resize(scratch.dirs.len(), f64::INFINITY);
+        out.resize(beams.div_ceil(stride), f64::INFINITY);
         if beams == 0 || g.angle_increment == 0.0 {
             return;
         }
@@ -101,6 +134,12 @@ impl RayCaster {
             }
             sweep(to_sensor(w.a), to_sensor(w.b), g, beams, stride, &scratch.dirs, out);
         };
+        if let Some(near) = self.walls_in_reach(p, range) {
+            for &k in near {
+                visit(k as usize, scratch, out);
+            }
+            return;
+        }
         if visit_all {
             for k in 0..self.walls.len() {
                 visit(k, scratch, out);
@@ -172,8 +211,12 @@ fn sweep(
     let inc = g.angle_increment.abs();
     // beams sorted by increasing angle: index j counts from the smallest angle
     let first_angle = if g.angle_increment > 0.0 { g.angle_min } else { g.angle(beams - 1) };
-    let u = (start - first_angle).rem_euclid(TAU);
+    let u = start - first_angle;
+    let u = u - TAU * (u / TAU).floor();
     let ab_cross = a.perp(&b);
+    // beams this close to an end of the arc (in beams) are tested against the wedge: the
+    // margin beam, and any within fast_atan2's error of the end
+    let edge = 2 + (4.0 * ATAN_ERROR / inc) as usize;
     let mut fill = |from: f64, to: f64| {
         // one beam of margin each side: the angles are approximate, the wedge test is exact
         let j0 = ((from / inc).ceil() - 1.0).max(0.0) as usize;
@@ -186,19 +229,16 @@ fn sweep(
             return;
         }
         let (lo, hi) = if g.angle_increment > 0.0 { (j0, j1) } else { (beams - 1 - j1, beams - 1 - j0) };
-        let first = lo.div_ceil(stride) * stride;
-        for i in (first..=hi).step_by(stride) {
-            let k = i / stride;
-            let d = dirs[k];
-            // the beam lies within the wall's angular wedge (which is narrower than pi)
-            if a.perp(&d) * ab_cross < 0.0 || d.perp(&b) * ab_cross < 0.0 {
+        let first = lo.div_ceil(stride);
+        for (k, i) in (first..).zip((first * stride..=hi).step_by(stride)) {
+            let d = dirs[i];
+            // beams near the arc's ends may lie outside the wall's angular wedge (which is
+            // narrower than pi): those are tested exactly; the rest are inside
+            if (i < lo + edge || i + edge > hi) && (a.perp(&d) * ab_cross < 0.0 || d.perp(&b) * ab_cross < 0.0) {
                 continue;
             }
-            let den = d.perp(&e);
-            if den.abs() < 1e-15 {
-                continue;
-            }
-            let t = cross / den;
+            // inside the wedge the beam crosses the wall's line (den = 0 gives no hit)
+            let t = cross / d.perp(&e);
             if t > 0.0 && t < out[k] {
                 out[k] = t;
             }
@@ -210,7 +250,10 @@ fn sweep(
     }
 }
 
-/// atan2 to about 1e-5 rad: octant reduction and a minimax polynomial for atan on [0, 1].
+/// The largest error of [`fast_atan2`], radians.
+const ATAN_ERROR: f64 = 1e-5;
+
+/// atan2 to about [`ATAN_ERROR`]: octant reduction and a minimax polynomial for atan on [0, 1].
 #[inline]
 fn fast_atan2(y: f64, x: f64) -> f64 {
     let (ax, ay) = (x.abs(), y.abs());
@@ -246,23 +289,30 @@ mod tests {
 
     proptest! {
         #![proptest_config(ProptestConfig::with_cases(200))]
-        /// The sweep agrees with brute force on every beam, for any walls, pose and layout.
+        /// The sweep agrees with brute force on every beam, for any walls, pose and layout,
+        /// both through the per-cell reach lists and (when they were built for a shorter
+        /// reach) through the wall grid.
         #[test]
         fn sweep_agrees_with_brute_force(
             seed in proptest::collection::vec((-8.0f64..8.0, -8.0f64..8.0, -3.2f64..3.2, 0.05f64..6.0), 1..40),
             x in -6.0f64..6.0, y in -6.0f64..6.0, theta in -3.2f64..3.2,
             beams in 2usize..400, fov in 0.5f64..6.2, stride in 1usize..4, reverse in proptest::bool::ANY,
+            shorter_lists in proptest::bool::ANY,
         ) {
             let walls = random_walls(&seed);
             let caster = RayCaster::new(&walls);
+            let mut scratch = RayScratch::default();
+            let mut out = Vec::new();
+            if shorter_lists {
+                let short = ScanGeometry::centred(beams, fov, 3.0);
+                caster.cast(&pose(0.0, 0.0, 0.0), &short, beams, stride, &mut scratch, &mut out);
+            }
             let mut g = ScanGeometry::centred(beams, fov, 7.0);
             if reverse {
                 g.angle_min = -g.angle_min;
                 g.angle_increment = -g.angle_increment;
             }
             let p = pose(x, y, theta);
-            let mut scratch = RayScratch::default();
-            let mut out = Vec::new();
             caster.cast(&p, &g, beams, stride, &mut scratch, &mut out);
             for (k, &got) in out.iter().enumerate() {
                 let i = k * stride;
