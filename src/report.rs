@@ -39,6 +39,8 @@ pub struct Outcome {
     /// Per-step microseconds: samples, line inference, filtering + corners, matching +
     /// screening, coarse cost, refinement, cost.
     pub steps: [f64; 7],
+    /// Whether the localizer's full search ran (its first look did not settle the scan).
+    pub full_search: bool,
 }
 
 impl Outcome {
@@ -50,7 +52,7 @@ impl Outcome {
             )),
             _ => None,
         };
-        Outcome { status, error, has_truth: truth.is_some(), micros, steps: [0.0; 7] }
+        Outcome { status, error, has_truth: truth.is_some(), micros, steps: [0.0; 7], full_search: false }
     }
 
     /// Records the step times of a segmentation and localization.
@@ -65,6 +67,7 @@ impl Outcome {
             us(loc.refine),
             us(loc.cost),
         ];
+        self.full_search = loc.full_search;
         self
     }
 
@@ -128,6 +131,10 @@ impl Summary {
             self.count(Status::Ok),
             self.count(Status::Ambiguous),
             self.count(Status::Failed)
+        );
+        s += &format!(
+            "first look settled {:.1} % of scans (the rest ran the full search)\n",
+            100.0 * self.outcomes.iter().filter(|o| !o.full_search).count() as f64 / self.scans().max(1) as f64
         );
         let names = ["samples", "inference", "filter+corners", "matching", "coarse cost", "refine", "cost"];
         s += "median us per step:";

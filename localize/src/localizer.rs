@@ -73,6 +73,8 @@ pub struct LocalizerConfig {
     pub max_hypotheses: usize,
     /// Keep every candidate pose of a scan in [`Localization::all_candidates`] (diagnostics).
     pub record_candidates: bool,
+    /// A cheaper search tried first; see [`FirstLook`].
+    pub first_look: FirstLook,
     /// Tracking (section 5.1): after an `ok` scan, only map corners within this many metres of
     /// the last pose are matched; any other outcome returns to global search. `None`: always
     /// global.
@@ -105,8 +107,43 @@ impl Default for LocalizerConfig {
             max_through: 0.05,
             max_hypotheses: 32,
             record_candidates: false,
+            first_look: FirstLook::default(),
             track_radius: None,
         }
+    }
+}
+
+/// A first, cheaper search, as the paper's: the best scan corner (or few best), fewer
+/// hypotheses screened and refined.
+/// When its best pose is *confirmed* (status `ok`, at least `min_inliers` of the beams agree
+/// with the map and at most `max_through` see through its walls) the scan ends there; otherwise
+/// the full search runs and its hypotheses are ranked together with the first look's. A scan
+/// the map explains this well rarely needs the robustness of the full search, which exists for
+/// scans whose best corners are people or furniture; those have many beams off the map and
+/// are not confirmed.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FirstLook {
+    /// Scan corners matched; 0 turns the first look off.
+    pub corners: usize,
+    /// Candidates kept by the first screening pass (see [`LocalizerConfig::prescreened`]).
+    pub prescreened: usize,
+    pub screened: usize,
+    pub refined: usize,
+    pub min_inliers: f64,
+    pub max_through: f64,
+}
+
+impl Default for FirstLook {
+    fn default() -> Self {
+        FirstLook { corners: 1, prescreened: 32, screened: 8, refined: 2, min_inliers: 0.9, max_through: 0.01 }
+    }
+}
+
+impl FirstLook {
+    /// Whether `best` settles the scan.
+    fn confirms(&self, status: Status, best: Option<&Hypothesis>) -> bool {
+        status == Status::Ok
+            && best.is_some_and(|h| h.cost.inliers >= self.min_inliers && h.cost.through <= self.max_through)
     }
 }
 
@@ -153,6 +190,9 @@ pub struct LocateTimes {
     pub refine: Duration,
     /// Full eq. 7 over the refined hypotheses.
     pub cost: Duration,
+    /// Whether the full search ran: the [`FirstLook`] did not settle the scan. Each step's
+    /// time above is the sum over both searches.
+    pub full_search: bool,
 }
 
 #[derive(Clone, Debug)]
@@ -237,22 +277,55 @@ impl Localizer {
 
     /// Localizes one scan from its segmentation.
     pub fn locate(&mut self, scan: &ScanView<'_>, seg: &Segmentation) -> &Localization {
-        let t0 = Instant::now();
         self.out.hypotheses.clear();
-        self.out.all_candidates.clear();
         self.out.status = Status::Failed;
+        self.out.times = LocateTimes::default();
         subsample(seg, self.config.screen_points, &mut self.screen_pts);
         subsample(seg, self.config.refine_points, &mut self.refine_pts);
-        self.match_corners(seg);
+        let first = self.config.first_look;
+        let mut settled = false;
+        if first.corners > 0 && first.corners < self.config.corners_tried {
+            self.search(scan, seg, first.corners, first.prescreened, first.screened, first.refined);
+            self.rank();
+            settled = first.confirms(self.out.status, self.out.hypotheses.first());
+        }
+        if !settled {
+            self.out.times.full_search = true;
+            let cfg = self.config;
+            self.search(scan, seg, cfg.corners_tried, cfg.prescreened, cfg.screened, cfg.refined);
+            self.rank();
+        }
+        self.prior = match (self.config.track_radius, self.out.status, self.out.hypotheses.first()) {
+            (Some(_), Status::Ok, Some(h)) => Some(Point2::from(h.pose.translation.vector)),
+            _ => None,
+        };
+        &self.out
+    }
+
+    /// Matches the `corners` best scan corners, keeps the `screened` best candidates by the
+    /// screen (its first pass keeps `prescreened`) and the `refined` best of those by the coarse cost, refines them and adds them
+    /// to the hypotheses with their full eq. 7 cost (unranked). Adds each step's time.
+    fn search(
+        &mut self,
+        scan: &ScanView<'_>,
+        seg: &Segmentation,
+        corners: usize,
+        prescreened: usize,
+        screened: usize,
+        refined: usize,
+    ) {
+        let t0 = Instant::now();
+        self.out.all_candidates.clear();
+        self.match_corners(seg, corners, prescreened.max(screened));
         self.out.candidates = self.candidates.len();
         if self.config.record_candidates {
             self.candidates.sort_by(|a, b| a.score.total_cmp(&b.score));
             self.out.all_candidates.extend(self.candidates.iter().map(|c| (c.pose, c.score, c.scan_corner)));
         }
-        self.keep_best(self.config.screened);
+        self.keep_best(screened);
         let t1 = Instant::now();
         self.coarse_cost(scan);
-        self.keep_best(self.config.refined);
+        self.keep_best(refined);
         let t2 = Instant::now();
         let model = Arc::clone(&self.model);
         for c in self.candidates.iter_mut() {
@@ -281,19 +354,17 @@ impl Localizer {
                 });
             }
         }
-        self.rank();
-        self.prior = match (self.config.track_radius, self.out.status, self.out.hypotheses.first()) {
-            (Some(_), Status::Ok, Some(h)) => Some(Point2::from(h.pose.translation.vector)),
-            _ => None,
-        };
         let t4 = Instant::now();
-        self.out.times = LocateTimes { matching: t1 - t0, coarse: t2 - t1, refine: t3 - t2, cost: t4 - t3 };
-        &self.out
+        let times = &mut self.out.times;
+        times.matching += t1 - t0;
+        times.coarse += t2 - t1;
+        times.refine += t3 - t2;
+        times.cost += t4 - t3;
     }
 
     /// Eqs. 5-6 for every similar map corner whose arms fit, for each of the best scan
     /// corners; each pose is screened by the distance field.
-    fn match_corners(&mut self, seg: &Segmentation) {
+    fn match_corners(&mut self, seg: &Segmentation, corners: usize, keep: usize) {
         self.candidates.clear();
         let cfg = &self.config;
         let model = &self.model;
@@ -304,7 +375,6 @@ impl Localizer {
         self.screen_few.extend(self.screen_pts.iter().step_by(cfg.prescreen_step.max(1)));
         let few = &self.screen_few;
         let cap = cfg.screen_cap.min(FIELD_CAP);
-        let keep = cfg.prescreened.max(cfg.screened);
         // the first pass keeps the `keep` best sums: a pose is dropped as soon as its partial
         // sum reaches the `keep`-th best so far (sums only grow), which leaves the kept set as
         // it was and stops most wrong poses after a few points; a pose that puts every point
@@ -313,7 +383,7 @@ impl Localizer {
         let mut limit = cap * cap * 0.95 * n_few;
         let best = &mut self.best_sums;
         best.clear();
-        for (ci, c) in seg.corners.iter().take(cfg.corners_tried).enumerate() {
+        for (ci, c) in seg.corners.iter().take(corners).enumerate() {
             let tolerance = (3.0 * c.inner_angle_sigma()).clamp(cfg.min_angle_tolerance, cfg.max_angle_tolerance);
             let range = model.corners.similar_range(c.inner_angle, tolerance);
             for k in range {

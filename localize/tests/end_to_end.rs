@@ -153,3 +153,42 @@ fn tracking_restricts_matching_to_the_last_pose() {
     }
     assert!(checked >= 20, "{checked}");
 }
+
+/// The first look settles the scans the map explains, with the pose the full search finds;
+/// scans whose best corners are furniture go on to the full search.
+#[test]
+fn the_first_look_settles_clean_scans_and_defers_furnished_ones() {
+    let map = procedural::apartment();
+    let full_only = LocalizerConfig {
+        first_look: localize::FirstLook { corners: 0, ..Default::default() },
+        ..LocalizerConfig::default()
+    };
+    let mut both = Gema2::new(model(map.clone()), SegmenterConfig::default(), LocalizerConfig::default());
+    let mut full = Gema2::new(model(map.clone()), SegmenterConfig::default(), full_only);
+    for (scenario, seed) in [(Scenario::Clean, 31u64), (Scenario::Furniture, 32)] {
+        let mut sim = Simulator::new(&map, SensorModel::urg04lx(), scenario, seed);
+        let (mut settled, mut agreed, n) = (0, 0, 60);
+        for _ in 0..n {
+            let scan = sim.next_scan();
+            let (_, loc) = both.process(&scan.view());
+            let (status, pose, searched) = (loc.status, loc.best().map(|h| h.pose), loc.times.full_search);
+            let (_, reference) = full.process(&scan.view());
+            assert!(reference.times.full_search, "with the first look off every scan runs the full search");
+            if !searched {
+                settled += 1;
+                assert_eq!(status, Status::Ok, "a settled scan is ok");
+                let best = pose.expect("an ok scan has a pose");
+                let inliers = loc.hypotheses[0].cost.inliers;
+                assert!(inliers >= 0.9, "settled with {inliers} inliers");
+                if reference.best().is_some_and(|h| same_pose(&h.pose, &best, 0.05, 1f64.to_radians())) {
+                    agreed += 1;
+                }
+            }
+        }
+        match scenario {
+            Scenario::Clean => assert!(settled >= n * 2 / 3, "clean: the first look settled {settled}/{n}"),
+            _ => assert!(settled < n, "furnished: the first look settled every scan"),
+        }
+        assert!(agreed + 2 >= settled, "{scenario:?}: the full search agreed on {agreed} of {settled} settled scans");
+    }
+}

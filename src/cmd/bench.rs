@@ -93,6 +93,8 @@ struct Run {
     /// Per scan: samples, inference, filter+corners, matching+screen, coarse, refine, cost,
     /// total (microseconds).
     steps: Vec<[f64; 8]>,
+    /// Per scan: whether the localizer's full search ran.
+    full_search: Vec<bool>,
     success: f64,
 }
 
@@ -102,6 +104,7 @@ fn run(map: &WallMap, sensor: SensorModel, scans: usize) -> Run {
     let data: Vec<_> = (0..scans).map(|_| sim.next_scan()).collect();
     let mut gema2 = Gema2::new(model, SegmenterConfig::default(), LocalizerConfig::default());
     let mut steps = Vec::with_capacity(scans);
+    let mut full_search = Vec::with_capacity(scans);
     let mut right = 0;
     for scan in &data {
         let start = Instant::now();
@@ -119,12 +122,13 @@ fn run(map: &WallMap, sensor: SensorModel, scans: usize) -> Run {
             us(l.cost),
             us(total),
         ]);
+        full_search.push(l.full_search);
         let truth = scan.truth.expect("simulated scans carry truth");
         if loc.best().is_some_and(|h| localize::same_pose(&h.pose, &truth, 0.3, 5f64.to_radians())) {
             right += 1;
         }
     }
-    Run { steps, success: right as f64 / scans.max(1) as f64 }
+    Run { steps, full_search, success: right as f64 / scans.max(1) as f64 }
 }
 
 fn median(run: &Run, k: usize) -> f64 {
@@ -160,6 +164,17 @@ pub fn run_bench(a: BenchArgs) -> Result<()> {
     }
     let mut t: Vec<f64> = r.steps.iter().map(|s| s[7]).collect();
     println!("  {:34} p99    {:8.1} us   success {:.1} %", "total", quantile(&mut t, 0.99), 100.0 * r.success);
+    let (mut first, mut full): (Vec<f64>, Vec<f64>) = (Vec::new(), Vec::new());
+    for (s, &f) in r.steps.iter().zip(&r.full_search) {
+        if f { &mut full } else { &mut first }.push(s[7]);
+    }
+    println!(
+        "  the first look settled {:.1} % of scans (median total {:.1} us); the full search ran on {:.1} % ({:.1} us)",
+        100.0 * first.len() as f64 / r.steps.len().max(1) as f64,
+        quantile(&mut first, 0.5),
+        100.0 * full.len() as f64 / r.steps.len().max(1) as f64,
+        quantile(&mut full, 0.5)
+    );
     if a.stages_only {
         return Ok(());
     }
