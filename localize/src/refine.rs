@@ -5,7 +5,7 @@
 
 use crate::model::MapModel;
 use laser::Pose;
-use nalgebra::{Isometry2, Matrix3, Point2, UnitComplex, Vector2, Vector3};
+use nalgebra::{Isometry2, Matrix3, Point2, Vector2, Vector3};
 
 /// Refinement parameters.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -31,30 +31,50 @@ pub fn refine(model: &MapModel, points: &[Point2<f64>], pose: &Pose, cfg: &Refin
     let mut t = pose.translation.vector;
     let mut gate = cfg.first_gate;
     let mut paired = 0usize;
+    let gate_ends_squared =
+        |p: Point2<f64>, a: Point2<f64>, b: Point2<f64>| (p - a).norm_squared().min((p - b).norm_squared());
     for _ in 0..cfg.iterations {
-        let rot = UnitComplex::new(theta);
-        let mut h = Matrix3::<f64>::zeros();
-        let mut g = Vector3::<f64>::zeros();
+        let (sin, cos) = theta.sin_cos();
+        // the normal equations' upper triangle (h) and gradient (g), accumulated as scalars
+        let [mut h00, mut h01, mut h02, mut h11, mut h12, mut h22] = [0.0f64; 6];
+        let [mut g0, mut g1, mut g2] = [0.0f64; 3];
+        let gate_squared = gate * gate;
         paired = 0;
         for q in points {
-            let rq = rot * q.coords;
+            let rq = Vector2::new(cos * q.x - sin * q.y, sin * q.x + cos * q.y);
             let p = Point2::from(rq + t);
             let Some(k) = model.field.nearest_wall(p) else {
                 continue;
             };
             let wall = &model.map.walls[k as usize];
-            let (distance, on_wall) = wall.closest(p);
-            if distance > gate {
+            let normal = model.normals[k as usize];
+            // signed distance to the wall's line; to the wall itself when p projects onto it,
+            // else to its nearer end
+            let r = (p - wall.a).dot(&normal);
+            let e = wall.b - wall.a;
+            let along = (p - wall.a).dot(&e);
+            let distance_squared =
+                if (0.0..=e.norm_squared()).contains(&along) { r * r } else { gate_ends_squared(p, wall.a, wall.b) };
+            if distance_squared > gate_squared {
                 continue;
             }
             paired += 1;
-            let normal = model.normals[k as usize];
-            let r = (p - on_wall).dot(&normal);
-            let j = Vector3::new(normal.x, normal.y, normal.dot(&Vector2::new(-rq.y, rq.x)));
+            // the residual's Jacobian in (x, y, theta)
+            let (j0, j1, j2) = (normal.x, normal.y, normal.y * rq.x - normal.x * rq.y);
             let w = 1.0 / (1.0 + (r / cfg.kernel).powi(2));
-            h += j * j.transpose() * w;
-            g += j * (w * r);
+            let (wj0, wj1, wj2) = (w * j0, w * j1, w * j2);
+            h00 += wj0 * j0;
+            h01 += wj0 * j1;
+            h02 += wj0 * j2;
+            h11 += wj1 * j1;
+            h12 += wj1 * j2;
+            h22 += wj2 * j2;
+            g0 += wj0 * r;
+            g1 += wj1 * r;
+            g2 += wj2 * r;
         }
+        let h = Matrix3::new(h00, h01, h02, h01, h11, h12, h02, h12, h22);
+        let g = Vector3::new(g0, g1, g2);
         if paired < 3 {
             break;
         }
