@@ -26,7 +26,7 @@ pub fn infer_lines(samples: &[Sample], angle_increment: f64, error: &ErrorModel,
     let mut first = 0;
     let mut clusters = 0;
     for (j, s) in samples.iter().enumerate() {
-        let bounds = visibility.bounds(samples, s);
+        let bounds = visibility.bounds(s);
         if j == 0 || s.gap_before || !visibility.admits_within(s, bounds) {
             if j > 0 {
                 close(samples, first, j - 1, moments, error, out);
@@ -34,7 +34,7 @@ pub fn infer_lines(samples: &[Sample], angle_increment: f64, error: &ErrorModel,
             }
             first = j;
             moments = Moments::default();
-            visibility.restart(j);
+            visibility.restart(samples, j);
         } else {
             visibility.include_within(samples, j, bounds);
         }

@@ -81,6 +81,14 @@ pub fn build_samples(scan: &ScanView<'_>, error: &ErrorModel, averaging: usize, 
     let g = scan.geometry;
     let mut gap = true;
     let mut first = 0;
+    // the direction of a whole group's centre beam, turned by one group's angle per group:
+    // a rotation per sample instead of a sine and cosine (drift after 10^4 groups ~1e-12 rad)
+    let centre = |first: usize, count: f64| {
+        let angle = g.angle_min + (first as f64 + (count - 1.0) / 2.0) * g.angle_increment;
+        Vector2::new(angle.cos(), angle.sin())
+    };
+    let (step_sin, step_cos) = (m as f64 * g.angle_increment).sin_cos();
+    let mut group_dir = centre(0, m as f64);
     while first < scan.len() {
         let last = (first + m).min(scan.len());
         let mut sum_d = 0.0;
@@ -97,11 +105,10 @@ pub fn build_samples(scan: &ScanView<'_>, error: &ErrorModel, averaging: usize, 
         if ok {
             let count = (last - first) as f64;
             let d = sum_d / count;
-            let angle = g.angle_min + (first as f64 + (count - 1.0) / 2.0) * g.angle_increment;
             let e = error.at(d);
             out.push(Sample {
                 beam: first as u32,
-                dir: Vector2::new(angle.cos(), angle.sin()),
+                dir: if last - first == m { group_dir } else { centre(first, count) },
                 d,
                 near: (d - e).max(0.0),
                 far: d + e,
@@ -112,6 +119,10 @@ pub fn build_samples(scan: &ScanView<'_>, error: &ErrorModel, averaging: usize, 
             gap = true;
         }
         first = last;
+        group_dir = Vector2::new(
+            group_dir.x * step_cos - group_dir.y * step_sin,
+            group_dir.x * step_sin + group_dir.y * step_cos,
+        );
     }
 }
 

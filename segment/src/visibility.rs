@@ -23,11 +23,36 @@ use crate::sample::Sample;
 use nalgebra::{Point2, Vector2};
 
 /// A bound line through `pivot`'s bound and `constraint`'s opposite bound (indices into the
-/// sample slice).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+/// sample slice), with what [`hit`] needs of it computed once: most samples cross a bound
+/// line without moving it.
+#[derive(Clone, Copy, Debug, PartialEq)]
 struct Bound {
     pivot: usize,
     constraint: usize,
+    /// The pivot's bound point, and the line's direction towards the constraint's.
+    a: Point2<f64>,
+    e: Vector2<f64>,
+    /// cross(a, e), and the squared threshold below which a beam counts as parallel.
+    numerator: f64,
+    parallel: f64,
+}
+
+impl Bound {
+    fn new(pivot: usize, constraint: usize, a: Point2<f64>, b: Point2<f64>) -> Self {
+        let e = b - a;
+        Bound { pivot, constraint, a, e, numerator: cross(&a.coords, &e), parallel: parallel_threshold(&e) }
+    }
+
+    /// [`hit`] of this line and `dir`.
+    #[inline]
+    fn hit(&self, dir: Vector2<f64>) -> Option<f64> {
+        let den = cross(&dir, &self.e);
+        if den * den < self.parallel {
+            return None;
+        }
+        let t = self.numerator / den;
+        (t > 0.0 && t.is_finite()).then_some(t)
+    }
 }
 
 /// The line visibility `V_l = (d_min, d_max)` of the line being inferred.
@@ -37,16 +62,18 @@ pub struct LineVisibility {
     len: usize,
     v_max: Option<Bound>,
     v_min: Option<Bound>,
-    /// Most restrictive sample for `V_max` (Code 2's `pos_min`, kept across calls).
+    /// Position in `chain_near` of the most restrictive sample for `V_max` (Code 2's
+    /// `pos_min`, kept across calls).
     restrictive_max: usize,
-    /// Most restrictive sample for `V_min`.
+    /// Position in `chain_far` of the most restrictive sample for `V_min`.
     restrictive_min: usize,
     /// +1 when beams turn counter-clockwise, -1 otherwise: which side earlier samples lie on.
     turn: f64,
-    /// Sample indices whose near bound can still constrain `V_max`, in order (a convex chain).
-    chain_near: Vec<usize>,
+    /// Samples whose near bound can still constrain `V_max`, in order (a convex chain), each
+    /// with that bound's point.
+    chain_near: Vec<(usize, Point2<f64>)>,
     /// Sample indices whose far bound can still constrain `V_min`.
-    chain_far: Vec<usize>,
+    chain_far: Vec<(usize, Point2<f64>)>,
 }
 
 impl LineVisibility {
@@ -66,17 +93,17 @@ impl LineVisibility {
     }
 
     /// Starts a new line whose first sample is `samples[j]`.
-    pub fn restart(&mut self, j: usize) {
+    pub fn restart(&mut self, samples: &[Sample], j: usize) {
         self.start = j;
         self.len = 1;
         self.v_max = None;
         self.v_min = None;
-        self.restrictive_max = j;
-        self.restrictive_min = j;
+        self.restrictive_max = 0;
+        self.restrictive_min = 0;
         self.chain_near.clear();
         self.chain_far.clear();
-        self.chain_near.push(j);
-        self.chain_far.push(j);
+        self.chain_near.push((j, samples[j].near_point()));
+        self.chain_far.push((j, samples[j].far_point()));
     }
 
     /// Number of samples in the line.
@@ -90,21 +117,15 @@ impl LineVisibility {
 
     /// `[d_min, d_max]` along the beam of `s`: where `V_min` and `V_max` cross it. Unbounded
     /// sides (a line of one sample, or a bound line that never reaches the beam) are 0 / +inf.
-    pub fn bounds(&self, samples: &[Sample], s: &Sample) -> (f64, f64) {
-        let d_min = self
-            .v_min
-            .and_then(|b| hit(samples[b.pivot].near_point(), samples[b.constraint].far_point(), s.dir))
-            .unwrap_or(0.0);
-        let d_max = self
-            .v_max
-            .and_then(|b| hit(samples[b.pivot].far_point(), samples[b.constraint].near_point(), s.dir))
-            .unwrap_or(f64::INFINITY);
+    pub fn bounds(&self, s: &Sample) -> (f64, f64) {
+        let d_min = self.v_min.and_then(|b| b.hit(s.dir)).unwrap_or(0.0);
+        let d_max = self.v_max.and_then(|b| b.hit(s.dir)).unwrap_or(f64::INFINITY);
         (d_min, d_max)
     }
 
     /// Eq. 3: whether `s` can join the line, `[near, far]` overlapping `[d_min, d_max]`.
-    pub fn admits(&self, samples: &[Sample], s: &Sample) -> bool {
-        self.admits_within(s, self.bounds(samples, s))
+    pub fn admits(&self, s: &Sample) -> bool {
+        self.admits_within(s, self.bounds(s))
     }
 
     /// Eq. 3 against bounds already computed with [`bounds`](Self::bounds).
@@ -115,52 +136,52 @@ impl LineVisibility {
     /// Adds `samples[j]` (which must follow the line's last sample) and updates `V_min` and
     /// `V_max` as in Code 2.
     pub fn include(&mut self, samples: &[Sample], j: usize) {
-        let b = self.bounds(samples, &samples[j]);
+        let b = self.bounds(&samples[j]);
         self.include_within(samples, j, b);
     }
 
     /// [`include`](Self::include) with the bounds on `samples[j]`'s beam already computed.
     pub fn include_within(&mut self, samples: &[Sample], j: usize, (d_min, d_max): (f64, f64)) {
         if self.len == 0 {
-            self.restart(j);
+            self.restart(samples, j);
             return;
         }
         let s = &samples[j];
         if s.far < d_max {
             // Case B for V_max: pivot on s's far bound, constrained by an earlier near bound.
-            let p = self.most_restrictive(samples, s.far_point(), self.restrictive_max, true);
-            self.v_max = Some(Bound { pivot: j, constraint: p });
-            self.restrictive_max = p;
+            let (at, p, q) = self.most_restrictive(s.far_point(), self.restrictive_max, true);
+            self.v_max = Some(Bound::new(j, p, s.far_point(), q));
+            self.restrictive_max = at;
         }
         if s.near > d_min {
             // The symmetric update of V_min: pivot on s's near bound, constrained by an
             // earlier far bound.
-            let p = self.most_restrictive(samples, s.near_point(), self.restrictive_min, false);
-            self.v_min = Some(Bound { pivot: j, constraint: p });
-            self.restrictive_min = p;
+            let (at, p, q) = self.most_restrictive(s.near_point(), self.restrictive_min, false);
+            self.v_min = Some(Bound::new(j, p, s.near_point(), q));
+            self.restrictive_min = at;
         }
-        push_chain(&mut self.chain_near, samples, j, true);
-        push_chain(&mut self.chain_far, samples, j, false);
+        // a most restrictive candidate dropped from its chain was followed only by dropped
+        // ones, so the search resumes at the new sample, the first candidate after it
+        let kept = push_chain(&mut self.chain_near, j, s.near_point(), true);
+        self.restrictive_max = self.restrictive_max.min(kept);
+        let kept = push_chain(&mut self.chain_far, j, s.far_point(), false);
+        self.restrictive_min = self.restrictive_min.min(kept);
         self.len += 1;
     }
 
-    /// Code 2's loop: among samples `from..j`, the one whose bound (near for `V_max`, far for
+    /// Code 2's loop: among the candidates from chain position `from` on, the one whose bound (near for `V_max`, far for
     /// `V_min`) makes the line through `pivot` most restrictive. Measured as the angle between
     /// the line and the direction from `pivot` back to the sensor: `V_max` takes the largest,
     /// `V_min` the smallest. Compared with cross products, no trigonometry.
-    fn most_restrictive(&self, samples: &[Sample], pivot: Point2<f64>, from: usize, for_max: bool) -> usize {
-        let bound = |k: usize| -> Vector2<f64> {
-            let q = if for_max { samples[k].near_point() } else { samples[k].far_point() };
-            q - pivot
-        };
+    fn most_restrictive(&self, pivot: Point2<f64>, from: usize, for_max: bool) -> (usize, usize, Point2<f64>) {
         let chain = if for_max { &self.chain_near } else { &self.chain_far };
-        // the stored most restrictive sample, or the first candidate after it
-        let mut pos = chain.partition_point(|&k| k < from).min(chain.len() - 1);
-        let mut best = chain[pos];
-        let mut best_dir = bound(best);
+        // the stored most restrictive candidate, or the first after it
+        let mut pos = from.min(chain.len() - 1);
+        let (mut best, mut best_point) = chain[pos];
+        let mut best_dir = best_point - pivot;
         while pos + 1 < chain.len() {
-            let k = chain[pos + 1];
-            let dir = bound(k);
+            let (k, q) = chain[pos + 1];
+            let dir = q - pivot;
             // Earlier samples lie on one side of the beam; on that side, `dir` makes a larger
             // angle with the direction to the sensor than `best_dir` iff it is turned further
             // against the beams' turning direction.
@@ -168,25 +189,24 @@ impl LineVisibility {
             if turned == 0.0 || (turned > 0.0) != for_max {
                 break; // past the tangent: the angle only falls from here
             }
-            best = k;
-            best_dir = dir;
+            (best, best_point, best_dir) = (k, q, dir);
             pos += 1;
         }
-        best
+        (pos, best, best_point)
     }
 }
 
-/// Appends sample `j`'s bound (near when `near`) to a candidate chain, first dropping the
-/// candidates that can no longer constrain: a near bound on the sensor's side of the chord
-/// from its predecessor to the new one (a far bound on the far side).
-fn push_chain(chain: &mut Vec<usize>, samples: &[Sample], j: usize, near: bool) {
-    let at = |k: usize| if near { samples[k].near_point() } else { samples[k].far_point() };
-    let c = at(j);
+/// Appends sample `j`'s bound point `c` (its near bound when `near`) to a candidate chain,
+/// first dropping the candidates that can no longer constrain: a near bound on the sensor's
+/// side of the chord from its predecessor to the new one (a far bound on the far side).
+/// Returns the position of the new candidate (the number of candidates kept before it).
+fn push_chain(chain: &mut Vec<(usize, Point2<f64>)>, j: usize, c: Point2<f64>, near: bool) -> usize {
     while chain.len() >= 2 {
-        let (a, b) = (at(chain[chain.len() - 2]), at(chain[chain.len() - 1]));
+        let (a, b) = (chain[chain.len() - 2].1, chain[chain.len() - 1].1);
         let chord = c - a;
         let side_b = cross(&chord, &(b - a));
-        let side_origin = cross(&chord, &(Point2::origin() - a));
+        // cross(c - a, origin - a) = cross(a, c)
+        let side_origin = cross(&a.coords, &c.coords);
         // b with the sensor (near) or against it (far), or on the chord: never restrictive
         let dominated = if near { side_b * side_origin >= 0.0 } else { side_b * side_origin <= 0.0 };
         if !dominated {
@@ -194,7 +214,15 @@ fn push_chain(chain: &mut Vec<usize>, samples: &[Sample], j: usize, near: bool) 
         }
         chain.pop();
     }
-    chain.push(j);
+    chain.push((j, c));
+    chain.len() - 1
+}
+
+/// A beam and a line of direction `e` are parallel when cross(dir, e)^2 is below this:
+/// |cross| < 1e-12 |e| (with |e| at least 1e-12), without a square root.
+#[inline]
+fn parallel_threshold(e: &Vector2<f64>) -> f64 {
+    1e-24 * e.norm_squared().max(1e-24)
 }
 
 #[inline]
@@ -208,7 +236,7 @@ fn cross(a: &Vector2<f64>, b: &Vector2<f64>) -> f64 {
 pub(crate) fn hit(a: Point2<f64>, b: Point2<f64>, dir: Vector2<f64>) -> Option<f64> {
     let e = b - a;
     let den = cross(&dir, &e);
-    if den.abs() < 1e-12 * e.norm().max(1e-12) {
+    if den * den < parallel_threshold(&e) {
         return None;
     }
     let t = cross(&a.coords, &e) / den;
@@ -288,7 +316,7 @@ mod tests {
         let seen = wall_samples(&g, 200, 300, (0.3, 2.0), &e, &[0.8, -0.8], true);
         let mut v = LineVisibility::new(g.angle_increment);
         for (j, s) in seen.iter().enumerate() {
-            assert!(v.admits(&seen, s), "sample {j} of a straight wall rejected");
+            assert!(v.admits(s), "sample {j} of a straight wall rejected");
             v.include(&seen, j);
         }
         assert_eq!(v.len(), 300);
@@ -304,13 +332,13 @@ mod tests {
             v.include(&seen, j);
         }
         let on = seen[20];
-        assert!(v.admits(&seen, &on));
+        assert!(v.admits(&on));
         // every line through the previous bands lies within about one band of the wall, so a
         // sample whose own band starts more than a band away (and a little wedge) is rejected
         for off in [-2.2, 2.2] {
             let d = on.d + off * e.at(on.d);
             let moved = Sample { d, near: d - e.at(d), far: d + e.at(d), ..on };
-            assert!(!v.admits(&seen, &moved), "a sample {off} error bands off was admitted");
+            assert!(!v.admits(&moved), "a sample {off} error bands off was admitted");
             let (lo, hi) = brute_bounds(&seen[..20], &moved).unwrap();
             assert!(moved.far < lo || moved.near > hi, "brute force disagrees");
         }
@@ -333,11 +361,11 @@ mod tests {
             let seen = wall_samples(&g, first, n + 1, (normal_angle, c), &e, &noise, false);
             let mut v = LineVisibility::new(g.angle_increment);
             for j in 0..n {
-                prop_assert!(v.admits(&seen, &seen[j]));
+                prop_assert!(v.admits(&seen[j]));
                 v.include(&seen, j);
                 if j >= 1 {
                     let next = &seen[j + 1];
-                    let (lo, hi) = v.bounds(&seen, next);
+                    let (lo, hi) = v.bounds(next);
                     let (blo, bhi) = brute_bounds(&seen[..=j], next).expect("a wall has stabbing lines");
                     prop_assert!((lo - blo).abs() < 1e-6, "d_min {} vs brute {}", lo, blo);
                     prop_assert!((hi - bhi).abs() < 1e-6, "d_max {} vs brute {}", hi, bhi);
