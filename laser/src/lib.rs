@@ -42,15 +42,18 @@ pub struct ScanView<'a> {
 }
 
 impl ScanView<'_> {
+    #[inline]
     pub fn len(&self) -> usize {
         self.ranges.len()
     }
 
+    #[inline]
     pub fn is_empty(&self) -> bool {
         self.ranges.is_empty()
     }
 
     /// Classifies reading `i` (DESIGN.md's validity rule).
+    #[inline]
     pub fn reading(&self, i: usize) -> Reading {
         self.geometry.classify(self.ranges[i] as f64)
     }

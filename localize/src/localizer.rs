@@ -117,10 +117,15 @@ impl Default for LocalizerConfig {
 /// hypotheses screened and refined.
 /// When its best pose is *confirmed* (status `ok`, at least `min_inliers` of the beams agree
 /// with the map and at most `max_through` see through its walls) the scan ends there; otherwise
-/// the full search runs and its hypotheses are ranked together with the first look's. A scan
-/// the map explains this well rarely needs the robustness of the full search, which exists for
-/// scans whose best corners are people or furniture; those have many beams off the map and
-/// are not confirmed.
+/// the full search runs and its hypotheses are ranked together with the first look's.
+///
+/// Seeing through walls is what tells a wrong pose: people and furniture only shorten beams,
+/// so a right pose in a furnished room has fewer inliers but still almost no beam through a
+/// wall. On the simulated logs, lowering `min_inliers` from 0.9 to 0.6 settled 2 % -> 50 % of
+/// furnished office scans and changed no scan's success. The full search exists for scans whose
+/// best corner is a box or a person: its pose sees through walls and is not confirmed. A
+/// settled scan's ambiguity is judged among the first look's hypotheses only, so a twin pose
+/// that only another scan corner would find goes unseen.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct FirstLook {
     /// Scan corners matched; 0 turns the first look off.
@@ -135,7 +140,7 @@ pub struct FirstLook {
 
 impl Default for FirstLook {
     fn default() -> Self {
-        FirstLook { corners: 1, prescreened: 32, screened: 8, refined: 2, min_inliers: 0.9, max_through: 0.01 }
+        FirstLook { corners: 1, prescreened: 32, screened: 8, refined: 2, min_inliers: 0.6, max_through: 0.01 }
     }
 }
 
@@ -324,8 +329,11 @@ impl Localizer {
         }
         self.keep_best(screened);
         let t1 = Instant::now();
-        self.coarse_cost(scan);
-        self.keep_best(refined);
+        // with no more screened than refined there is nothing for the coarse cost to choose
+        if screened > refined {
+            self.coarse_cost(scan);
+            self.keep_best(refined);
+        }
         let t2 = Instant::now();
         let model = Arc::clone(&self.model);
         for c in self.candidates.iter_mut() {

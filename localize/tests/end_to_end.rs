@@ -178,8 +178,9 @@ fn the_first_look_settles_clean_scans_and_defers_furnished_ones() {
                 settled += 1;
                 assert_eq!(status, Status::Ok, "a settled scan is ok");
                 let best = pose.expect("an ok scan has a pose");
-                let inliers = loc.hypotheses[0].cost.inliers;
-                assert!(inliers >= 0.9, "settled with {inliers} inliers");
+                let (cost, first) = (loc.hypotheses[0].cost, LocalizerConfig::default().first_look);
+                assert!(cost.inliers >= first.min_inliers, "settled with {} inliers", cost.inliers);
+                assert!(cost.through <= first.max_through, "settled with {} through walls", cost.through);
                 if reference.best().is_some_and(|h| same_pose(&h.pose, &best, 0.05, 1f64.to_radians())) {
                     agreed += 1;
                 }
