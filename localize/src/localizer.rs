@@ -84,7 +84,7 @@ pub struct LocalizerConfig {
 impl Default for LocalizerConfig {
     fn default() -> Self {
         LocalizerConfig {
-            corners_tried: 8,
+            corners_tried: 12,
             min_angle_tolerance: 2f64.to_radians(),
             max_angle_tolerance: 8f64.to_radians(),
             arm_slack: 0.3,
@@ -92,7 +92,7 @@ impl Default for LocalizerConfig {
             prescreen_step: 4,
             prescreened: 256,
             screen_cap: 0.12,
-            screened: 64,
+            screened: 128,
             coarse_beams: 64,
             coarse_sigma: 0.08,
             refined: 6,
