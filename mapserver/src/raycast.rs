@@ -196,7 +196,8 @@ fn sweep(
 ) {
     let e = b - a;
     let cross = a.perp(&e);
-    if cross.abs() < 1e-12 {
+    let cross_abs = cross.abs();
+    if cross_abs < 1e-12 {
         return; // the wall is seen edge-on (or passes through the sensor)
     }
     let (aa, ab) = (fast_atan2(a.y, a.x), fast_atan2(b.y, b.x));
@@ -237,11 +238,11 @@ fn sweep(
             if (i < lo + edge || i + edge > hi) && (a.perp(&d) * ab_cross < 0.0 || d.perp(&b) * ab_cross < 0.0) {
                 continue;
             }
-            // inside the wedge the beam crosses the wall's line (den = 0 gives no hit)
-            let t = cross / d.perp(&e);
-            if t > 0.0 && t < out[k] {
-                out[k] = t;
-            }
+            // inside the wedge the beam crosses the wall in front of the sensor, so cross and
+            // den share a sign and the distance is |cross| / |den| (+inf when den underflows);
+            // branch-free, as a beam's nearest wall is unpredictable
+            let t = cross_abs / d.perp(&e).abs();
+            out[k] = out[k].min(t);
         }
     };
     fill(u, u + span);
