@@ -176,8 +176,8 @@ fn the_first_look_settles_clean_scans_and_defers_furnished_ones() {
             assert!(reference.times.full_search, "with the first look off every scan runs the full search");
             if !searched {
                 settled += 1;
-                assert_eq!(status, Status::Ok, "a settled scan is ok");
-                let best = pose.expect("an ok scan has a pose");
+                assert_ne!(status, Status::Failed, "a settled scan has a pose");
+                let best = pose.expect("a scan that did not fail has a pose");
                 let (cost, first) = (loc.hypotheses[0].cost, LocalizerConfig::default().first_look);
                 assert!(cost.inliers >= first.min_inliers, "settled with {} inliers", cost.inliers);
                 assert!(cost.through <= first.max_through, "settled with {} through walls", cost.through);
