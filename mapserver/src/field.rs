@@ -17,8 +17,18 @@ pub struct DistanceField {
     /// Distance in units of `cap / 255` (one byte, so the field of a whole floor stays in
     /// cache: screening thousands of poses is bound by these lookups).
     cells: Vec<u8>,
-    /// Nearest wall of each cell's centre (`u32::MAX`: none within `cap`).
-    nearest: Vec<u32>,
+    /// Nearest wall of each cell's centre.
+    nearest: NearestWalls,
+}
+
+/// Wall indices of the cells, in 16 bits when the map has fewer than 65535 walls: half the
+/// memory, and refinement's lookups are cache misses.
+#[derive(Clone, Debug)]
+enum NearestWalls {
+    /// `u16::MAX`: no wall within the cap.
+    Narrow(Vec<u16>),
+    /// `u32::MAX`: no wall within the cap.
+    Wide(Vec<u32>),
 }
 
 /// Largest number of cells a field may have before its resolution is coarsened.
@@ -58,6 +68,11 @@ impl DistanceField {
                 }
             }
         }
+        let nearest = if walls.len() < u16::MAX as usize {
+            NearestWalls::Narrow(nearest.iter().map(|&k| k.min(u16::MAX as u32) as u16).collect())
+        } else {
+            NearestWalls::Wide(nearest)
+        };
         DistanceField { origin, resolution, inverse_resolution: 1.0 / resolution, cols, rows, cap, cells, nearest }
     }
 
@@ -74,7 +89,11 @@ impl DistanceField {
     /// The wall nearest to the centre of the cell holding `p`, if any lies within the cap.
     #[inline]
     pub fn nearest_wall(&self, p: Point2<f64>) -> Option<u32> {
-        self.index(p).map(|i| self.nearest[i]).filter(|&w| w != u32::MAX)
+        let i = self.index(p)?;
+        match &self.nearest {
+            NearestWalls::Narrow(n) => Some(n[i]).filter(|&w| w != u16::MAX).map(u32::from),
+            NearestWalls::Wide(n) => Some(n[i]).filter(|&w| w != u32::MAX),
+        }
     }
 
     /// Distance from `p` to the nearest wall, capped (and `cap` outside the field).
@@ -109,6 +128,21 @@ mod tests {
             let p = Point2::new(x, y);
             let exact = walls.iter().map(|w| w.closest(p).0).fold(f64::INFINITY, f64::min).min(1.0);
             prop_assert!((f.distance(p) - exact).abs() <= 0.05 * std::f64::consts::SQRT_2 / 2.0 + 1.0 / 255.0 + 1e-9);
+        }
+
+        #[test]
+        /// The named wall is nearest to the cell's centre: at most a cell diagonal farther from
+        /// the point than the nearest wall is; none only when every wall is beyond the cap.
+        fn nearest_wall_is_nearest_within_a_cell(x in -3.0f64..3.0, y in -3.0f64..3.0) {
+            let walls = vec![Wall::new(-1.0, 0.0, 1.0, 0.5), Wall::new(0.0, -2.0, 0.0, -1.0)];
+            let f = DistanceField::new(&walls, 0.05, 1.0);
+            let p = Point2::new(x, y);
+            let exact = walls.iter().map(|w| w.closest(p).0).fold(f64::INFINITY, f64::min);
+            let diagonal = 0.05 * std::f64::consts::SQRT_2;
+            match f.nearest_wall(p) {
+                Some(k) => prop_assert!(walls[k as usize].closest(p).0 <= exact + diagonal + 1e-9),
+                None => prop_assert!(exact >= 1.0 - diagonal),
+            }
         }
     }
 }
