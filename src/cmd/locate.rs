@@ -46,6 +46,7 @@ pub struct LocateArgs {
     #[arg(long)]
     pub diagnose: bool,
     /// Override a parameter, KEY=VALUE (repeatable): reach, long_reach, long_line, min_arm,
+    /// max_direction_sigma (degrees),
     /// corners, screen_points, prescreen_step, prescreened, screen_cap, screened, map_reach,
     /// wall_ends (0 or 1), refined, refine_points, refine_iterations, first_corners (0: no
     /// first look), first_prescreened, first_screened, first_refined, first_inliers,
@@ -84,6 +85,7 @@ pub fn configs(a: &LocateArgs) -> Result<(SegmenterConfig, LocalizerConfig, MapC
             "long_reach" => seg.corner.long_reach = v,
             "long_line" => seg.corner.long_line = v,
             "min_arm" => seg.corner.min_arm_length = v,
+            "max_direction_sigma" => seg.corner.max_direction_sigma = v.to_radians(),
             "corners" => loc.corners_tried = v as usize,
             "screened" => loc.screened = v as usize,
             "screen_points" => loc.screen_points = v as usize,
