@@ -22,7 +22,7 @@ pub fn classify(seg: &Segmentation, loc: &Localization, truth: &Pose) -> &'stati
         return "no scan corner";
     }
     match loc.all_candidates.iter().position(|c| near(&c.0)) {
-        None => "no candidate near the truth",
+        None => "no candidate near the truth past the first screening pass",
         Some(rank) if !loc.hypotheses.iter().any(|h| near(&h.pose)) => {
             if rank < 32 {
                 "candidate lost in the coarse cost or refinement"

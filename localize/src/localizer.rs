@@ -35,7 +35,9 @@ pub struct LocalizerConfig {
     /// Slack of the arm fit test, metres.
     pub arm_slack: f64,
     /// Scan points used to screen hypotheses with the distance field: a first pass over every
-    /// candidate uses one in `prescreen_step` of them and keeps the `prescreened` best.
+    /// candidate uses one in `prescreen_step` of them and keeps the `prescreened` best. With
+    /// furniture in view its few points often land on boxes, so the right pose can rank low
+    /// here: keeping 512 instead of 256 took the furnished office log from 82.7 to 83.7 %.
     pub screen_points: usize,
     pub prescreen_step: usize,
     pub prescreened: usize,
@@ -90,7 +92,7 @@ impl Default for LocalizerConfig {
             arm_slack: 0.3,
             screen_points: 40,
             prescreen_step: 4,
-            prescreened: 256,
+            prescreened: 512,
             screen_cap: 0.12,
             screened: 128,
             coarse_beams: 64,
