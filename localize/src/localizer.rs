@@ -11,6 +11,9 @@
 //!    unrefined pose, keeps the `refined` best (unmapped objects in front of walls cost little
 //!    here, unlike in the screen);
 //! 4. those are refined against the walls and ranked by the full one-sided eq. 7.
+//!
+//! All this runs first for the single best corner with few hypotheses (the [`FirstLook`]),
+//! and for the `corners_tried` best only when that look's best pose is not confirmed.
 
 use crate::cost::{cost, Cost, CostConfig};
 use crate::matching::{arms_fit, pose_from_corners};
@@ -117,6 +120,7 @@ impl Default for LocalizerConfig {
 
 /// A first, cheaper search, as the paper's: the best scan corner (or few best), fewer
 /// hypotheses screened and refined.
+///
 /// When its best pose is *confirmed* (at least `min_inliers` of the beams agree with the map
 /// and at most `max_through` see through its walls) the scan ends there, `ok` or `ambiguous`;
 /// otherwise the full search runs and its hypotheses are ranked together with the first
@@ -313,8 +317,9 @@ impl Localizer {
     }
 
     /// Matches the `corners` best scan corners, keeps the `screened` best candidates by the
-    /// screen (its first pass keeps `prescreened`) and the `refined` best of those by the coarse cost, refines them and adds them
-    /// to the hypotheses with their full eq. 7 cost (unranked). Adds each step's time.
+    /// screen (its first pass keeps `prescreened`) and the `refined` best of those by the
+    /// coarse cost, refines them and adds them to the hypotheses with their full eq. 7 cost
+    /// (unranked). Adds each step's time.
     fn search(
         &mut self,
         scan: &ScanView<'_>,

@@ -122,9 +122,6 @@ impl RayCaster {
         let range = g.range_max;
         let lo = Point2::new(p.x - range, p.y - range);
         let hi = Point2::new(p.x + range, p.y + range);
-        let ((c0, r0), (c1, r1)) = self.grid.cell_range(lo, hi);
-        let epoch = scratch.epoch;
-        let visit_all = (c1 - c0 + 1) * (r1 - r0 + 1) * 2 > self.grid.cell_count();
         let visit = |k: usize, scratch: &mut RayScratch, out: &mut Vec<f64>| {
             let w = &self.walls[k];
             // outside the square of side 2 range around the sensor: out of reach
@@ -140,6 +137,9 @@ impl RayCaster {
             }
             return;
         }
+        let ((c0, r0), (c1, r1)) = self.grid.cell_range(lo, hi);
+        let epoch = scratch.epoch;
+        let visit_all = (c1 - c0 + 1) * (r1 - r0 + 1) * 2 > self.grid.cell_count();
         if visit_all {
             for k in 0..self.walls.len() {
                 visit(k, scratch, out);
