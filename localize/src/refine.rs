@@ -31,7 +31,7 @@ pub fn refine(model: &MapModel, points: &[Point2<f64>], pose: &Pose, cfg: &Refin
     let mut t = pose.translation.vector;
     let mut gate = cfg.first_gate;
     let mut paired = 0usize;
-    let gate_ends_squared =
+    let nearer_end_squared =
         |p: Point2<f64>, a: Point2<f64>, b: Point2<f64>| (p - a).norm_squared().min((p - b).norm_squared());
     for _ in 0..cfg.iterations {
         let (sin, cos) = theta.sin_cos();
@@ -54,7 +54,7 @@ pub fn refine(model: &MapModel, points: &[Point2<f64>], pose: &Pose, cfg: &Refin
             let e = wall.b - wall.a;
             let along = (p - wall.a).dot(&e);
             let distance_squared =
-                if (0.0..=e.norm_squared()).contains(&along) { r * r } else { gate_ends_squared(p, wall.a, wall.b) };
+                if (0.0..=e.norm_squared()).contains(&along) { r * r } else { nearer_end_squared(p, wall.a, wall.b) };
             if distance_squared > gate_squared {
                 continue;
             }

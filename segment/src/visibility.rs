@@ -22,28 +22,27 @@
 use crate::sample::Sample;
 use nalgebra::{Point2, Vector2};
 
-/// A bound line through `pivot`'s bound and `constraint`'s opposite bound (indices into the
-/// sample slice), with what [`hit`] needs of it computed once: most samples cross a bound
-/// line without moving it.
+/// A bound line `V_min` or `V_max`, through one sample's bound point `a` and an earlier one's
+/// opposite bound point `b`, with what [`hit`] needs of it computed once: most samples cross a
+/// bound line without moving it.
 #[derive(Clone, Copy, Debug, PartialEq)]
-struct Bound {
-    pivot: usize,
-    constraint: usize,
-    /// The pivot's bound point, and the line's direction towards the constraint's.
-    a: Point2<f64>,
+struct BoundLine {
+    /// The line's direction, b - a.
     e: Vector2<f64>,
     /// cross(a, e), and the squared threshold below which a beam counts as parallel.
     numerator: f64,
     parallel: f64,
 }
 
-impl Bound {
-    fn new(pivot: usize, constraint: usize, a: Point2<f64>, b: Point2<f64>) -> Self {
+impl BoundLine {
+    fn through(a: Point2<f64>, b: Point2<f64>) -> Self {
         let e = b - a;
-        Bound { pivot, constraint, a, e, numerator: cross(&a.coords, &e), parallel: parallel_threshold(&e) }
+        BoundLine { e, numerator: cross(&a.coords, &e), parallel: 1e-24 * e.norm_squared().max(1e-24) }
     }
 
-    /// [`hit`] of this line and `dir`.
+    /// Distance along the unit beam `dir` at which the line crosses it; `None` when it is
+    /// parallel (|cross(dir, e)| < 1e-12 |e|, without a square root) or crosses behind the
+    /// sensor.
     #[inline]
     fn hit(&self, dir: Vector2<f64>) -> Option<f64> {
         let den = cross(&dir, &self.e);
@@ -58,10 +57,9 @@ impl Bound {
 /// The line visibility `V_l = (d_min, d_max)` of the line being inferred.
 #[derive(Clone, Debug)]
 pub struct LineVisibility {
-    start: usize,
     len: usize,
-    v_max: Option<Bound>,
-    v_min: Option<Bound>,
+    v_max: Option<BoundLine>,
+    v_min: Option<BoundLine>,
     /// Position in `chain_near` of the most restrictive sample for `V_max` (Code 2's
     /// `pos_min`, kept across calls).
     restrictive_max: usize,
@@ -69,18 +67,16 @@ pub struct LineVisibility {
     restrictive_min: usize,
     /// +1 when beams turn counter-clockwise, -1 otherwise: which side earlier samples lie on.
     turn: f64,
-    /// Samples whose near bound can still constrain `V_max`, in order (a convex chain), each
-    /// with that bound's point.
-    chain_near: Vec<(usize, Point2<f64>)>,
-    /// Sample indices whose far bound can still constrain `V_min`.
-    chain_far: Vec<(usize, Point2<f64>)>,
+    /// Near bound points that can still constrain `V_max`, in sample order (a convex chain).
+    chain_near: Vec<Point2<f64>>,
+    /// Far bound points that can still constrain `V_min`.
+    chain_far: Vec<Point2<f64>>,
 }
 
 impl LineVisibility {
     /// A visibility for an empty line; `angle_increment` gives the beams' turning direction.
     pub fn new(angle_increment: f64) -> Self {
         LineVisibility {
-            start: 0,
             len: 0,
             v_max: None,
             v_min: None,
@@ -94,7 +90,6 @@ impl LineVisibility {
 
     /// Starts a new line whose first sample is `samples[j]`.
     pub fn restart(&mut self, samples: &[Sample], j: usize) {
-        self.start = j;
         self.len = 1;
         self.v_max = None;
         self.v_min = None;
@@ -102,8 +97,8 @@ impl LineVisibility {
         self.restrictive_min = 0;
         self.chain_near.clear();
         self.chain_far.clear();
-        self.chain_near.push((j, samples[j].near_point()));
-        self.chain_far.push((j, samples[j].far_point()));
+        self.chain_near.push(samples[j].near_point());
+        self.chain_far.push(samples[j].far_point());
     }
 
     /// Number of samples in the line.
@@ -149,38 +144,39 @@ impl LineVisibility {
         let s = &samples[j];
         if s.far < d_max {
             // Case B for V_max: pivot on s's far bound, constrained by an earlier near bound.
-            let (at, p, q) = self.most_restrictive(s.far_point(), self.restrictive_max, true);
-            self.v_max = Some(Bound::new(j, p, s.far_point(), q));
+            let (at, q) = self.most_restrictive(s.far_point(), self.restrictive_max, true);
+            self.v_max = Some(BoundLine::through(s.far_point(), q));
             self.restrictive_max = at;
         }
         if s.near > d_min {
             // The symmetric update of V_min: pivot on s's near bound, constrained by an
             // earlier far bound.
-            let (at, p, q) = self.most_restrictive(s.near_point(), self.restrictive_min, false);
-            self.v_min = Some(Bound::new(j, p, s.near_point(), q));
+            let (at, q) = self.most_restrictive(s.near_point(), self.restrictive_min, false);
+            self.v_min = Some(BoundLine::through(s.near_point(), q));
             self.restrictive_min = at;
         }
         // a most restrictive candidate dropped from its chain was followed only by dropped
         // ones, so the search resumes at the new sample, the first candidate after it
-        let kept = push_chain(&mut self.chain_near, j, s.near_point(), true);
+        let kept = push_chain(&mut self.chain_near, s.near_point(), true);
         self.restrictive_max = self.restrictive_max.min(kept);
-        let kept = push_chain(&mut self.chain_far, j, s.far_point(), false);
+        let kept = push_chain(&mut self.chain_far, s.far_point(), false);
         self.restrictive_min = self.restrictive_min.min(kept);
         self.len += 1;
     }
 
-    /// Code 2's loop: among the candidates from chain position `from` on, the one whose bound (near for `V_max`, far for
-    /// `V_min`) makes the line through `pivot` most restrictive. Measured as the angle between
-    /// the line and the direction from `pivot` back to the sensor: `V_max` takes the largest,
-    /// `V_min` the smallest. Compared with cross products, no trigonometry.
-    fn most_restrictive(&self, pivot: Point2<f64>, from: usize, for_max: bool) -> (usize, usize, Point2<f64>) {
+    /// Code 2's loop: among the candidates from chain position `from` on, the one whose bound
+    /// (near for `V_max`, far for `V_min`) makes the line through `pivot` most restrictive,
+    /// as its chain position and point. Measured as the angle between the line and the
+    /// direction from `pivot` back to the sensor: `V_max` takes the largest, `V_min` the
+    /// smallest. Compared with cross products, no trigonometry.
+    fn most_restrictive(&self, pivot: Point2<f64>, from: usize, for_max: bool) -> (usize, Point2<f64>) {
         let chain = if for_max { &self.chain_near } else { &self.chain_far };
         // the stored most restrictive candidate, or the first after it
         let mut pos = from.min(chain.len() - 1);
-        let (mut best, mut best_point) = chain[pos];
+        let mut best_point = chain[pos];
         let mut best_dir = best_point - pivot;
         while pos + 1 < chain.len() {
-            let (k, q) = chain[pos + 1];
+            let q = chain[pos + 1];
             let dir = q - pivot;
             // Earlier samples lie on one side of the beam; on that side, `dir` makes a larger
             // angle with the direction to the sensor than `best_dir` iff it is turned further
@@ -189,20 +185,20 @@ impl LineVisibility {
             if turned == 0.0 || (turned > 0.0) != for_max {
                 break; // past the tangent: the angle only falls from here
             }
-            (best, best_point, best_dir) = (k, q, dir);
+            (best_point, best_dir) = (q, dir);
             pos += 1;
         }
-        (pos, best, best_point)
+        (pos, best_point)
     }
 }
 
-/// Appends sample `j`'s bound point `c` (its near bound when `near`) to a candidate chain,
-/// first dropping the candidates that can no longer constrain: a near bound on the sensor's
-/// side of the chord from its predecessor to the new one (a far bound on the far side).
-/// Returns the position of the new candidate (the number of candidates kept before it).
-fn push_chain(chain: &mut Vec<(usize, Point2<f64>)>, j: usize, c: Point2<f64>, near: bool) -> usize {
+/// Appends the newest sample's bound point `c` (its near bound when `near`) to a candidate
+/// chain, first dropping the candidates that can no longer constrain: a near bound on the
+/// sensor's side of the chord from its predecessor to the new one (a far bound on the far
+/// side). Returns the position of the new candidate (the number of candidates kept before it).
+fn push_chain(chain: &mut Vec<Point2<f64>>, c: Point2<f64>, near: bool) -> usize {
     while chain.len() >= 2 {
-        let (a, b) = (chain[chain.len() - 2].1, chain[chain.len() - 1].1);
+        let (a, b) = (chain[chain.len() - 2], chain[chain.len() - 1]);
         let chord = c - a;
         let side_b = cross(&chord, &(b - a));
         // cross(c - a, origin - a) = cross(a, c)
@@ -214,15 +210,8 @@ fn push_chain(chain: &mut Vec<(usize, Point2<f64>)>, j: usize, c: Point2<f64>, n
         }
         chain.pop();
     }
-    chain.push((j, c));
+    chain.push(c);
     chain.len() - 1
-}
-
-/// A beam and a line of direction `e` are parallel when cross(dir, e)^2 is below this:
-/// |cross| < 1e-12 |e| (with |e| at least 1e-12), without a square root.
-#[inline]
-fn parallel_threshold(e: &Vector2<f64>) -> f64 {
-    1e-24 * e.norm_squared().max(1e-24)
 }
 
 #[inline]
@@ -234,13 +223,7 @@ fn cross(a: &Vector2<f64>, b: &Vector2<f64>) -> f64 {
 /// crosses it; `None` when it is parallel or crosses behind the sensor.
 #[inline]
 pub(crate) fn hit(a: Point2<f64>, b: Point2<f64>, dir: Vector2<f64>) -> Option<f64> {
-    let e = b - a;
-    let den = cross(&dir, &e);
-    if den * den < parallel_threshold(&e) {
-        return None;
-    }
-    let t = cross(&a.coords, &e) / den;
-    (t > 0.0 && t.is_finite()).then_some(t)
+    BoundLine::through(a, b).hit(dir)
 }
 
 #[cfg(test)]

@@ -46,13 +46,13 @@ pub struct LocateArgs {
     #[arg(long)]
     pub diagnose: bool,
     /// Override a parameter, KEY=VALUE (repeatable): reach, long_reach, long_line, min_arm,
-    /// max_direction_sigma (degrees),
-    /// corners, screen_points, prescreen_step, prescreened, screen_cap, screened, map_reach,
-    /// wall_ends (0 or 1), refined, refine_points, refine_iterations, first_corners (0: no
-    /// first look), first_prescreened, first_screened, first_refined, first_inliers,
-    /// first_through, coarse_beams, coarse_sigma, arm_slack, map_sigma (a floor on the map's
-    /// accuracy), cost_stride, front_cap, through_cap, ambiguity, min_inliers, max_through,
-    /// merge_angle (degrees), min_samples, error_constant, error_proportional.
+    /// max_direction_sigma (degrees), corners, screen_points, prescreen_step, prescreened,
+    /// screen_cap, screened, map_reach, wall_ends (0 or 1), refined, refine_points,
+    /// refine_iterations, first_corners (0: no first look), first_prescreened, first_screened,
+    /// first_refined, first_inliers, first_through, coarse_beams, coarse_sigma, arm_slack,
+    /// map_sigma (a floor on the map's accuracy), cost_stride, front_cap, through_cap,
+    /// ambiguity, min_inliers, max_through, merge_angle (degrees), min_samples, error_constant,
+    /// error_proportional.
     #[arg(long = "set", value_name = "KEY=VALUE")]
     pub set: Vec<String>,
     /// Write scan N's samples, lines, corners and (true-pose) map as JSON to this folder.
