@@ -26,7 +26,7 @@ pub fn infer_lines(samples: &[Sample], angle_increment: f64, error: &ErrorModel,
     let mut first = 0;
     let mut clusters = 0;
     for (j, s) in samples.iter().enumerate() {
-        let bounds = visibility.bounds(s);
+        let bounds = visibility.crossings(s);
         if j == 0 || s.gap_before || !visibility.admits_within(s, bounds) {
             if j > 0 {
                 close(samples, first, j - 1, moments, error, out);

@@ -45,12 +45,69 @@ impl BoundLine {
     /// sensor.
     #[inline]
     fn hit(&self, dir: Vector2<f64>) -> Option<f64> {
+        let c = self.crossing(dir, Crossing::NONE);
+        (c.den > 0.0).then(|| c.num / c.den)
+    }
+
+    /// [`hit`](Self::hit) as a fraction, `unbounded` where `hit` is `None`: no division, and no
+    /// branch for the caller to mispredict.
+    #[inline]
+    fn crossing(&self, dir: Vector2<f64>, unbounded: Crossing) -> Crossing {
         let den = cross(&dir, &self.e);
-        if den * den < self.parallel {
-            return None;
+        // same signs: the crossing lies ahead of the sensor
+        let ahead = self.numerator * den > 0.0 && den * den >= self.parallel;
+        if ahead {
+            Crossing { num: self.numerator.abs(), den: den.abs() }
+        } else {
+            unbounded
         }
-        let t = self.numerator / den;
-        (t > 0.0 && t.is_finite()).then_some(t)
+    }
+}
+
+/// A distance along a beam as the fraction `num / den` (both non-negative), so that comparing a
+/// range with it takes a multiplication instead of a division: most samples are compared with
+/// both bounds and move neither.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Crossing {
+    num: f64,
+    den: f64,
+}
+
+impl Crossing {
+    /// No crossing, as [`BoundLine::hit`]'s `None`: 0 as a lower bound...
+    const NONE: Crossing = Crossing { num: 0.0, den: 0.0 };
+    const ZERO: Crossing = Crossing { num: 0.0, den: 1.0 };
+    /// ...and +inf as an upper bound.
+    const INFINITY: Crossing = Crossing { num: 1.0, den: 0.0 };
+
+    /// Whether `d` lies below the crossing (`d < num / den`).
+    #[inline]
+    fn above(self, d: f64) -> bool {
+        d * self.den < self.num
+    }
+
+    /// Whether `d` lies above the crossing (`d > num / den`).
+    #[inline]
+    fn below(self, d: f64) -> bool {
+        d * self.den > self.num
+    }
+
+    fn distance(self) -> f64 {
+        self.num / self.den
+    }
+}
+
+/// Where `V_min` and `V_max` cross one sample's beam: the visibility `[d_min, d_max]` of eq. 3.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Bounds {
+    d_min: Crossing,
+    d_max: Crossing,
+}
+
+impl Bounds {
+    /// `d_min` and `d_max` in metres (0 and +inf where unbounded).
+    pub fn distances(&self) -> (f64, f64) {
+        (self.d_min.distance(), self.d_max.distance())
     }
 }
 
@@ -113,42 +170,51 @@ impl LineVisibility {
     /// `[d_min, d_max]` along the beam of `s`: where `V_min` and `V_max` cross it. Unbounded
     /// sides (a line of one sample, or a bound line that never reaches the beam) are 0 / +inf.
     pub fn bounds(&self, s: &Sample) -> (f64, f64) {
-        let d_min = self.v_min.and_then(|b| b.hit(s.dir)).unwrap_or(0.0);
-        let d_max = self.v_max.and_then(|b| b.hit(s.dir)).unwrap_or(f64::INFINITY);
-        (d_min, d_max)
+        self.crossings(s).distances()
+    }
+
+    /// [`bounds`](Self::bounds) without divisions, for [`admits_within`](Self::admits_within)
+    /// and [`include_within`](Self::include_within).
+    #[inline]
+    pub fn crossings(&self, s: &Sample) -> Bounds {
+        Bounds {
+            d_min: self.v_min.map_or(Crossing::ZERO, |b| b.crossing(s.dir, Crossing::ZERO)),
+            d_max: self.v_max.map_or(Crossing::INFINITY, |b| b.crossing(s.dir, Crossing::INFINITY)),
+        }
     }
 
     /// Eq. 3: whether `s` can join the line, `[near, far]` overlapping `[d_min, d_max]`.
     pub fn admits(&self, s: &Sample) -> bool {
-        self.admits_within(s, self.bounds(s))
+        self.admits_within(s, self.crossings(s))
     }
 
-    /// Eq. 3 against bounds already computed with [`bounds`](Self::bounds).
-    pub fn admits_within(&self, s: &Sample, (d_min, d_max): (f64, f64)) -> bool {
-        self.len == 0 || (s.near <= d_max && s.far >= d_min)
+    /// Eq. 3 against bounds already computed with [`crossings`](Self::crossings).
+    #[inline]
+    pub fn admits_within(&self, s: &Sample, b: Bounds) -> bool {
+        self.len == 0 || (!b.d_max.below(s.near) && !b.d_min.above(s.far))
     }
 
     /// Adds `samples[j]` (which must follow the line's last sample) and updates `V_min` and
     /// `V_max` as in Code 2.
     pub fn include(&mut self, samples: &[Sample], j: usize) {
-        let b = self.bounds(&samples[j]);
+        let b = self.crossings(&samples[j]);
         self.include_within(samples, j, b);
     }
 
     /// [`include`](Self::include) with the bounds on `samples[j]`'s beam already computed.
-    pub fn include_within(&mut self, samples: &[Sample], j: usize, (d_min, d_max): (f64, f64)) {
+    pub fn include_within(&mut self, samples: &[Sample], j: usize, b: Bounds) {
         if self.len == 0 {
             self.restart(samples, j);
             return;
         }
         let s = &samples[j];
-        if s.far < d_max {
+        if b.d_max.above(s.far) {
             // Case B for V_max: pivot on s's far bound, constrained by an earlier near bound.
             let (at, q) = self.most_restrictive(s.far_point(), self.restrictive_max, true);
             self.v_max = Some(BoundLine::through(s.far_point(), q));
             self.restrictive_max = at;
         }
-        if s.near > d_min {
+        if b.d_min.below(s.near) {
             // The symmetric update of V_min: pivot on s's near bound, constrained by an
             // earlier far bound.
             let (at, q) = self.most_restrictive(s.near_point(), self.restrictive_min, false);
