@@ -35,6 +35,9 @@ struct BoundLine {
 }
 
 impl BoundLine {
+    /// No bound yet (a line of one sample): crosses no beam.
+    const NONE: BoundLine = BoundLine { e: Vector2::new(0.0, 0.0), numerator: 0.0, parallel: 1.0 };
+
     fn through(a: Point2<f64>, b: Point2<f64>) -> Self {
         let e = b - a;
         BoundLine { e, numerator: cross(&a.coords, &e), parallel: 1e-24 * e.norm_squared().max(1e-24) }
@@ -115,8 +118,9 @@ impl Bounds {
 #[derive(Clone, Debug)]
 pub struct LineVisibility {
     len: usize,
-    v_max: Option<BoundLine>,
-    v_min: Option<BoundLine>,
+    /// [`BoundLine::NONE`] until the line has two samples.
+    v_max: BoundLine,
+    v_min: BoundLine,
     /// Position in `chain_near` of the most restrictive sample for `V_max` (Code 2's
     /// `pos_min`, kept across calls).
     restrictive_max: usize,
@@ -135,8 +139,8 @@ impl LineVisibility {
     pub fn new(angle_increment: f64) -> Self {
         LineVisibility {
             len: 0,
-            v_max: None,
-            v_min: None,
+            v_max: BoundLine::NONE,
+            v_min: BoundLine::NONE,
             restrictive_max: 0,
             restrictive_min: 0,
             turn: if angle_increment < 0.0 { -1.0 } else { 1.0 },
@@ -148,8 +152,8 @@ impl LineVisibility {
     /// Starts a new line whose first sample is `samples[j]`.
     pub fn restart(&mut self, samples: &[Sample], j: usize) {
         self.len = 1;
-        self.v_max = None;
-        self.v_min = None;
+        self.v_max = BoundLine::NONE;
+        self.v_min = BoundLine::NONE;
         self.restrictive_max = 0;
         self.restrictive_min = 0;
         self.chain_near.clear();
@@ -178,8 +182,8 @@ impl LineVisibility {
     #[inline]
     pub fn crossings(&self, s: &Sample) -> Bounds {
         Bounds {
-            d_min: self.v_min.map_or(Crossing::ZERO, |b| b.crossing(s.dir, Crossing::ZERO)),
-            d_max: self.v_max.map_or(Crossing::INFINITY, |b| b.crossing(s.dir, Crossing::INFINITY)),
+            d_min: self.v_min.crossing(s.dir, Crossing::ZERO),
+            d_max: self.v_max.crossing(s.dir, Crossing::INFINITY),
         }
     }
 
@@ -211,14 +215,14 @@ impl LineVisibility {
         if b.d_max.above(s.far) {
             // Case B for V_max: pivot on s's far bound, constrained by an earlier near bound.
             let (at, q) = self.most_restrictive(s.far_point(), self.restrictive_max, true);
-            self.v_max = Some(BoundLine::through(s.far_point(), q));
+            self.v_max = BoundLine::through(s.far_point(), q);
             self.restrictive_max = at;
         }
         if b.d_min.below(s.near) {
             // The symmetric update of V_min: pivot on s's near bound, constrained by an
             // earlier far bound.
             let (at, q) = self.most_restrictive(s.near_point(), self.restrictive_min, false);
-            self.v_min = Some(BoundLine::through(s.near_point(), q));
+            self.v_min = BoundLine::through(s.near_point(), q);
             self.restrictive_min = at;
         }
         // a most restrictive candidate dropped from its chain was followed only by dropped
