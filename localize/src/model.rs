@@ -1,7 +1,7 @@
 //! Everything the localizer pre-computes from a wall map, once.
 
-use mapserver::{CornerIndex, DistanceField, MapCornerConfig, RayCaster, WallMap};
-use nalgebra::Vector2;
+use mapserver::{CornerIndex, DistanceField, MapCornerConfig, RayCaster, Wall, WallMap};
+use nalgebra::{Point2, Vector2};
 
 /// Distance field resolution, metres.
 const FIELD_RESOLUTION: f64 = 0.05;
@@ -15,8 +15,27 @@ pub struct MapModel {
     pub corners: CornerIndex,
     pub caster: RayCaster,
     pub field: DistanceField,
-    /// Unit normal of each wall.
-    pub normals: Vec<Vector2<f64>>,
+    /// Each wall as refinement reads it, in one place.
+    pub frames: Vec<WallFrame>,
+}
+
+/// A wall's start, direction, squared length and unit normal: what point-to-wall distances
+/// need, together so one cache line holds them.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct WallFrame {
+    pub a: Point2<f64>,
+    /// b - a.
+    pub e: Vector2<f64>,
+    pub length_squared: f64,
+    pub normal: Vector2<f64>,
+}
+
+impl WallFrame {
+    pub fn of(w: &Wall) -> Self {
+        let e = w.b - w.a;
+        let u = e.normalize();
+        WallFrame { a: w.a, e, length_squared: e.norm_squared(), normal: Vector2::new(-u.y, u.x) }
+    }
 }
 
 impl MapModel {
@@ -25,14 +44,7 @@ impl MapModel {
             corners: CornerIndex::of_map(&map, corners),
             caster: RayCaster::new(&map.walls),
             field: DistanceField::new(&map.walls, FIELD_RESOLUTION, FIELD_CAP),
-            normals: map
-                .walls
-                .iter()
-                .map(|w| {
-                    let e = (w.b - w.a).normalize();
-                    Vector2::new(-e.y, e.x)
-                })
-                .collect(),
+            frames: map.walls.iter().map(WallFrame::of).collect(),
             map,
         }
     }

@@ -31,6 +31,7 @@ pub fn refine(model: &MapModel, points: &[Point2<f64>], pose: &Pose, cfg: &Refin
     let mut t = pose.translation.vector;
     let mut gate = cfg.first_gate;
     let mut paired = 0usize;
+    let inverse_kernel_squared = 1.0 / (cfg.kernel * cfg.kernel);
     let nearer_end_squared =
         |p: Point2<f64>, a: Point2<f64>, b: Point2<f64>| (p - a).norm_squared().min((p - b).norm_squared());
     for _ in 0..cfg.iterations {
@@ -46,22 +47,24 @@ pub fn refine(model: &MapModel, points: &[Point2<f64>], pose: &Pose, cfg: &Refin
             let Some(k) = model.field.nearest_wall(p) else {
                 continue;
             };
-            let wall = &model.map.walls[k as usize];
-            let normal = model.normals[k as usize];
+            let wall = &model.frames[k as usize];
+            let normal = wall.normal;
             // signed distance to the wall's line; to the wall itself when p projects onto it,
             // else to its nearer end
             let r = (p - wall.a).dot(&normal);
-            let e = wall.b - wall.a;
-            let along = (p - wall.a).dot(&e);
-            let distance_squared =
-                if (0.0..=e.norm_squared()).contains(&along) { r * r } else { nearer_end_squared(p, wall.a, wall.b) };
+            let along = (p - wall.a).dot(&wall.e);
+            let distance_squared = if (0.0..=wall.length_squared).contains(&along) {
+                r * r
+            } else {
+                nearer_end_squared(p, wall.a, wall.a + wall.e)
+            };
             if distance_squared > gate_squared {
                 continue;
             }
             paired += 1;
             // the residual's Jacobian in (x, y, theta)
             let (j0, j1, j2) = (normal.x, normal.y, normal.y * rq.x - normal.x * rq.y);
-            let w = 1.0 / (1.0 + (r / cfg.kernel).powi(2));
+            let w = 1.0 / (1.0 + r * r * inverse_kernel_squared);
             let (wj0, wj1, wj2) = (w * j0, w * j1, w * j2);
             h00 += wj0 * j0;
             h01 += wj0 * j1;
