@@ -7,9 +7,9 @@
 //!
 //! 1. matches whose arms cannot fit the map corner's are dropped ([`arms_fit`]);
 //! 2. a distance-field screen keeps the `screened` best;
-//! 3. a coarse one-sided eq. 7 over a subset of beams, with a noise floor that tolerates an
-//!    unrefined pose, keeps the `refined` best (unmapped objects in front of walls cost little
-//!    here, unlike in the screen);
+//! 3. a coarse one-sided eq. 7 over a subset of beams (first a sparser one when many pass the
+//!    screen), with a noise floor that tolerates an unrefined pose, keeps the `refined` best
+//!    (unmapped objects in front of walls cost little here, unlike in the screen);
 //! 4. those are refined against the walls and ranked by the full one-sided eq. 7.
 //!
 //! All this runs first for the single best corner with few hypotheses (the [`FirstLook`]),
@@ -55,6 +55,15 @@ pub struct LocalizerConfig {
     /// Beams of the coarse cost, and its noise floor (metres).
     pub coarse_beams: usize,
     pub coarse_sigma: f64,
+    /// When more than `sparse_kept` hypotheses pass the screen, a coarse cost over only
+    /// `sparse_beams` beams keeps the `sparse_kept` best first. The ray-cast cost tells an object
+    /// in front of a wall from a beam through one, which the distance-field screen cannot, so
+    /// handing it more candidates rescues furnished scans whose right pose screens poorly: with
+    /// 384 screened (was 128) and 32 beams, the furnished office log went from 83.7 to 85.7 %
+    /// and no clean or people log lost a scan, for about 1.5 times the instructions per
+    /// furnished scan.
+    pub sparse_beams: usize,
+    pub sparse_kept: usize,
     /// Hypotheses kept by the coarse cost, refined and costed in full.
     pub refined: usize,
     /// Scan points used by refinement.
@@ -97,9 +106,11 @@ impl Default for LocalizerConfig {
             prescreen_step: 4,
             prescreened: 512,
             screen_cap: 0.12,
-            screened: 128,
+            screened: 384,
             coarse_beams: 64,
             coarse_sigma: 0.08,
+            sparse_beams: 32,
+            sparse_kept: 64,
             refined: 6,
             refine_points: 160,
             refine: RefineConfig::default(),
@@ -341,7 +352,12 @@ impl Localizer {
         let t1 = Instant::now();
         // with no more screened than refined there is nothing for the coarse cost to choose
         if screened > refined {
-            self.coarse_cost(scan);
+            let cfg = self.config;
+            if self.candidates.len() > cfg.sparse_kept.max(refined) {
+                self.coarse_cost(scan, cfg.sparse_beams);
+                self.keep_best(cfg.sparse_kept);
+            }
+            self.coarse_cost(scan, cfg.coarse_beams);
             self.keep_best(refined);
         }
         let t2 = Instant::now();
@@ -463,10 +479,11 @@ impl Localizer {
         self.candidates.truncate(kept);
     }
 
-    /// Scores each candidate by eq. 7 over a subset of beams, tolerant of misalignment.
-    fn coarse_cost(&mut self, scan: &ScanView<'_>) {
+    /// Scores each candidate by eq. 7 over about `beams` equispaced beams, tolerant of
+    /// misalignment.
+    fn coarse_cost(&mut self, scan: &ScanView<'_>, beams: usize) {
         let cfg = CostConfig {
-            stride: (scan.len() / self.config.coarse_beams.max(1)).max(1),
+            stride: (scan.len() / beams.max(1)).max(1),
             sigma_floor: self.config.coarse_sigma.max(self.model.map.sigma),
             ..self.config.cost
         };

@@ -49,10 +49,10 @@ pub struct LocateArgs {
     /// max_direction_sigma (degrees), corners, screen_points, prescreen_step, prescreened,
     /// screen_cap, screened, map_reach, wall_ends (0 or 1), refined, refine_points,
     /// refine_iterations, first_corners (0: no first look), first_prescreened, first_screened,
-    /// first_refined, first_inliers, first_through, coarse_beams, coarse_sigma, arm_slack,
-    /// map_sigma (a floor on the map's accuracy), cost_stride, front_cap, through_cap,
-    /// ambiguity, min_inliers, max_through, merge_angle (degrees), min_samples, error_constant,
-    /// error_proportional.
+    /// first_refined, first_inliers, first_through, coarse_beams, coarse_sigma, sparse_beams,
+    /// sparse_kept, arm_slack, map_sigma (a floor on the map's accuracy), cost_stride,
+    /// front_cap, through_cap, ambiguity, min_inliers, max_through, merge_angle (degrees),
+    /// min_samples, error_constant, error_proportional.
     #[arg(long = "set", value_name = "KEY=VALUE")]
     pub set: Vec<String>,
     /// Write scan N's samples, lines, corners and (true-pose) map as JSON to this folder.
@@ -108,6 +108,8 @@ pub fn configs(a: &LocateArgs) -> Result<(SegmenterConfig, LocalizerConfig, MapC
             "first_through" => loc.first_look.max_through = v,
             "coarse_beams" => loc.coarse_beams = v as usize,
             "coarse_sigma" => loc.coarse_sigma = v,
+            "sparse_beams" => loc.sparse_beams = v as usize,
+            "sparse_kept" => loc.sparse_kept = v as usize,
             "arm_slack" => loc.arm_slack = v,
             "map_sigma" => loc.cost.sigma_floor = v,
             "front_cap" => loc.cost.front_cap = v,
