@@ -262,6 +262,8 @@ pub struct Localizer {
     best_sums: BinaryHeap<u64>,
     refine_pts: Vec<Point2<f64>>,
     candidates: Vec<Candidate>,
+    /// [`Self::keep_best`]'s kept candidates as (x, position), sorted by x.
+    kept_by_x: Vec<(f64, usize)>,
     scratch: RayScratch,
     expected: Vec<f64>,
     out: Localization,
@@ -278,6 +280,7 @@ impl Localizer {
             best_sums: BinaryHeap::new(),
             refine_pts: Vec::new(),
             candidates: Vec::new(),
+            kept_by_x: Vec::new(),
             scratch: RayScratch::default(),
             expected: Vec::new(),
             out: Localization {
@@ -464,19 +467,7 @@ impl Localizer {
 
     /// Sorts candidates by score and keeps the `count` best distinct ones.
     fn keep_best(&mut self, count: usize) {
-        self.candidates.sort_by(|a, b| a.score.total_cmp(&b.score));
-        let mut kept = 0;
-        for k in 0..self.candidates.len() {
-            if kept == count {
-                break;
-            }
-            let p = self.candidates[k].pose;
-            if !self.candidates[..kept].iter().any(|q| same_pose(&p, &q.pose, 0.1, 2f64.to_radians())) {
-                self.candidates.swap(kept, k);
-                kept += 1;
-            }
-        }
-        self.candidates.truncate(kept);
+        keep_distinct(&mut self.candidates, count, &mut self.kept_by_x);
     }
 
     /// Scores each candidate by eq. 7 over about `beams` equispaced beams, tolerant of
@@ -548,6 +539,37 @@ fn screen_sum(field: &DistanceField, pose: &Pose, points: &[Point2<f64>], cap: f
     Some(sum)
 }
 
+/// Sorts `candidates` by score and keeps the `count` best that are not within 0.1 m and 2
+/// degrees of a better kept one. `by_x` is scratch space.
+fn keep_distinct(candidates: &mut Vec<Candidate>, count: usize, by_x: &mut Vec<(f64, usize)>) {
+    const POSITION: f64 = 0.1;
+    candidates.sort_by(|a, b| a.score.total_cmp(&b.score));
+    // a candidate is compared only with the kept ones whose x lies within POSITION of its own
+    // (hundreds are kept from hundreds more: comparing with all of them was quadratic)
+    by_x.clear();
+    let window = POSITION * (1.0 + 1e-9);
+    let mut kept = 0;
+    for k in 0..candidates.len() {
+        if kept == count {
+            break;
+        }
+        let p = candidates[k].pose;
+        let x = p.translation.x;
+        let from = by_x.partition_point(|&(qx, _)| qx < x - window);
+        let duplicate = by_x[from..]
+            .iter()
+            .take_while(|&&(qx, _)| qx <= x + window)
+            .any(|&(_, i)| same_pose(&p, &candidates[i].pose, POSITION, 2f64.to_radians()));
+        if !duplicate {
+            // positions below `kept` hold kept candidates and never move again
+            candidates.swap(kept, k);
+            by_x.insert(by_x.partition_point(|&(qx, _)| qx < x), (x, kept));
+            kept += 1;
+        }
+    }
+    candidates.truncate(kept);
+}
+
 /// Whether two poses are within `position` metres and `heading` radians.
 pub fn same_pose(a: &Pose, b: &Pose, position: f64, heading: f64) -> bool {
     (a.translation.vector - b.translation.vector).norm() <= position
@@ -566,5 +588,46 @@ fn subsample(seg: &Segmentation, count: usize, out: &mut Vec<Point2<f64>>) {
     while (k as usize) < n {
         out.push(seg.samples[k as usize].point());
         k += step;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    proptest! {
+        /// The windowed de-duplication keeps exactly what comparing with every kept candidate
+        /// keeps.
+        #[test]
+        fn keep_distinct_equals_comparing_with_every_kept_one(
+            poses in proptest::collection::vec((0.0f64..0.6, 0.0f64..0.6, -0.1f64..0.1, 0.0f64..1.0), 0..80),
+            count in 0usize..40,
+        ) {
+            let candidates: Vec<Candidate> = poses
+                .iter()
+                .enumerate()
+                .map(|(k, &(x, y, theta, score))| Candidate {
+                    pose: Pose::new(nalgebra::Vector2::new(x, y), theta),
+                    score,
+                    scan_corner: 0,
+                    map_corner: k as u32,
+                })
+                .collect();
+            let mut fast = candidates.clone();
+            keep_distinct(&mut fast, count, &mut Vec::new());
+            let mut sorted = candidates;
+            sorted.sort_by(|a, b| a.score.total_cmp(&b.score));
+            let mut reference: Vec<Candidate> = Vec::new();
+            for c in sorted {
+                if reference.len() < count
+                    && !reference.iter().any(|q| same_pose(&c.pose, &q.pose, 0.1, 2f64.to_radians()))
+                {
+                    reference.push(c);
+                }
+            }
+            let ids = |v: &[Candidate]| v.iter().map(|c| c.map_corner).collect::<Vec<_>>();
+            prop_assert_eq!(ids(&fast), ids(&reference));
+        }
     }
 }
