@@ -119,6 +119,7 @@ impl RayCaster {
             let d = q - p;
             Vector2::new(cos * d.x + sin * d.y, -sin * d.x + cos * d.y)
         };
+        let layout = Layout::new(g, beams, stride);
         let range = g.range_max;
         let lo = Point2::new(p.x - range, p.y - range);
         let hi = Point2::new(p.x + range, p.y + range);
@@ -129,7 +130,7 @@ impl RayCaster {
             {
                 return;
             }
-            sweep(to_sensor(w.a), to_sensor(w.b), g, beams, stride, &scratch.dirs, out);
+            sweep(to_sensor(w.a), to_sensor(w.b), &layout, &scratch.dirs, out);
         };
         if let Some(near) = self.walls_in_reach(p, range) {
             for &k in near {
@@ -183,17 +184,43 @@ fn ray_segment(o: Vector2<f64>, dir: Vector2<f64>, a: Vector2<f64>, b: Vector2<f
     (t > 0.0 && (-1e-12..=1.0 + 1e-12).contains(&s)).then_some(t)
 }
 
-/// Fills the beams that the wall (a, b) (sensor frame) covers.
-#[inline]
-fn sweep(
-    a: Vector2<f64>,
-    b: Vector2<f64>,
-    g: &ScanGeometry,
+/// What [`sweep`] needs of a cast's beam layout, computed once per cast rather than per wall.
+#[derive(Clone, Copy, Debug)]
+struct Layout {
     beams: usize,
     stride: usize,
-    dirs: &[Vector2<f64>],
-    out: &mut [f64],
-) {
+    /// |angle increment| and its inverse.
+    inc: f64,
+    inverse_inc: f64,
+    /// Whether beam angles increase with the index.
+    increasing: bool,
+    /// The smallest beam angle.
+    first_angle: f64,
+    /// Beams this close to an end of a wall's arc (in beams) are tested against its wedge: the
+    /// margin beam, and any within fast_atan2's error of the end.
+    edge: usize,
+}
+
+impl Layout {
+    fn new(g: &ScanGeometry, beams: usize, stride: usize) -> Self {
+        let inc = g.angle_increment.abs();
+        let increasing = g.angle_increment > 0.0;
+        Layout {
+            beams,
+            stride,
+            inc,
+            inverse_inc: 1.0 / inc,
+            increasing,
+            // beams sorted by increasing angle: index j counts from the smallest angle
+            first_angle: if increasing { g.angle_min } else { g.angle(beams - 1) },
+            edge: 2 + (4.0 * ATAN_ERROR / inc) as usize,
+        }
+    }
+}
+
+/// Fills the beams that the wall (a, b) (sensor frame) covers.
+#[inline]
+fn sweep(a: Vector2<f64>, b: Vector2<f64>, layout: &Layout, dirs: &[Vector2<f64>], out: &mut [f64]) {
     let e = b - a;
     let cross = a.perp(&e);
     let cross_abs = cross.abs();
@@ -209,19 +236,14 @@ fn sweep(
     }
     let start = if span >= 0.0 { aa } else { ab };
     let span = span.abs();
-    let inc = g.angle_increment.abs();
-    // beams sorted by increasing angle: index j counts from the smallest angle
-    let first_angle = if g.angle_increment > 0.0 { g.angle_min } else { g.angle(beams - 1) };
+    let Layout { beams, stride, inc, inverse_inc, increasing, first_angle, edge } = *layout;
     let u = start - first_angle;
     let u = u - TAU * (u / TAU).floor();
     let ab_cross = a.perp(&b);
-    // beams this close to an end of the arc (in beams) are tested against the wedge: the
-    // margin beam, and any within fast_atan2's error of the end
-    let edge = 2 + (4.0 * ATAN_ERROR / inc) as usize;
     let mut fill = |from: f64, to: f64| {
         // one beam of margin each side: the angles are approximate, the wedge test is exact
-        let j0 = ((from / inc).ceil() - 1.0).max(0.0) as usize;
-        let j1f = (to / inc).floor() + 1.0;
+        let j0 = ((from * inverse_inc).ceil() - 1.0).max(0.0) as usize;
+        let j1f = (to * inverse_inc).floor() + 1.0;
         if j1f < 0.0 {
             return;
         }
@@ -229,7 +251,7 @@ fn sweep(
         if j0 > j1 {
             return;
         }
-        let (lo, hi) = if g.angle_increment > 0.0 { (j0, j1) } else { (beams - 1 - j1, beams - 1 - j0) };
+        let (lo, hi) = if increasing { (j0, j1) } else { (beams - 1 - j1, beams - 1 - j0) };
         let first = lo.div_ceil(stride);
         for (k, i) in (first..).zip((first * stride..=hi).step_by(stride)) {
             let d = dirs[i];
