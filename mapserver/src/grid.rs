@@ -103,4 +103,34 @@ impl WallGrid {
     pub fn cell_count(&self) -> usize {
         self.cols * self.rows
     }
+
+    /// The same grid with each cell's list replaced by what `keep` writes for it, given the
+    /// cell's corners and its current list.
+    pub fn filtered(&self, mut keep: impl FnMut(&[Point2<f64>; 4], &[u32], &mut Vec<u32>)) -> WallGrid {
+        let mut starts = Vec::with_capacity(self.starts.len());
+        let mut items = Vec::new();
+        let mut kept = Vec::new();
+        for r in 0..self.rows {
+            for c in 0..self.cols {
+                let (x, y) = (self.origin.x + c as f64 * self.cell, self.origin.y + r as f64 * self.cell);
+                let corners = [
+                    Point2::new(x, y),
+                    Point2::new(x + self.cell, y),
+                    Point2::new(x + self.cell, y + self.cell),
+                    Point2::new(x, y + self.cell),
+                ];
+                kept.clear();
+                keep(&corners, self.walls_in(c, r), &mut kept);
+                starts.push(items.len() as u32);
+                items.extend_from_slice(&kept);
+            }
+        }
+        starts.push(items.len() as u32);
+        WallGrid { starts, items, ..*self }
+    }
+
+    /// Total length of the cells' lists.
+    pub fn entries(&self) -> usize {
+        self.items.len()
+    }
 }
