@@ -303,19 +303,42 @@ fn sweep(a: Vector2<f64>, b: Vector2<f64>, layout: &Layout, dirs: &[Vector2<f64>
         }
         let (lo, hi) = if increasing { (j0, j1) } else { (beams - 1 - j1, beams - 1 - j0) };
         let first = lo.div_ceil(stride);
-        for (k, i) in (first..).zip((first * stride..=hi).step_by(stride)) {
-            let d = dirs[i];
-            // beams near the arc's ends may lie outside the wall's angular wedge (which is
-            // narrower than pi): those are tested exactly; the rest are inside
-            if (i < lo + edge || i + edge > hi) && (a.perp(&d) * ab_cross < 0.0 || d.perp(&b) * ab_cross < 0.0) {
-                continue;
-            }
-            // inside the wedge the beam crosses the wall in front of the sensor, so cross and
-            // den share a sign and the distance is |cross| / |den| (+inf when den underflows);
-            // branch-free, as a beam's nearest wall is unpredictable
+        let i0 = first * stride;
+        if i0 > hi {
+            return;
+        }
+        let count = (hi - i0) / stride + 1;
+        // beams near the arc's ends may lie outside the wall's angular wedge (which is narrower
+        // than pi): the first `inner_from` and those from `inner_to` on are tested exactly; the
+        // rest (i >= lo + edge and i + edge <= hi) are inside
+        let inner_from = ((lo + edge).saturating_sub(i0)).div_ceil(stride).min(count);
+        let inner_to = match (hi.checked_sub(edge)).and_then(|h| h.checked_sub(i0)) {
+            Some(span) => span / stride + 1,
+            None => 0,
+        }
+        .clamp(inner_from, count);
+        let mut cast = dirs[i0..=hi].iter().step_by(stride).zip(out[first..first + count].iter_mut());
+        // inside the wedge the beam crosses the wall in front of the sensor, so cross and den
+        // share a sign and the distance is |cross| / |den| (+inf when den underflows);
+        // branch-free, as a beam's nearest wall is unpredictable; a select, not f64::min: t is
+        // never NaN (cross_abs > 0), so no NaN handling
+        let nearest = |d: &Vector2<f64>, o: &mut f64| {
             let t = cross_abs / d.perp(&e).abs();
-            // a select, not f64::min: t is never NaN (cross_abs > 0), so no NaN handling
-            out[k] = if t < out[k] { t } else { out[k] };
+            *o = if t < *o { t } else { *o };
+        };
+        let in_wedge = |d: &Vector2<f64>| a.perp(d) * ab_cross >= 0.0 && d.perp(&b) * ab_cross >= 0.0;
+        for (d, o) in cast.by_ref().take(inner_from) {
+            if in_wedge(d) {
+                nearest(d, o);
+            }
+        }
+        for (d, o) in cast.by_ref().take(inner_to - inner_from) {
+            nearest(d, o);
+        }
+        for (d, o) in cast {
+            if in_wedge(d) {
+                nearest(d, o);
+            }
         }
     };
     fill(u, u + span);
