@@ -60,7 +60,7 @@ pub struct LocalizerConfig {
     /// in front of a wall from a beam through one, which the distance-field screen cannot, so
     /// handing it more candidates rescues furnished scans whose right pose screens poorly: with
     /// 384 screened (was 128) and 32 beams, the furnished office log went from 83.7 to 85.7 %
-    /// and no clean or people log lost a scan, for about 1.5 times the instructions per
+    /// and no clean or people log lost a scan, for about 1.4 times the instructions per
     /// furnished scan.
     pub sparse_beams: usize,
     pub sparse_kept: usize,
