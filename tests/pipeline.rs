@@ -131,7 +131,7 @@ fn the_pipeline_publishes_exactly_what_locate_computes_offline() {
     ]);
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let report = String::from_utf8_lossy(&out.stdout);
-    assert!(report.contains("poses received 300 of 300"), "{report}");
+    assert!(report.contains("poses received 300 of 300"), "{report}\n{}", String::from_utf8_lossy(&out.stderr));
     let out = gema2(&["locate", "--map", "office", "--log", log.to_str().unwrap(), "--out", offline.to_str().unwrap()]);
     assert!(out.status.success());
     let (a, b) = (rows(&online), rows(&offline));
@@ -171,6 +171,39 @@ extern "C" {
     fn libc_kill(pid: i32, sig: i32) -> i32;
 }
 
+/// A stage process this test started, killed if the test fails before stopping it: an orphan
+/// would hold the test harness's output pipe open and hang the run.
+struct StageChild(Option<Child>);
+
+impl StageChild {
+    fn spawn(cmd: &mut Command) -> Self {
+        StageChild(Some(cmd.spawn().unwrap()))
+    }
+
+    fn child(&mut self) -> &mut Child {
+        self.0.as_mut().unwrap()
+    }
+
+    /// SIGTERM, then what the stage printed; asserts that it stopped cleanly.
+    fn stop(mut self) -> Output {
+        let child = self.0.take().unwrap();
+        // SAFETY: kill(2) on a child of this test.
+        unsafe { libc_kill(child.id() as i32, 15) };
+        let out = child.wait_with_output().unwrap();
+        assert!(out.status.success(), "a stage did not stop cleanly on SIGTERM: {}", out.status);
+        out
+    }
+}
+
+impl Drop for StageChild {
+    fn drop(&mut self) {
+        if let Some(c) = self.0.as_mut() {
+            let _ = c.kill();
+            let _ = c.wait();
+        }
+    }
+}
+
 #[test]
 fn a_hot_swap_of_segment_loses_at_most_two_scans() {
     let Running { _dir, csv, prefix: p, run } = start_running("swap", 240, "40", Duration::from_secs(1));
@@ -193,33 +226,25 @@ fn a_hot_swap_of_segment_loses_at_most_two_scans() {
 #[test]
 fn a_localizer_started_late_receives_the_map() {
     let p = prefix("late");
-    let mut map = Command::new(exe())
-        .args(["stage", "mapserver", "--map", "apartment", "--prefix", &p])
-        .stderr(Stdio::null())
-        .spawn()
-        .unwrap();
+    let map = StageChild::spawn(
+        Command::new(exe()).args(["stage", "mapserver", "--map", "apartment", "--prefix", &p]).stderr(Stdio::null()),
+    );
     std::thread::sleep(Duration::from_millis(1500));
     let mut loc =
-        Command::new(exe()).args(["stage", "localize", "--prefix", &p]).stderr(Stdio::piped()).spawn().unwrap();
-    let mut lines = BufReader::new(loc.stderr.take().unwrap()).lines();
+        StageChild::spawn(Command::new(exe()).args(["stage", "localize", "--prefix", &p]).stderr(Stdio::piped()));
+    let mut lines = BufReader::new(loc.child().stderr.take().unwrap()).lines();
     let got = lines.next().and_then(Result::ok).unwrap_or_default();
     assert!(got.contains("map version 1 (38 walls)"), "{got}");
-    for c in [&mut loc, &mut map] {
-        // SAFETY: kill(2) on a child of this test.
-        unsafe { libc_kill(c.id() as i32, 15) };
-        let status = c.wait().unwrap();
-        assert!(status.success(), "a stage did not stop cleanly on SIGTERM: {status}");
-    }
+    loc.stop();
+    map.stop();
 }
 
 #[test]
 fn a_payload_type_mismatch_across_processes_names_the_service() {
     let p = prefix("types");
-    let mut map = Command::new(exe())
-        .args(["stage", "mapserver", "--map", "apartment", "--prefix", &p])
-        .stderr(Stdio::null())
-        .spawn()
-        .unwrap();
+    let map = StageChild::spawn(
+        Command::new(exe()).args(["stage", "mapserver", "--map", "apartment", "--prefix", &p]).stderr(Stdio::null()),
+    );
     std::thread::sleep(Duration::from_millis(1500));
     let node = messages::create_node("typetest").unwrap();
     let err = messages::open_pubsub::<messages::ScanMsg>(&node, &format!("{p}/map"), messages::Topic::Map.settings())
@@ -227,9 +252,7 @@ fn a_payload_type_mismatch_across_processes_names_the_service() {
         .unwrap()
         .to_string();
     assert!(err.contains(&format!("{p}/map")) && err.contains("IncompatibleTypes"), "{err}");
-    // SAFETY: kill(2) on a child of this test.
-    unsafe { libc_kill(map.id() as i32, 15) };
-    assert!(map.wait().unwrap().success());
+    map.stop();
 }
 
 #[test]
@@ -277,4 +300,44 @@ fn the_whole_pipeline_runs_on_an_emulated_urg04lx() {
     let text = std::fs::read_to_string(&recorded).unwrap();
     assert!(text.starts_with("# gema2: poses are not ground truth"));
     assert!(text.lines().filter(|l| l.starts_with("ROBOTLASER1")).count() >= 20);
+}
+
+/// iceoryx2 can lose a wake-up under load (`messages::MISSED_WAKEUP_POLL`): a scan whose
+/// notification never came must still be segmented, not wait forever in the queue.
+#[test]
+fn a_stage_finds_a_scan_that_came_without_a_wake_up() {
+    let p = prefix("nowake");
+    let seg = StageChild::spawn(Command::new(exe()).args(["stage", "segment", "--prefix", &p]).stderr(Stdio::piped()));
+    let node = messages::create_node("nowaketest").unwrap();
+    let scans = messages::open_topic::<messages::ScanMsg>(&node, &p, messages::Topic::Scan).unwrap();
+    let corners = messages::open_topic::<messages::CornersMsg>(&node, &p, messages::Topic::Corners).unwrap();
+    let corners_in = corners.data.subscriber_builder().create().unwrap();
+    let publisher = scans.data.publisher_builder().create().unwrap();
+    // a notifier on a service nobody listens to: the scan goes out with no wake-up
+    let unheard = messages::service_name(&p, "unheard");
+    let unheard = node.service_builder(&unheard.as_str().try_into().unwrap()).event().open_or_create().unwrap();
+    let silent = unheard.notifier_builder().create().unwrap();
+    let fill = |m: &mut messages::ScanMsg| {
+        m.header = messages::Header::new(7, messages::monotonic_ns());
+        (m.angle_min, m.angle_increment, m.range_min, m.range_max) = (-2.0, 0.01, 0.02, 5.6);
+        m.count = 400;
+        m.ranges[..400].fill(2.0);
+    };
+    let mut delivered = 0;
+    wait_for("the segment stage's subscriber", Duration::from_secs(30), || {
+        delivered = messages::publish(&publisher, &silent, fill).unwrap();
+        delivered > 0
+    });
+    let mut got = None;
+    wait_for("the scan's corners", Duration::from_secs(5), || {
+        got = corners_in.receive().unwrap().map(|c| c.scan.header.seq);
+        got.is_some()
+    });
+    assert_eq!(got, Some(7));
+    let out = seg.stop();
+    assert!(
+        String::from_utf8_lossy(&out.stderr).contains("found by the poll"),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
 }

@@ -8,7 +8,7 @@ use anyhow::{anyhow, bail, Context, Result};
 use clap::Args;
 use laser::{pose_theta, LaserScan};
 use messages::iceoryx2::prelude::*;
-use messages::{monotonic_ns, open_topic, publish, Header, PoseMsgXyt, ScanMsg, Stage, Topic, MAX_BEAMS};
+use messages::{monotonic_ns, Header, Outlet, PoseMsgXyt, ScanMsg, Stage, Topic, MAX_BEAMS};
 use std::path::PathBuf;
 use std::time::Duration;
 
@@ -139,16 +139,9 @@ pub fn run(a: AcquireArgs) -> Result<()> {
     };
     let (mut scans, producer) = source(&a)?;
     let node = messages::create_node("acquire")?;
-    let topic = open_topic::<ScanMsg>(&node, &a.stage.prefix, Topic::Scan)?;
     let strategy =
         if period.is_none() { BackpressureStrategy::RetryUntilDelivered } else { BackpressureStrategy::DiscardData };
-    let publisher = topic
-        .data
-        .publisher_builder()
-        .backpressure_strategy(strategy)
-        .create()
-        .map_err(|e| anyhow!("{}: publisher: {e:?}", topic.name))?;
-    let notifier = topic.event.notifier_builder().create().map_err(|e| anyhow!("{}: notifier: {e:?}", topic.name))?;
+    let mut scans_out = Outlet::<ScanMsg>::open(&node, &a.stage.prefix, Topic::Scan, strategy)?;
     let mut carmen = match &a.carmen_out {
         Some(p) => {
             let mut w =
@@ -184,18 +177,22 @@ pub fn run(a: AcquireArgs) -> Result<()> {
         if let Some(w) = carmen.as_mut() {
             crate::write_robotlaser1(w, &scan).context("acquire: writing --carmen-out")?;
         }
-        publish(&publisher, &notifier, |m: &mut ScanMsg| {
-            scan_to_msg(&scan, seq, enter, m);
-            m.header.span(Stage::Acquire).enter_ns = enter;
-            m.header.span(Stage::Acquire).leave_ns = monotonic_ns();
-            m.header.set_producer(producer);
-        })
-        .map_err(|e| anyhow!("{}: {e}", topic.name))?;
+        scans_out
+            .send(|m: &mut ScanMsg| {
+                scan_to_msg(&scan, seq, enter, m);
+                m.header.span(Stage::Acquire).enter_ns = enter;
+                m.header.span(Stage::Acquire).leave_ns = monotonic_ns();
+                m.header.set_producer(producer);
+            })
+            .map_err(|e| anyhow!("{}: {e}", scans_out.name()))?;
         seq += 1;
     }
     if let Some(mut w) = carmen {
         std::io::Write::flush(&mut w).context("acquire: writing --carmen-out")?;
     }
     eprintln!("acquire: published {} scans", seq - a.first_seq);
+    if let Some(r) = scans_out.report() {
+        eprintln!("acquire: {r}");
+    }
     Ok(())
 }

@@ -11,7 +11,7 @@ use mapserver::wire::map_from_msg;
 use mapserver::MapCornerConfig;
 use messages::iceoryx2::prelude::*;
 use messages::{
-    monotonic_ns, open_topic, publish, CornersMsg, HypothesisMsg, MapMsg, PoseMsg, PoseMsgXyt, Stage, Topic,
+    monotonic_ns, open_topic, CornersMsg, Freshness, HypothesisMsg, MapMsg, Outlet, PoseMsg, PoseMsgXyt, Stage, Topic,
     MAX_HYPOTHESES, STATUS_AMBIGUOUS, STATUS_FAILED, STATUS_OK,
 };
 use segment::sample::build_samples;
@@ -33,36 +33,31 @@ pub fn run(a: LocalizeArgs) -> Result<()> {
     let node = messages::create_node("localize")?;
     let corners = open_topic::<CornersMsg>(&node, &a.stage.prefix, Topic::Corners)?;
     let map = open_topic::<MapMsg>(&node, &a.stage.prefix, Topic::Map)?;
-    let poses = open_topic::<PoseMsg>(&node, &a.stage.prefix, Topic::Pose)?;
     let err = |what: &str, e: &dyn std::fmt::Debug| anyhow!("localize: {what}: {e:?}");
     let corners_in = corners.data.subscriber_builder().create().map_err(|e| err(&corners.name, &e))?;
     let corners_wake = corners.event.listener_builder().create().map_err(|e| err(&corners.name, &e))?;
     let map_in = map.data.subscriber_builder().create().map_err(|e| err(&map.name, &e))?;
     let map_wake = map.event.listener_builder().create().map_err(|e| err(&map.name, &e))?;
-    let pose_out = poses
-        .data
-        .publisher_builder()
-        .backpressure_strategy(BackpressureStrategy::RetryUntilDelivered)
-        .create()
-        .map_err(|e| err(&poses.name, &e))?;
-    let pose_note = poses.event.notifier_builder().create().map_err(|e| err(&poses.name, &e))?;
+    let mut pose_out =
+        Outlet::<PoseMsg>::open(&node, &a.stage.prefix, Topic::Pose, BackpressureStrategy::RetryUntilDelivered)?;
     let waitset = WaitSetBuilder::new().create::<ipc::Service>().map_err(|e| err("waitset", &e))?;
-    let corners_guard = waitset.attach_notification(&corners_wake).map_err(|e| err("waitset", &e))?;
-    let map_guard = waitset.attach_notification(&map_wake).map_err(|e| err("waitset", &e))?;
-    // the map may already be waiting in history
-    let _poll_map = waitset.attach_interval(std::time::Duration::from_millis(200)).map_err(|e| err("waitset", &e))?;
+    let _woken_by_corners = waitset.attach_notification(&corners_wake).map_err(|e| err("waitset", &e))?;
+    let _woken_by_map = waitset.attach_notification(&map_wake).map_err(|e| err("waitset", &e))?;
+    // the map may already be waiting in history; a wake-up may be lost (MISSED_WAKEUP_POLL)
+    let _poll = waitset.attach_interval(messages::MISSED_WAKEUP_POLL).map_err(|e| err("waitset", &e))?;
 
     let mut config = Gema2Config::default();
     config.localizer.track_radius = a.track;
     let mut localizer: Option<(Localizer, u32)> = None;
     let mut seg = Segmentation::default();
-    let mut last_seq: Option<u64> = None;
+    let mut fresh = Freshness::default();
     let mut failure: Option<anyhow::Error> = None;
     let mut waiting_for_map = 0u64;
-    let on_event = |id: WaitSetAttachmentId<ipc::Service>| {
-        if id.has_event_from(&map_guard) {
-            let _ = map_wake.try_wait(|_| {});
-        }
+    let mut found_by_poll = 0u64;
+    let on_event = |_: WaitSetAttachmentId<ipc::Service>| {
+        // woken or not, drain both listeners (see MISSED_WAKEUP_POLL) and then both queues
+        let _ = map_wake.try_wait(|_| {});
+        let notified = corners_wake.try_wait(|_| {}).unwrap_or(0) > 0;
         // the map: newest version wins
         while let Ok(Some(m)) = map_in.receive() {
             match map_from_msg(&m) {
@@ -87,10 +82,6 @@ pub fn run(a: LocalizeArgs) -> Result<()> {
                 Err(e) => eprintln!("localize: ignored a bad map: {e}"),
             }
         }
-        if !id.has_event_from(&corners_guard) {
-            return CallbackProgression::Continue;
-        }
-        let _ = corners_wake.try_wait(|_| {});
         loop {
             let sample = match corners_in.receive() {
                 Ok(Some(s)) => s,
@@ -103,8 +94,8 @@ pub fn run(a: LocalizeArgs) -> Result<()> {
             let enter = monotonic_ns();
             let msg: &CornersMsg = &sample;
             let seq = msg.scan.header.seq;
-            if last_seq.is_some_and(|s| seq <= s) {
-                continue; // a duplicate from a second segmenter during a hot swap
+            if !fresh.admit(&msg.scan.header) {
+                continue; // a copy: a resend, or a second segmenter during a hot swap
             }
             let Some((loc, version)) = localizer.as_mut() else {
                 waiting_for_map += 1;
@@ -113,7 +104,7 @@ pub fn run(a: LocalizeArgs) -> Result<()> {
                 }
                 continue;
             };
-            last_seq = Some(seq);
+            found_by_poll += u64::from(!notified);
             let view = match scan_view(&msg.scan) {
                 Ok(v) => v,
                 Err(e) => {
@@ -127,7 +118,7 @@ pub fn run(a: LocalizeArgs) -> Result<()> {
             seg.corners.extend(msg.corners[..n].iter().filter_map(corner_from_msg));
             let result = loc.locate(&view, &seg);
             let version = *version;
-            let sent = publish(&pose_out, &pose_note, |p: &mut PoseMsg| {
+            let sent = pose_out.send(|p: &mut PoseMsg| {
                 p.header = msg.scan.header;
                 p.header.span(Stage::Localize).enter_ns = enter;
                 p.header.set_producer("gema2");
@@ -167,6 +158,12 @@ pub fn run(a: LocalizeArgs) -> Result<()> {
         CallbackProgression::Continue
     };
     waitset.wait_and_process(on_event).map_err(|e| err("waitset", &e))?;
+    if found_by_poll > 0 {
+        eprintln!("localize: {found_by_poll} scans arrived without a wake-up and were found by the poll");
+    }
+    if let Some(r) = pose_out.report() {
+        eprintln!("localize: {r}");
+    }
     match failure {
         Some(e) => Err(e),
         None => Ok(()),

@@ -8,16 +8,18 @@
 //! they are defined here once ([`Topic::settings`]) and every process opens through
 //! [`open_topic`].
 
+mod outlet;
 mod payload;
 mod publish;
 mod runtime;
 mod topic;
 
+pub use outlet::{Freshness, Outlet, CONNECT_PATIENCE};
 pub use payload::*;
 pub use publish::{publish, Zeroable};
 pub use runtime::{
     announce_ready, cleanup_dead_nodes, create_node, instance, monotonic_ns, pin_to_cpu, ready_listener, RuntimeError,
-    StageArgs, MAX_INSTANCE,
+    StageArgs, MAX_INSTANCE, MISSED_WAKEUP_POLL,
 };
 pub use topic::{
     open_control, open_corner_queries, open_pubsub, open_topic, service_name, OpenError, Topic, TopicPorts,

@@ -2,7 +2,15 @@
 //! clock that message headers use, and clean up after processes that died.
 
 use iceoryx2::prelude::*;
+use std::time::Duration;
 use thiserror::Error;
+
+/// How often a stage looks at its inputs without having been woken. iceoryx2 0.10's event can
+/// lose a wake-up under load: a notification that lands between the listener's state reset and
+/// its socket drain leaves the notifiers believing a wake-up is still pending, so they send no
+/// more and a stage that only reacts to wake-ups stalls for good. Draining the listener on this
+/// timer resets that state, so a lost wake-up delays a message by at most this long.
+pub const MISSED_WAKEUP_POLL: Duration = Duration::from_millis(50);
 
 #[derive(Debug, Error)]
 pub enum RuntimeError {

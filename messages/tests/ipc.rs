@@ -65,3 +65,48 @@ fn the_map_reaches_a_late_subscriber_through_history() {
     let sample = late.receive().unwrap().expect("history delivered");
     assert_eq!((sample.version, sample.count), (3, 1));
 }
+
+/// A publisher that appears after its subscriber and sends more than the subscriber's buffer
+/// holds before the subscriber first looks: iceoryx2 drops what finds the unconnected buffer
+/// full, so the outlet sends it again once the subscriber connects, and the subscriber takes
+/// each scan once.
+#[test]
+fn an_outlet_loses_nothing_to_a_subscriber_that_connects_late() {
+    use iceoryx2::prelude::BackpressureStrategy;
+    use std::sync::mpsc;
+    use std::time::{Duration, Instant};
+    let p = prefix("late");
+    let total = 2 * Topic::Scan.settings().buffer as u64 + 10;
+    let (created, subscribed) = mpsc::channel();
+    let q = p.clone();
+    let taker = std::thread::spawn(move || {
+        let node = create_node("taker").unwrap();
+        let topic = open_topic::<ScanMsg>(&node, &q, Topic::Scan).unwrap();
+        let sub = topic.data.subscriber_builder().create().unwrap();
+        created.send(()).unwrap();
+        // busy elsewhere while the publisher appears and fills the buffer
+        std::thread::sleep(Duration::from_millis(300));
+        let (mut fresh, mut seqs) = (Freshness::default(), Vec::new());
+        let deadline = Instant::now() + Duration::from_secs(20);
+        while (seqs.len() as u64) < total && Instant::now() < deadline {
+            match sub.receive().unwrap() {
+                Some(s) if fresh.admit(&s.header) => seqs.push(s.header.seq),
+                Some(_) => {}
+                None => std::thread::sleep(Duration::from_millis(1)),
+            }
+        }
+        seqs
+    });
+    subscribed.recv().unwrap();
+    let node = create_node("giver").unwrap();
+    let mut out = Outlet::<ScanMsg>::open(&node, &p, Topic::Scan, BackpressureStrategy::RetryUntilDelivered).unwrap();
+    for seq in 0..total {
+        let stamp = monotonic_ns();
+        let delivered = out.send(|m: &mut ScanMsg| m.header = Header::new(seq, stamp)).unwrap();
+        assert_eq!(delivered, 1, "scan {seq}");
+    }
+    let seqs = taker.join().unwrap();
+    assert_eq!(seqs, (0..total).collect::<Vec<_>>());
+    assert!(out.resent > 0, "the buffer never filled before the subscriber connected: the test tests nothing");
+    assert_eq!(out.missed, 0);
+}

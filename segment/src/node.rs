@@ -10,8 +10,9 @@ use crate::SegmenterConfig;
 use anyhow::{anyhow, Context, Result};
 use clap::Args;
 use messages::iceoryx2::prelude::*;
+
 use messages::{
-    monotonic_ns, open_topic, publish, CornersMsg, LinesMsg, ScanMsg, Stage, Topic, MAX_CORNERS, MAX_LINES,
+    monotonic_ns, open_topic, CornersMsg, Freshness, LinesMsg, Outlet, ScanMsg, Stage, Topic, MAX_CORNERS, MAX_LINES,
 };
 
 #[derive(Args, Debug, Clone)]
@@ -29,38 +30,26 @@ pub fn run(a: SegmentArgs) -> Result<()> {
         .ok_or_else(|| anyhow!("unknown segment implementation {:?}: one of {SEGMENTERS:?}", a.implementation))?;
     let node = messages::create_node(&format!("segment-{}", a.implementation))?;
     let scans = open_topic::<ScanMsg>(&node, &a.stage.prefix, Topic::Scan)?;
-    let lines = open_topic::<LinesMsg>(&node, &a.stage.prefix, Topic::Lines)?;
-    let corners = open_topic::<CornersMsg>(&node, &a.stage.prefix, Topic::Corners)?;
     let subscriber =
         scans.data.subscriber_builder().create().map_err(|e| anyhow!("{}: subscriber: {e:?}", scans.name))?;
     let listener = scans.event.listener_builder().create().map_err(|e| anyhow!("{}: listener: {e:?}", scans.name))?;
     // inner links wait for room rather than drop: a slow pipeline sheds load at its source
-    let lines_out = lines
-        .data
-        .publisher_builder()
-        .backpressure_strategy(BackpressureStrategy::RetryUntilDelivered)
-        .create()
-        .map_err(|e| anyhow!("{}: publisher: {e:?}", lines.name))?;
-    let lines_note = lines.event.notifier_builder().create().map_err(|e| anyhow!("{}: notifier: {e:?}", lines.name))?;
-    let corners_out = corners
-        .data
-        .publisher_builder()
-        .backpressure_strategy(BackpressureStrategy::RetryUntilDelivered)
-        .create()
-        .map_err(|e| anyhow!("{}: publisher: {e:?}", corners.name))?;
-    let corners_note =
-        corners.event.notifier_builder().create().map_err(|e| anyhow!("{}: notifier: {e:?}", corners.name))?;
+    let mut lines_out =
+        Outlet::<LinesMsg>::open(&node, &a.stage.prefix, Topic::Lines, BackpressureStrategy::RetryUntilDelivered)?;
+    let mut corners_out =
+        Outlet::<CornersMsg>::open(&node, &a.stage.prefix, Topic::Corners, BackpressureStrategy::RetryUntilDelivered)?;
     let waitset = WaitSetBuilder::new().create::<ipc::Service>().map_err(|e| anyhow!("waitset: {e:?}"))?;
-    let guard = waitset.attach_notification(&listener).map_err(|e| anyhow!("waitset: {e:?}"))?;
+    let _woken_by_scans = waitset.attach_notification(&listener).map_err(|e| anyhow!("waitset: {e:?}"))?;
+    let _poll = waitset.attach_interval(messages::MISSED_WAKEUP_POLL).map_err(|e| anyhow!("waitset: {e:?}"))?;
     messages::announce_ready(&node, &a.stage.prefix)?;
     let name = segmenter.name();
     let mut failure: Option<anyhow::Error> = None;
     let mut bad_scans = 0u64;
-    let on_event = |id: WaitSetAttachmentId<ipc::Service>| {
-        if !id.has_event_from(&guard) {
-            return CallbackProgression::Continue;
-        }
-        let _ = listener.try_wait(|_| {});
+    let mut found_by_poll = 0u64;
+    let mut fresh = Freshness::default();
+    let on_event = |_: WaitSetAttachmentId<ipc::Service>| {
+        // woken or not, drain the listener (see MISSED_WAKEUP_POLL) and then the queue
+        let notified = listener.try_wait(|_| {}).unwrap_or(0) > 0;
         loop {
             let sample = match subscriber.receive() {
                 Ok(Some(s)) => s,
@@ -72,6 +61,10 @@ pub fn run(a: SegmentArgs) -> Result<()> {
             };
             let enter = monotonic_ns();
             let scan: &ScanMsg = &sample;
+            if !fresh.admit(&scan.header) {
+                continue; // a copy of a scan already segmented
+            }
+            found_by_poll += u64::from(!notified);
             let view = match scan_view(scan) {
                 Ok(v) => v,
                 Err(e) => {
@@ -84,29 +77,30 @@ pub fn run(a: SegmentArgs) -> Result<()> {
             let mut header = scan.header;
             header.span(Stage::Segment).enter_ns = enter;
             header.set_producer(name);
-            let sent = publish(&lines_out, &lines_note, |m: &mut LinesMsg| {
-                m.header = header;
-                m.raw_count = seg.raw_lines.len() as u32;
-                let n = seg.lines.len().min(MAX_LINES);
-                m.count = n as u32;
-                for (slot, l) in m.lines.iter_mut().zip(&seg.lines[..n]) {
-                    *slot = line_to_msg(l);
-                }
-                // each message leaves the stage as it is sent: the hop after it is transport
-                m.header.span(Stage::Segment).leave_ns = monotonic_ns();
-            })
-            .and_then(|_| {
-                publish(&corners_out, &corners_note, |m: &mut CornersMsg| {
-                    m.scan = *scan;
-                    m.scan.header = header;
-                    let n = seg.corners.len().min(MAX_CORNERS);
+            let sent = lines_out
+                .send(|m: &mut LinesMsg| {
+                    m.header = header;
+                    m.raw_count = seg.raw_lines.len() as u32;
+                    let n = seg.lines.len().min(MAX_LINES);
                     m.count = n as u32;
-                    for (slot, c) in m.corners.iter_mut().zip(&seg.corners[..n]) {
-                        *slot = corner_to_msg(c);
+                    for (slot, l) in m.lines.iter_mut().zip(&seg.lines[..n]) {
+                        *slot = line_to_msg(l);
                     }
-                    m.scan.header.span(Stage::Segment).leave_ns = monotonic_ns();
+                    // each message leaves the stage as it is sent: the hop after it is transport
+                    m.header.span(Stage::Segment).leave_ns = monotonic_ns();
                 })
-            });
+                .and_then(|_| {
+                    corners_out.send(|m: &mut CornersMsg| {
+                        m.scan = *scan;
+                        m.scan.header = header;
+                        let n = seg.corners.len().min(MAX_CORNERS);
+                        m.count = n as u32;
+                        for (slot, c) in m.corners.iter_mut().zip(&seg.corners[..n]) {
+                            *slot = corner_to_msg(c);
+                        }
+                        m.scan.header.span(Stage::Segment).leave_ns = monotonic_ns();
+                    })
+                });
             if let Err(e) = sent {
                 failure = Some(anyhow!("segment: publishing scan {}: {e}", header.seq));
                 return CallbackProgression::Stop;
@@ -115,6 +109,12 @@ pub fn run(a: SegmentArgs) -> Result<()> {
         CallbackProgression::Continue
     };
     waitset.wait_and_process(on_event).map_err(|e| anyhow!("waitset: {e:?}"))?;
+    if found_by_poll > 0 {
+        eprintln!("segment: {found_by_poll} scans arrived without a wake-up and were found by the poll");
+    }
+    for r in [lines_out.report(), corners_out.report()].into_iter().flatten() {
+        eprintln!("segment: {r}");
+    }
     match failure {
         Some(e) => Err(e),
         None => Ok(()),

@@ -2,7 +2,7 @@
 //! (from the per-stage enter/leave times every header carries), throughput, accuracy.
 
 use crate::report::{quantile, SUCCESS_HEADING_DEG, SUCCESS_POSITION};
-use messages::{PoseMsg, Stage, STATUS_AMBIGUOUS, STATUS_FAILED, STATUS_OK};
+use messages::{Freshness, PoseMsg, Stage, STATUS_AMBIGUOUS, STATUS_FAILED, STATUS_OK};
 use std::io::Write;
 
 /// Latency figures, microseconds, in pipeline order.
@@ -26,6 +26,8 @@ pub struct Monitor {
     pub last_ns: u64,
     pub seqs: Vec<u64>,
     pub rows: Vec<String>,
+    /// Skips copies of a pose (a resend to a late-connecting subscriber).
+    fresh: Freshness,
 }
 
 fn us(a: u64, b: u64) -> f64 {
@@ -38,6 +40,9 @@ fn us(a: u64, b: u64) -> f64 {
 
 impl Monitor {
     pub fn record(&mut self, p: &PoseMsg, received_ns: u64) {
+        if !self.fresh.admit(&p.header) {
+            return;
+        }
         let h = &p.header;
         let (a, s, l) =
             (h.stages[Stage::Acquire as usize], h.stages[Stage::Segment as usize], h.stages[Stage::Localize as usize]);

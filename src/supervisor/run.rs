@@ -133,26 +133,23 @@ pub fn run(a: RunArgs) -> Result<()> {
     eprintln!("supervisor: {} stages running under prefix {}", stages.len(), a.prefix);
 
     let waitset = WaitSetBuilder::new().create::<ipc::Service>().map_err(|e| anyhow!("waitset: {e:?}"))?;
-    let pose_guard = waitset.attach_notification(&pose_wake).map_err(|e| anyhow!("waitset: {e:?}"))?;
-    let ready_guard = waitset.attach_notification(&ready).map_err(|e| anyhow!("waitset: {e:?}"))?;
+    let _pose_guard = waitset.attach_notification(&pose_wake).map_err(|e| anyhow!("waitset: {e:?}"))?;
+    let _ready_guard = waitset.attach_notification(&ready).map_err(|e| anyhow!("waitset: {e:?}"))?;
     let _tick = waitset.attach_interval(Duration::from_millis(20)).map_err(|e| anyhow!("waitset: {e:?}"))?;
     let mut monitor = Monitor::default();
     let mut swap: Option<Swap> = None;
     let mut failure: Option<anyhow::Error> = None;
     let mut last_pose = Instant::now();
-    let on_event = |id: WaitSetAttachmentId<ipc::Service>| {
-        if id.has_event_from(&pose_guard) {
-            let _ = pose_wake.try_wait(|_| {});
-        }
+    let on_event = |_: WaitSetAttachmentId<ipc::Service>| {
+        // drained on every wake, the tick too: a wake-up can be lost (MISSED_WAKEUP_POLL)
+        let _ = pose_wake.try_wait(|_| {});
         while let Ok(Some(p)) = pose_in.receive() {
             monitor.record(&p, monotonic_ns());
             last_pose = Instant::now();
         }
-        if id.has_event_from(&ready_guard) {
-            let _ = ready.try_wait(|e| {
-                seen.insert(e.id.as_value());
-            });
-        }
+        let _ = ready.try_wait(|e| {
+            seen.insert(e.id.as_value());
+        });
         // reap and restart
         for st in stages.iter_mut() {
             let exited = st.child.as_mut().and_then(|c| c.try_wait().ok().flatten());

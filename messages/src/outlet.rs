@@ -1,0 +1,146 @@
+//! A stage's output on one topic, and what its subscribers use to take each scan once.
+//!
+//! iceoryx2 0.10 connects a subscriber to a publisher lazily: the subscriber's side of the link
+//! exists only from its first `receive` after the publisher appeared. A message that finds a
+//! subscriber not connected yet *and* its buffer full is dropped for that subscriber, even by a
+//! publisher that waits for room (`RetryUntilDelivered`), "to prevent a deadlock". A stage that
+//! starts, restarts or is swapped in and sends a burst before a busy subscriber has looked at
+//! its queue loses messages that way: seen under load as 17-85 scans lost at the 64th.
+//! [`Outlet::send`] notices (fewer recipients than subscribers) and sends the message again
+//! until every subscriber has it; subscribers skip the copies they already had
+//! ([`Freshness`]).
+
+use crate::publish::{publish, Zeroable};
+use crate::topic::{open_topic, OpenError, Topic};
+use crate::Header;
+use iceoryx2::port::notifier::Notifier;
+use iceoryx2::port::publisher::Publisher;
+use iceoryx2::prelude::*;
+use iceoryx2::service::port_factory::publish_subscribe;
+use std::fmt::Debug;
+use std::time::{Duration, Instant};
+
+/// How long, in all, an outlet waits for late subscribers to connect over its lifetime. A
+/// subscriber connects within one of its polls ([`crate::MISSED_WAKEUP_POLL`]); one that
+/// never does (it died before its first receive) costs this much once, not per message.
+pub const CONNECT_PATIENCE: Duration = Duration::from_secs(2);
+
+/// Pause before sending again to a subscriber that has not connected yet.
+const RESEND_PAUSE: Duration = Duration::from_micros(200);
+
+/// A publisher and its notifier on one topic.
+pub struct Outlet<T: Debug + ZeroCopySend + Zeroable + 'static> {
+    name: String,
+    data: publish_subscribe::PortFactory<ipc::Service, T, ()>,
+    publisher: Publisher<ipc::Service, T, ()>,
+    notifier: Notifier<ipc::Service>,
+    waits_for_room: bool,
+    patience: Duration,
+    /// Messages sent again because a subscriber had not connected yet.
+    pub resent: u64,
+    /// Messages that some subscriber never got (patience ran out, or the outlet drops by
+    /// design when a buffer is full).
+    pub missed: u64,
+}
+
+impl<T: Debug + ZeroCopySend + Zeroable + 'static> Outlet<T> {
+    /// Opens `topic` under `prefix` and creates its publisher and notifier. With
+    /// `BackpressureStrategy::RetryUntilDelivered` sending waits for room and nothing is lost;
+    /// with `DiscardData` a subscriber whose buffer is full misses the message.
+    pub fn open(
+        node: &Node<ipc::Service>,
+        prefix: &str,
+        topic: Topic,
+        strategy: BackpressureStrategy,
+    ) -> Result<Self, OpenError> {
+        let ports = open_topic::<T>(node, prefix, topic)?;
+        let port = |e: &dyn Debug| OpenError::Port { service: ports.name.clone(), message: format!("{e:?}") };
+        let publisher =
+            ports.data.publisher_builder().backpressure_strategy(strategy).create().map_err(|e| port(&e))?;
+        let notifier = ports.event.notifier_builder().create().map_err(|e| port(&e))?;
+        Ok(Outlet {
+            waits_for_room: matches!(strategy, BackpressureStrategy::RetryUntilDelivered),
+            name: ports.name,
+            data: ports.data,
+            publisher,
+            notifier,
+            patience: CONNECT_PATIENCE,
+            resent: 0,
+            missed: 0,
+        })
+    }
+
+    /// The service name.
+    pub fn name(&self) -> &str {
+        &self.name
+    }
+
+    /// Loans a message, lets `fill` write it (again, for each resend), sends it and wakes the
+    /// subscribers. Returns how many subscribers received it.
+    pub fn send(&mut self, mut fill: impl FnMut(&mut T)) -> Result<usize, String> {
+        let mut delivered = publish(&self.publisher, &self.notifier, &mut fill)?;
+        if self.waits_for_room {
+            while delivered < self.subscribers() && !self.patience.is_zero() {
+                let start = Instant::now();
+                std::thread::sleep(RESEND_PAUSE);
+                delivered = publish(&self.publisher, &self.notifier, &mut fill)?;
+                self.resent += 1;
+                self.patience = self.patience.saturating_sub(start.elapsed());
+            }
+        }
+        if delivered < self.subscribers() {
+            self.missed += 1;
+        }
+        Ok(delivered)
+    }
+
+    fn subscribers(&self) -> usize {
+        self.data.dynamic_config().number_of_subscribers()
+    }
+
+    /// What was resent or missed, for a stage's closing report; `None` when nothing was.
+    pub fn report(&self) -> Option<String> {
+        (self.resent > 0 || self.missed > 0).then(|| {
+            format!(
+                "{}: {} messages sent again to a subscriber not yet connected, {} missed by some subscriber",
+                self.name, self.resent, self.missed
+            )
+        })
+    }
+}
+
+/// Admits each scan's message once. Copies carry the acquisition stamp of a scan already
+/// seen: a resend by an [`Outlet`], or the same scan from two segmenters during a hot swap.
+/// Stamps come from one monotonic clock, so a restarted source (which numbers its scans from
+/// the start again) is still admitted.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Freshness {
+    last_stamp_ns: Option<u64>,
+}
+
+impl Freshness {
+    /// True for a message newer than every message admitted before; remembers it.
+    pub fn admit(&mut self, header: &Header) -> bool {
+        if self.last_stamp_ns.is_some_and(|last| header.stamp_ns <= last) {
+            return false;
+        }
+        self.last_stamp_ns = Some(header.stamp_ns);
+        true
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn freshness_admits_each_stamp_once_and_a_restarted_source() {
+        let mut f = Freshness::default();
+        assert!(f.admit(&Header::new(0, 100)));
+        assert!(!f.admit(&Header::new(0, 100)), "a copy");
+        assert!(f.admit(&Header::new(1, 200)));
+        assert!(!f.admit(&Header::new(0, 150)), "older than the last one");
+        // a restarted source numbers from 0 again, later on the same clock
+        assert!(f.admit(&Header::new(0, 300)));
+    }
+}
