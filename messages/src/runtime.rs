@@ -93,6 +93,23 @@ pub fn cleanup_dead_nodes() -> usize {
     removed
 }
 
+/// Process ids of the dead nodes on this machine (nothing is removed). A test that stopped its
+/// own processes checks that none of them is among these, without tripping over dead nodes
+/// that other runs leave for their own supervisors to clean.
+pub fn dead_node_pids() -> Vec<u32> {
+    use iceoryx2::node::NodeView;
+    let mut pids = Vec::new();
+    let _ = Node::<ipc::Service>::list(Config::global_config(), |state| {
+        if let NodeState::Dead(view) = state {
+            if let Ok(pid) = view.id().pid::<ipc::Service>() {
+                pids.push(pid.value() as u32);
+            }
+        }
+        CallbackProgression::Continue
+    });
+    pids
+}
+
 /// Largest instance number the supervisor hands out (`GEMA2_INSTANCE`).
 pub const MAX_INSTANCE: usize = 4095;
 
