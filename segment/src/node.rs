@@ -10,7 +10,6 @@ use crate::SegmenterConfig;
 use anyhow::{anyhow, Context, Result};
 use clap::Args;
 use messages::iceoryx2::prelude::*;
-
 use messages::{
     monotonic_ns, open_topic, CornersMsg, Freshness, LinesMsg, Outlet, ScanMsg, Stage, Topic, MAX_CORNERS, MAX_LINES,
 };

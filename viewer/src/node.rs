@@ -9,9 +9,8 @@ use clap::Args;
 use messages::iceoryx2::port::listener::Listener;
 use messages::iceoryx2::port::subscriber::Subscriber;
 use messages::iceoryx2::prelude::*;
-use messages::{open_topic, CornersMsg, Freshness, Header, LinesMsg, MapMsg, PoseMsg, ScanMsg, Topic};
+use messages::{open_topic, CornersMsg, LinesMsg, MapMsg, PoseMsg, ScanMsg, Topic};
 use rerun::components::TextLogLevel;
-use std::cell::Cell;
 use std::fmt::Debug;
 use std::path::PathBuf;
 use std::time::Duration;
@@ -57,8 +56,6 @@ pub struct TopicSubscription<T: Debug + ZeroCopySend + 'static> {
     pub name: String,
     pub data: Subscriber<ipc::Service, T, ()>,
     pub wake: Listener<ipc::Service>,
-    /// Skips copies (a resend to a late-connecting subscriber, two segmenters in a swap).
-    pub fresh: Cell<Freshness>,
 }
 
 fn subscribe<T: Debug + ZeroCopySend + 'static>(
@@ -69,7 +66,7 @@ fn subscribe<T: Debug + ZeroCopySend + 'static>(
     let ports = open_topic::<T>(node, prefix, topic)?;
     let data = ports.data.subscriber_builder().create().map_err(|e| anyhow!("{}: subscriber: {e:?}", ports.name))?;
     let wake = ports.event.listener_builder().create().map_err(|e| anyhow!("{}: listener: {e:?}", ports.name))?;
-    Ok(TopicSubscription { name: ports.name, data, wake, fresh: Cell::default() })
+    Ok(TopicSubscription { name: ports.name, data, wake })
 }
 
 /// A subscription to every topic. Built by matching on each [`Topic`], so a new topic does not
@@ -128,30 +125,21 @@ impl Subscriptions {
         }
         fn each<T: Debug + ZeroCopySend>(
             s: &TopicSubscription<T>,
-            header: impl Fn(&T) -> Option<&Header>,
             mut f: impl FnMut(&T) -> Result<(), crate::output::OutputError>,
         ) -> Result<()> {
             loop {
                 match s.data.receive() {
-                    Ok(Some(sample)) => {
-                        let mut fresh = s.fresh.get();
-                        let admitted = header(&sample).is_none_or(|h| fresh.admit(h));
-                        s.fresh.set(fresh);
-                        if admitted {
-                            f(&sample).with_context(|| format!("recording {}", s.name))?;
-                        }
-                    }
+                    Ok(Some(sample)) => f(&sample).with_context(|| format!("recording {}", s.name))?,
                     Ok(None) => return Ok(()),
                     Err(e) => return Err(anyhow!("{}: receive: {e:?}", s.name)),
                 }
             }
         }
-        // the map has versions, not scans: every sample is recorded
-        each(&self.map, |_| None, |m| recorder.map(m))?;
-        each(&self.scan, |m| Some(&m.header), |m| recorder.scan(m))?;
-        each(&self.lines, |m| Some(&m.header), |m| recorder.lines(m))?;
-        each(&self.corners, |m| Some(&m.scan.header), |m| recorder.corners(m))?;
-        each(&self.pose, |m| Some(&m.header), |m| recorder.pose(m))
+        each(&self.map, |m| recorder.map(m))?;
+        each(&self.scan, |m| recorder.scan(m))?;
+        each(&self.lines, |m| recorder.lines(m))?;
+        each(&self.corners, |m| recorder.corners(m))?;
+        each(&self.pose, |m| recorder.pose(m))
     }
 }
 
