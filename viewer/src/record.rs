@@ -39,33 +39,36 @@ pub struct TopicCount {
     pub recorded: u64,
     /// Sequence numbers skipped between recorded messages: messages this recorder never saw.
     pub missed: u64,
-    /// Messages seen twice (two producers during a hot swap), not recorded again.
+    /// Messages seen twice (two producers during a hot swap, a resend to a late-connecting
+    /// subscriber), not recorded again.
     pub duplicates: u64,
     /// Messages refused as malformed (logged as errors in the recording).
     pub malformed: u64,
     pub first_seq: Option<u64>,
     pub last_seq: Option<u64>,
+    /// Acquisition stamp of the last recorded message: a copy carries it again, a restarted
+    /// source (numbering from 0 again) carries a later one.
+    last_stamp_ns: Option<u64>,
 }
 
 impl TopicCount {
-    /// Whether `seq` is new; counts gaps and duplicates (the caller counts it recorded).
-    fn accept(&mut self, seq: u64) -> bool {
-        match self.last_seq {
-            Some(last) if seq <= last => {
-                self.duplicates += 1;
-                false
-            }
-            Some(last) => {
-                self.missed += seq - last - 1;
-                self.last_seq = Some(seq);
-                true
-            }
-            None => {
-                self.first_seq = Some(seq);
-                self.last_seq = Some(seq);
-                true
-            }
+    /// Whether the message with `header` is new; counts gaps and duplicates (the caller counts
+    /// it recorded). A copy is told by its stamp, not its number, so the scans of a restarted
+    /// source are recorded although their numbers were seen before.
+    fn accept(&mut self, header: &Header) -> bool {
+        let (seq, stamp) = (header.seq, header.stamp_ns);
+        if self.last_stamp_ns.is_some_and(|last| stamp <= last) {
+            self.duplicates += 1;
+            return false;
         }
+        self.last_stamp_ns = Some(stamp);
+        match self.last_seq {
+            Some(last) if seq > last => self.missed += seq - last - 1,
+            Some(_) => {} // a restarted source: no gap to count
+            None => self.first_seq = Some(seq),
+        }
+        self.last_seq = Some(seq);
+        true
     }
 }
 
@@ -234,7 +237,7 @@ impl Recorder {
 
     /// A scan: readings in the sensor frame, the truth if known, acquisition latency.
     pub fn scan(&mut self, m: &ScanMsg) -> Result<(), OutputError> {
-        if !self.counts.scan.accept(m.header.seq) {
+        if !self.counts.scan.accept(&m.header) {
             return Ok(());
         }
         self.at(&m.header);
@@ -283,7 +286,7 @@ impl Recorder {
 
     /// A line set: the lines in the sensor frame with their sample counts.
     pub fn lines(&mut self, m: &LinesMsg) -> Result<(), OutputError> {
-        if !self.counts.lines.accept(m.header.seq) {
+        if !self.counts.lines.accept(&m.header) {
             return Ok(());
         }
         self.at(&m.header);
@@ -313,7 +316,7 @@ impl Recorder {
     /// A corner set: the corners in the sensor frame, labelled by inner angle.
     pub fn corners(&mut self, m: &CornersMsg) -> Result<(), OutputError> {
         let h = &m.scan.header;
-        if !self.counts.corners.accept(h.seq) {
+        if !self.counts.corners.accept(h) {
             return Ok(());
         }
         self.at(h);
@@ -340,7 +343,7 @@ impl Recorder {
     /// the chosen scan corner, status, accuracy against the truth and the latencies.
     pub fn pose(&mut self, m: &PoseMsg) -> Result<(), OutputError> {
         let h = &m.header;
-        if !self.counts.pose.accept(h.seq) {
+        if !self.counts.pose.accept(h) {
             return Ok(());
         }
         self.at(h);

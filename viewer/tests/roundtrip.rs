@@ -204,3 +204,24 @@ fn past_the_size_limit_the_recording_rolls_over_and_every_part_decodes_with_the_
     assert_eq!(all.scans.len(), 400);
     assert!(seen >= 400);
 }
+
+#[test]
+fn a_restarted_source_is_recorded_and_a_copy_is_not() {
+    let dir = tempfile::tempdir().unwrap();
+    let output = Output::open(OutputSpec { file: Some(dir.path().join("run.rrd")), ..Default::default() }).unwrap();
+    let mut r = Recorder::new(output);
+    r.scan(&scan(0, 300)).unwrap();
+    r.scan(&scan(1, 300)).unwrap();
+    r.scan(&scan(1, 300)).unwrap(); // a resend: same scan, same stamp
+                                    // the source restarts and numbers from 0 again, later on the same clock
+    let mut again = scan(0, 300);
+    again.header.stamp_ns = scan(5, 300).header.stamp_ns;
+    r.scan(&again).unwrap();
+    r.scan(&scan(3, 300)).unwrap(); // stamped before the restart: an old copy
+    let mut next = scan(2, 300);
+    next.header.stamp_ns = scan(6, 300).header.stamp_ns;
+    r.scan(&next).unwrap(); // the restarted source skipped its scan 1
+    let (counts, _) = r.finish().unwrap();
+    let c = counts.scan;
+    assert_eq!((c.recorded, c.duplicates, c.missed), (4, 2, 1), "{c:?}");
+}
