@@ -79,16 +79,16 @@ impl<T: Debug + ZeroCopySend + Zeroable + 'static> Outlet<T> {
     /// subscribers. Returns how many subscribers received it.
     pub fn send(&mut self, mut fill: impl FnMut(&mut T)) -> Result<usize, String> {
         let mut delivered = publish(&self.publisher, &self.notifier, &mut fill)?;
-        if self.waits_for_room {
-            while delivered < self.subscribers() && !self.patience.is_zero() {
-                let start = Instant::now();
-                std::thread::sleep(RESEND_PAUSE);
-                delivered = publish(&self.publisher, &self.notifier, &mut fill)?;
-                self.resent += 1;
-                self.patience = self.patience.saturating_sub(start.elapsed());
-            }
+        let mut subscribers = self.subscribers();
+        while self.waits_for_room && delivered < subscribers && !self.patience.is_zero() {
+            let start = Instant::now();
+            std::thread::sleep(RESEND_PAUSE);
+            delivered = publish(&self.publisher, &self.notifier, &mut fill)?;
+            subscribers = self.subscribers();
+            self.resent += 1;
+            self.patience = self.patience.saturating_sub(start.elapsed());
         }
-        if delivered < self.subscribers() {
+        if delivered < subscribers {
             self.missed += 1;
         }
         Ok(delivered)
