@@ -113,7 +113,7 @@ impl<T: Debug + ZeroCopySend + Zeroable + 'static> Outlet<T> {
 /// seen: a resend by an [`Outlet`], or the same scan from two segmenters during a hot swap.
 /// Stamps come from one monotonic clock, so a restarted source (which numbers its scans from
 /// the start again) is still admitted.
-#[derive(Clone, Copy, Debug, Default)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct Freshness {
     last_stamp_ns: Option<u64>,
 }

@@ -7,7 +7,7 @@ use laser::ScanGeometry;
 use mapserver::wire::map_from_msg;
 use mapserver::{CornerIndex, MapCornerConfig};
 use messages::{
-    CornersMsg, Header, LinesMsg, MapMsg, PoseMsg, PoseMsgXyt, ScanMsg, Stage, StageSpan, Topic, MAX_BEAMS,
+    CornersMsg, Freshness, Header, LinesMsg, MapMsg, PoseMsg, PoseMsgXyt, ScanMsg, Stage, StageSpan, Topic, MAX_BEAMS,
     MAX_CORNERS, MAX_HYPOTHESES, MAX_LINES, STATUS_AMBIGUOUS, STATUS_FAILED, STATUS_OK,
 };
 use rerun::components::TextLogLevel;
@@ -46,9 +46,9 @@ pub struct TopicCount {
     pub malformed: u64,
     pub first_seq: Option<u64>,
     pub last_seq: Option<u64>,
-    /// Acquisition stamp of the last recorded message: a copy carries it again, a restarted
-    /// source (numbering from 0 again) carries a later one.
-    last_stamp_ns: Option<u64>,
+    /// Tells copies by their acquisition stamp: a copy carries a stamp already seen, a
+    /// restarted source (numbering from 0 again) a later one.
+    fresh: Freshness,
 }
 
 impl TopicCount {
@@ -56,12 +56,11 @@ impl TopicCount {
     /// it recorded). A copy is told by its stamp, not its number, so the scans of a restarted
     /// source are recorded although their numbers were seen before.
     fn accept(&mut self, header: &Header) -> bool {
-        let (seq, stamp) = (header.seq, header.stamp_ns);
-        if self.last_stamp_ns.is_some_and(|last| stamp <= last) {
+        if !self.fresh.admit(header) {
             self.duplicates += 1;
             return false;
         }
-        self.last_stamp_ns = Some(stamp);
+        let seq = header.seq;
         match self.last_seq {
             Some(last) if seq > last => self.missed += seq - last - 1,
             Some(_) => {} // a restarted source: no gap to count
