@@ -6,12 +6,19 @@
 //! E=target/release/examples/wakeup_floor
 //! taskset -c 1 $E listen block & sleep 0.3; taskset -c 0 $E send; wait   # cross-core
 //! taskset -c 0 $E listen block & sleep 0.3; taskset -c 0 $E send; wait   # same core
+//! $E raw 1 0; $E raw 0 0                                                  # the kernel alone
 //! ```
 //!
 //! `listen` takes `block` (the listener's own blocking wait) or `waitset` (a WaitSet with the
 //! 50 ms poll, as the stages wait). The sender sends 400 scans at 100 Hz; the listener prints
 //! p50/p90/p99 of send-to-receive in microseconds. Compare with `gema2 bench --pipeline`'s
 //! hops.
+//!
+//! `raw RECEIVER_CPU SENDER_CPU` measures the kernel alone, without iceoryx2: a forked
+//! receiver blocks on an eventfd (what a futex or pipe costs too) and then on a Unix datagram
+//! socket pair (the trigger iceoryx2 0.10's `ipc::Service` events use), woken 400 times at
+//! 100 Hz. It prints the wake-up (write to the receiver running) and the writer's own system
+//! call time.
 
 use anyhow::{anyhow, bail, Result};
 use iceoryx2::prelude::*;
@@ -27,14 +34,89 @@ fn main() -> Result<()> {
     match args.first().map(String::as_str) {
         Some("send") => send(&node),
         Some("listen") => listen(&node, args.get(1).map(String::as_str).unwrap_or("block")),
-        _ => bail!("usage: wakeup_floor send | listen [block|waitset]"),
+        Some("raw") => {
+            let cpu = |i: usize| {
+                args.get(i).and_then(|a| a.parse().ok()).ok_or_else(|| anyhow!("raw RECEIVER_CPU SENDER_CPU"))
+            };
+            let (receiver, sender) = (cpu(1)?, cpu(2)?);
+            raw("eventfd", receiver, sender)?;
+            raw("unix datagram", receiver, sender)
+        }
+        _ => bail!("usage: wakeup_floor send | listen [block|waitset] | raw RECEIVER_CPU SENDER_CPU"),
     }
+}
+
+/// One kernel wake-up mechanism between two processes: (receiver's fd, sender's fd).
+fn raw_channel(kind: &str) -> Result<(i32, i32)> {
+    // SAFETY: plain system calls creating file descriptors this process owns.
+    unsafe {
+        if kind == "eventfd" {
+            let fd = libc::eventfd(0, 0);
+            return if fd < 0 { Err(std::io::Error::last_os_error().into()) } else { Ok((fd, fd)) };
+        }
+        let mut fds = [0; 2];
+        if libc::socketpair(libc::AF_UNIX, libc::SOCK_DGRAM, 0, fds.as_mut_ptr()) != 0 {
+            return Err(std::io::Error::last_os_error().into());
+        }
+        Ok((fds[0], fds[1]))
+    }
+}
+
+fn raw(kind: &str, receiver_cpu: usize, sender_cpu: usize) -> Result<()> {
+    let (rx, tx) = raw_channel(kind)?;
+    // the send time travels through a pipe the receiver reads after it woke
+    let mut stamps = [0; 2];
+    // SAFETY: creates a pipe into an array of two fds.
+    if unsafe { libc::pipe(stamps.as_mut_ptr()) } != 0 {
+        return Err(std::io::Error::last_os_error().into());
+    }
+    // SAFETY: the child only makes system calls, computes and prints, then exits.
+    let child = unsafe { libc::fork() };
+    if child == 0 {
+        pin_to_cpu(receiver_cpu)?;
+        let mut micros = Vec::with_capacity(SCANS);
+        for _ in 0..SCANS {
+            let (mut token, mut sent) = (0u64, 0u64);
+            // SAFETY: reads 8 bytes into a u64.
+            unsafe {
+                libc::read(rx, (&mut token as *mut u64).cast(), 8);
+                let woke = monotonic_ns();
+                libc::read(stamps[0], (&mut sent as *mut u64).cast(), 8);
+                micros.push(woke.saturating_sub(sent) as f64 / 1e3);
+            }
+        }
+        println!("{kind}: wake-up {}", percentiles(&mut micros));
+        std::process::exit(0);
+    }
+    pin_to_cpu(sender_cpu)?;
+    let mut micros = Vec::with_capacity(SCANS);
+    for _ in 0..SCANS {
+        std::thread::sleep(Duration::from_millis(10));
+        let one = 1u64;
+        let sent = monotonic_ns();
+        // SAFETY: writes 8 bytes from a u64.
+        unsafe {
+            libc::write(tx, (&one as *const u64).cast(), 8);
+            micros.push((monotonic_ns() - sent) as f64 / 1e3);
+            libc::write(stamps[1], (&sent as *const u64).cast(), 8);
+        }
+    }
+    // SAFETY: waits for the child forked above.
+    unsafe { libc::waitpid(child, std::ptr::null_mut(), 0) };
+    println!("{kind}: the writer's system call {}", percentiles(&mut micros));
+    Ok(())
+}
+
+fn percentiles(micros: &mut [f64]) -> String {
+    micros.sort_by(f64::total_cmp);
+    let q = |f: f64| micros[((micros.len() - 1) as f64 * f).round() as usize];
+    format!("p50 {:.1} us, p90 {:.1}, p99 {:.1}", q(0.5), q(0.9), q(0.99))
 }
 
 fn send(node: &Node<ipc::Service>) -> Result<()> {
     let mut out = Outlet::<ScanMsg>::open(node, PREFIX, Topic::Scan, BackpressureStrategy::RetryUntilDelivered)?;
     for seq in 0..SCANS as u64 {
-        if node.wait(Duration::from_millis(10)).is_err() {
+        if !messages::sleep(node, Duration::from_millis(10)) {
             break;
         }
         out.send(|m: &mut ScanMsg| {
@@ -82,14 +164,6 @@ fn listen(node: &Node<ipc::Service>, how: &str) -> Result<()> {
         }
         other => bail!("listen {other:?}: block or waitset"),
     }
-    micros.sort_by(f64::total_cmp);
-    let q = |f: f64| micros[((micros.len() - 1) as f64 * f).round() as usize];
-    println!(
-        "{how}: {} scans, send to receive p50 {:.1} us, p90 {:.1}, p99 {:.1}",
-        micros.len(),
-        q(0.5),
-        q(0.9),
-        q(0.99)
-    );
+    println!("{how}: {} scans, send to receive {}", micros.len(), percentiles(&mut micros));
     Ok(())
 }
