@@ -24,13 +24,29 @@ pub fn load_map(spec: &str) -> Result<WallMap, MapError> {
             return m;
         }
     }
-    WallMap::load(Path::new(spec))
+    let path = Path::new(spec);
+    // a bare name that is no file: most likely a mistyped bundled map
+    let looks_like_a_name = path.components().count() == 1 && path.extension().is_none();
+    if looks_like_a_name && !path.exists() {
+        let names: Vec<&str> = BUNDLED.iter().map(|(n, _)| *n).collect();
+        return Err(MapError::Unknown { spec: spec.into(), bundled: names.join(", ") });
+    }
+    WallMap::load(path)
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::procedural;
+
+    #[test]
+    fn an_unknown_map_name_lists_the_bundled_ones() {
+        let e = load_map("ofice").unwrap_err().to_string();
+        assert!(e.contains("\"ofice\"") && e.contains("office, apartment"), "{e}");
+        // a path still reports the file system's error, naming the file
+        let e = load_map("no/such/map.json").unwrap_err().to_string();
+        assert!(e.contains("no/such/map.json: cannot read the map"), "{e}");
+    }
 
     #[test]
     fn bundled_maps_are_what_the_generators_make() {

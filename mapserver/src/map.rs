@@ -72,6 +72,8 @@ pub enum MapError {
     Shape { path: PathBuf, message: String },
     #[error("{path}: walls[{index}]: {message}")]
     Wall { path: PathBuf, index: usize, message: String },
+    #[error("{spec:?} is neither a bundled map ({bundled}) nor a map file")]
+    Unknown { spec: String, bundled: String },
 }
 
 impl WallMap {
