@@ -65,7 +65,32 @@ pub fn spawn(spec: &StageSpec, prefix: &str, implementation: Option<&str>, insta
     }
     cmd.env("GEMA2_INSTANCE", instance.to_string());
     cmd.stdin(Stdio::null());
-    cmd.spawn().with_context(|| format!("starting stage {}", spec.name))
+    stop_with_supervisor(&mut cmd);
+    let program = cmd.get_program().to_string_lossy().into_owned();
+    cmd.spawn().with_context(|| format!("starting stage {} ({program})", spec.name))
+}
+
+/// Makes the stage receive SIGTERM when the supervisor dies, however it dies (SIGKILL, a
+/// crash): it then stops as on Ctrl-C instead of living on as an orphan that still publishes
+/// under the prefix. Stages are started from the supervisor's main thread, whose end the
+/// signal follows, so it comes only when the supervisor process ends.
+fn stop_with_supervisor(cmd: &mut Command) {
+    use std::os::unix::process::CommandExt;
+    // SAFETY: getpid is async-signal-safe and called before the fork.
+    let supervisor = unsafe { libc::getpid() };
+    // SAFETY: prctl and getppid are async-signal-safe, as code between fork and exec must be.
+    unsafe {
+        cmd.pre_exec(move || {
+            if libc::prctl(libc::PR_SET_PDEATHSIG, libc::SIGTERM) != 0 {
+                return Err(std::io::Error::last_os_error());
+            }
+            // the supervisor died before the prctl took effect
+            if libc::getppid() != supervisor {
+                return Err(std::io::Error::other("the supervisor is gone"));
+            }
+            Ok(())
+        });
+    }
 }
 
 /// The recorder's program: `GEMA2_VIEWER` if set, else `viewer` beside the gema2 binary (where
