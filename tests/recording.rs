@@ -75,6 +75,9 @@ fn watch(prefix: String, stop: Arc<AtomicBool>) -> std::thread::JoinHandle<BTree
         ready_tx.send(()).unwrap();
         let mut seen: BTreeMap<u64, Published> = BTreeMap::new();
         let mut corner_counts: BTreeMap<u64, usize> = BTreeMap::new();
+        // the scan corner each pose was built from; whether it is one of the scan's published
+        // corners is decided at the end, since a pose can be read before its corners message
+        let mut pose_corners: BTreeMap<u64, Option<usize>> = BTreeMap::new();
         while !stop.load(Ordering::Relaxed) {
             let mut any = false;
             while let Ok(Some(m)) = scan.receive() {
@@ -98,15 +101,17 @@ fn watch(prefix: String, stop: Arc<AtomicBool>) -> std::thread::JoinHandle<BTree
                 any = true;
             }
             while let Ok(Some(m)) = pose.receive() {
-                let n = corner_counts.get(&m.header.seq).copied().unwrap_or(0);
-                let e = seen.entry(m.header.seq).or_default();
-                e.hypotheses = Some(m.count as usize);
-                e.chosen = Some(usize::from(m.count > 0 && (m.hypotheses[0].scan_corner as usize) < n));
+                seen.entry(m.header.seq).or_default().hypotheses = Some(m.count as usize);
+                pose_corners.insert(m.header.seq, (m.count > 0).then(|| m.hypotheses[0].scan_corner as usize));
                 any = true;
             }
             if !any {
                 std::thread::sleep(Duration::from_micros(300));
             }
+        }
+        for (seq, corner) in pose_corners {
+            let n = corner_counts.get(&seq).copied().unwrap_or(0);
+            seen.entry(seq).or_default().chosen = Some(usize::from(corner.is_some_and(|c| c < n)));
         }
         seen
     });
