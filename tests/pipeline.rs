@@ -166,6 +166,113 @@ fn a_killed_stage_is_restarted_and_nothing_else_restarts() {
     assert!(seqs.len() >= 150, "only {} poses", seqs.len());
 }
 
+/// Ctrl-Z then `fg`, a debugger attaching, any signal that is not SIGINT or SIGTERM: a wait cut
+/// short that way must wait again, not end the stage as if it had been asked to stop.
+#[test]
+fn stages_paused_and_resumed_carry_on() {
+    let Running { _dir, csv, prefix: p, run } = start_running("pause", 160, "40", Duration::from_millis(500));
+    let mut pids: Vec<u32> =
+        ["acquire", "segment", "localize", "mapserver"].iter().flat_map(|k| stage_pids(k, &p)).collect();
+    assert_eq!(pids.len(), 4);
+    pids.push(run.id());
+    for &pid in &pids {
+        // SAFETY: kill(2) on processes this test started (directly or through the supervisor).
+        unsafe { libc_kill(pid as i32, 19) }; // SIGSTOP
+        std::thread::sleep(Duration::from_millis(100));
+        unsafe { libc_kill(pid as i32, 18) }; // SIGCONT
+        std::thread::sleep(Duration::from_millis(100));
+    }
+    for k in ["acquire", "segment", "localize", "mapserver"] {
+        assert_eq!(stage_pids(k, &p).len(), 1, "{k} is gone");
+        assert!(pids.contains(&stage_pids(k, &p)[0]), "{k} was restarted");
+    }
+    let out = run.wait_with_output().unwrap();
+    let report = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(report.contains("poses received 160 of 160"), "{report}\n{}", String::from_utf8_lossy(&out.stderr));
+    assert!(!report.contains("restarted"), "{report}");
+    assert_eq!(rows(&csv).len(), 160);
+}
+
+/// A supervisor killed outright (SIGKILL, the OOM killer, a crash) cannot stop its stages
+/// itself: they must not live on as orphans, still publishing under the prefix a next run uses.
+#[test]
+fn stages_stop_when_the_supervisor_is_killed() {
+    let Running { _dir, prefix: p, mut run, .. } = start_running("orphan", 400, "20", Duration::from_millis(500));
+    let kinds = ["acquire", "segment", "localize", "mapserver"];
+    let ours: Vec<u32> = kinds.iter().flat_map(|k| stage_pids(k, &p)).collect();
+    assert_eq!(ours.len(), 4);
+    run.kill().unwrap();
+    let _ = run.wait();
+    wait_for("the orphaned stages to stop", Duration::from_secs(10), || {
+        kinds.iter().all(|k| stage_pids(k, &p).is_empty())
+    });
+    // they stopped cleanly, removing their own iceoryx2 nodes
+    let left: Vec<u32> = messages::dead_node_pids().into_iter().filter(|pid| ours.contains(pid)).collect();
+    assert!(left.is_empty(), "stages {left:?} left dead nodes behind");
+}
+
+/// Two runs under one prefix would publish into each other's topics and count each other's
+/// poses: the second must refuse to start, and the first must not notice.
+#[test]
+fn a_second_run_under_a_prefix_in_use_refuses_to_start() {
+    let Running { _dir, prefix: p, run, .. } = start_running("twice", 80, "40", Duration::from_millis(200));
+    let second = gema2(&["run", "--prefix", &p, "--scans", "10", "--timeout", "30"]);
+    let err = String::from_utf8_lossy(&second.stderr);
+    assert!(!second.status.success() && err.contains("in use") && err.contains("--prefix"), "{err}");
+    let out = run.wait_with_output().unwrap();
+    let report = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(report.contains("poses received 80 of 80"), "{report}");
+    assert!(!report.contains("restarted"), "{report}");
+    // once it is over, the prefix is free again
+    let again = gema2(&["run", "--prefix", &p, "--scans", "5", "--rate", "max", "--timeout", "60"]);
+    assert!(again.status.success(), "{}", String::from_utf8_lossy(&again.stderr));
+}
+
+/// A corrupt line in a replayed log costs that scan only: the source names the line, skips
+/// it and publishes the rest.
+#[test]
+fn a_replayed_log_with_a_corrupt_line_loses_only_that_scan() {
+    let dir = tempfile::tempdir().unwrap();
+    let (log, _) = setup(dir.path(), 30, "max");
+    let text = std::fs::read_to_string(&log).unwrap();
+    let mut lines: Vec<&str> = text.lines().collect();
+    let tenth = lines.iter().enumerate().filter(|(_, l)| l.starts_with("ROBOTLASER1")).nth(9).unwrap().0;
+    lines[tenth] = "ROBOTLASER1 0 -2.0 nonsense";
+    std::fs::write(&log, lines.join("\n") + "\n").unwrap();
+    let p = prefix("corrupt");
+    let out = gema2(&["stage", "acquire", "--log", log.to_str().unwrap(), "--rate", "max", "--prefix", &p]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{err}");
+    assert!(err.contains(&format!("scans.log:{}:", tenth + 1)), "{err}");
+    assert!(err.contains("published 29 scans") && err.contains("skipped 1 malformed"), "{err}");
+}
+
+/// SIGHUP asks the map server to reload its map; the signal interrupts its wait, which must
+/// not be taken for a stop request.
+#[test]
+fn sighup_reloads_the_map_and_the_map_server_carries_on() {
+    let dir = tempfile::tempdir().unwrap();
+    let map = dir.path().join("map.json");
+    std::fs::write(&map, include_str!("../maps/apartment.json")).unwrap();
+    let p = prefix("hup");
+    let mut server = StageChild::spawn(
+        Command::new(exe())
+            .args(["stage", "mapserver", "--map", map.to_str().unwrap(), "--prefix", &p])
+            .stderr(Stdio::piped()),
+    );
+    let mut lines = BufReader::new(server.child().stderr.take().unwrap()).lines();
+    assert!(lines.next().and_then(Result::ok).unwrap_or_default().contains("as version 1"));
+    for version in [2, 3] {
+        // SAFETY: kill(2) on a child of this test.
+        unsafe { libc_kill(server.child().id() as i32, 1) };
+        let got = lines.next().and_then(Result::ok).unwrap_or_default();
+        assert!(got.contains(&format!("as version {version}")), "{got}");
+    }
+    server.stop();
+}
+
 extern "C" {
     #[link_name = "kill"]
     fn libc_kill(pid: i32, sig: i32) -> i32;

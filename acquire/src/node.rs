@@ -16,7 +16,8 @@ use std::time::Duration;
 pub struct AcquireArgs {
     #[command(flatten)]
     pub stage: messages::StageArgs,
-    /// Replay this CARMEN log instead of simulating.
+    /// Replay this CARMEN log instead of simulating. A malformed line is reported (file and
+    /// line) and skipped, as a corrupt frame from a sensor would be; the replay goes on.
     #[arg(long)]
     pub log: Option<PathBuf>,
     /// Replay a URG-04LX log (the format of datasets/urg04lx) instead of simulating.
@@ -65,6 +66,11 @@ pub fn scan_to_msg(scan: &LaserScan, seq: u64, stamp_ns: u64, m: &mut ScanMsg) {
         m.has_truth = 1;
         m.truth = PoseMsgXyt { x: t.translation.x, y: t.translation.y, theta: pose_theta(t) };
     }
+}
+
+/// A log line that does not parse: the lines after it can still be read.
+fn is_malformed_line(e: &anyhow::Error) -> bool {
+    matches!(e.downcast_ref::<crate::LogError>(), Some(crate::LogError::Line { .. }))
 }
 
 type Source = Box<dyn Iterator<Item = Result<LaserScan>>>;
@@ -154,6 +160,7 @@ pub fn run(a: AcquireArgs) -> Result<()> {
         None => None,
     };
     let mut seq = a.first_seq;
+    let mut skipped = 0u64;
     let mut next = monotonic_ns();
     loop {
         if a.scans > 0 && seq - a.first_seq >= a.scans {
@@ -164,16 +171,24 @@ pub fn run(a: AcquireArgs) -> Result<()> {
         // shares this core, and count as transport in the hop after this stage.
         if let Some(p) = period {
             let now = monotonic_ns();
-            if next > now && node.wait(Duration::from_nanos(next - now)).is_err() {
+            if next > now && !messages::sleep(&node, Duration::from_nanos(next - now)) {
                 break; // SIGINT or SIGTERM
             }
             next = next.max(now) + p.as_nanos() as u64;
-        } else if node.wait(Duration::ZERO).is_err() || stop_requested() {
+        } else if messages::termination_requested(&node) || stop_requested() {
             break;
         }
         let enter = monotonic_ns();
-        let Some(scan) = scans.next() else { break };
-        let scan = scan.context("acquire: reading the source")?;
+        let scan = match scans.next() {
+            None => break,
+            Some(Ok(scan)) => scan,
+            Some(Err(e)) if is_malformed_line(&e) => {
+                skipped += 1;
+                eprintln!("acquire: skipped {e} ({skipped} so far)");
+                continue;
+            }
+            Some(Err(e)) => return Err(e.context("acquire: reading the source")),
+        };
         if let Some(w) = carmen.as_mut() {
             crate::write_robotlaser1(w, &scan).context("acquire: writing --carmen-out")?;
         }
@@ -191,6 +206,9 @@ pub fn run(a: AcquireArgs) -> Result<()> {
         std::io::Write::flush(&mut w).context("acquire: writing --carmen-out")?;
     }
     eprintln!("acquire: published {} scans", seq - a.first_seq);
+    if skipped > 0 {
+        eprintln!("acquire: skipped {skipped} malformed log lines");
+    }
     if let Some(r) = scans_out.report() {
         eprintln!("acquire: {r}");
     }

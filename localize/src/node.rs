@@ -11,8 +11,8 @@ use mapserver::wire::map_from_msg;
 use mapserver::MapCornerConfig;
 use messages::iceoryx2::prelude::*;
 use messages::{
-    monotonic_ns, open_topic, CornersMsg, Freshness, HypothesisMsg, MapMsg, Outlet, PoseMsg, PoseMsgXyt, Stage, Topic,
-    MAX_HYPOTHESES, STATUS_AMBIGUOUS, STATUS_FAILED, STATUS_OK,
+    monotonic_ns, open_topic, CornersMsg, Freshness, HypothesisMsg, ListenerDrain, MapMsg, Outlet, PoseMsg, PoseMsgXyt,
+    Stage, Topic, MAX_HYPOTHESES, STATUS_AMBIGUOUS, STATUS_FAILED, STATUS_OK,
 };
 use segment::sample::build_samples;
 use segment::wire::{corner_from_msg, scan_view};
@@ -41,7 +41,7 @@ pub fn run(a: LocalizeArgs) -> Result<()> {
     let mut pose_out =
         Outlet::<PoseMsg>::open(&node, &a.stage.prefix, Topic::Pose, BackpressureStrategy::RetryUntilDelivered)?;
     let waitset = WaitSetBuilder::new().create::<ipc::Service>().map_err(|e| err("waitset", &e))?;
-    let _woken_by_corners = waitset.attach_notification(&corners_wake).map_err(|e| err("waitset", &e))?;
+    let woken_by_corners = waitset.attach_notification(&corners_wake).map_err(|e| err("waitset", &e))?;
     let _woken_by_map = waitset.attach_notification(&map_wake).map_err(|e| err("waitset", &e))?;
     // the map may already be waiting in history; a wake-up may be lost (MISSED_WAKEUP_POLL)
     let _poll = waitset.attach_interval(messages::MISSED_WAKEUP_POLL).map_err(|e| err("waitset", &e))?;
@@ -54,112 +54,124 @@ pub fn run(a: LocalizeArgs) -> Result<()> {
     let mut failure: Option<anyhow::Error> = None;
     let mut waiting_for_map = 0u64;
     let mut found_by_poll = 0u64;
-    let on_event = |_: WaitSetAttachmentId<ipc::Service>| {
-        // woken or not, drain both listeners (see MISSED_WAKEUP_POLL) and then both queues
-        let _ = map_wake.try_wait(|_| {});
-        let notified = corners_wake.try_wait(|_| {}).unwrap_or(0) > 0;
-        // the map: newest version wins
-        while let Ok(Some(m)) = map_in.receive() {
-            match map_from_msg(&m) {
-                Ok(walls) if localizer.as_ref().is_none_or(|(_, v)| *v != m.version) => {
-                    let model = Arc::new(MapModel::new(walls, &MapCornerConfig::default()));
-                    eprintln!("localize: map version {} ({} walls)", m.version, m.count);
-                    match localizer.as_mut() {
-                        Some((l, v)) => {
-                            l.set_model(model);
-                            *v = m.version;
-                        }
-                        None => {
-                            localizer = Some((Localizer::new(model, config.localizer), m.version));
-                            // ready once there is a map to localize against
-                            if let Err(e) = messages::announce_ready(&node, &a.stage.prefix) {
-                                eprintln!("localize: {e}");
+    let on_event = |id: WaitSetAttachmentId<ipc::Service>| {
+        let woken = id.has_event_from(&woken_by_corners);
+        // two passes over both queues, the listeners drained in between
+        // (messages::ListenerDrain)
+        let mut drain = ListenerDrain::new([&map_wake, &corners_wake]);
+        let mut counted = false;
+        for pass in 0..2 {
+            if pass == 1 {
+                drain.once();
+            }
+            // the map: newest version wins
+            while let Ok(Some(m)) = map_in.receive() {
+                match map_from_msg(&m) {
+                    Ok(walls) if localizer.as_ref().is_none_or(|(_, v)| *v != m.version) => {
+                        let model = Arc::new(MapModel::new(walls, &MapCornerConfig::default()));
+                        eprintln!("localize: map version {} ({} walls)", m.version, m.count);
+                        match localizer.as_mut() {
+                            Some((l, v)) => {
+                                l.set_model(model);
+                                *v = m.version;
+                            }
+                            None => {
+                                localizer = Some((Localizer::new(model, config.localizer), m.version));
+                                // ready once there is a map to localize against
+                                if let Err(e) = messages::announce_ready(&node, &a.stage.prefix) {
+                                    eprintln!("localize: {e}");
+                                }
                             }
                         }
                     }
+                    Ok(_) => {}
+                    Err(e) => eprintln!("localize: ignored a bad map: {e}"),
                 }
-                Ok(_) => {}
-                Err(e) => eprintln!("localize: ignored a bad map: {e}"),
             }
-        }
-        loop {
-            let sample = match corners_in.receive() {
-                Ok(Some(s)) => s,
-                Ok(None) => break,
-                Err(e) => {
-                    failure = Some(anyhow!("{}: receive: {e:?}", corners.name));
+            loop {
+                let sample = match corners_in.receive() {
+                    Ok(Some(s)) => s,
+                    Ok(None) => break,
+                    Err(e) => {
+                        failure = Some(anyhow!("{}: receive: {e:?}", corners.name));
+                        return CallbackProgression::Stop;
+                    }
+                };
+                let enter = monotonic_ns();
+                drain.once();
+                let msg: &CornersMsg = &sample;
+                let seq = msg.scan.header.seq;
+                if !fresh.admit(&msg.scan.header) {
+                    continue; // a copy: a resend, or a second segmenter during a hot swap
+                }
+                let Some((loc, version)) = localizer.as_mut() else {
+                    waiting_for_map += 1;
+                    if waiting_for_map == 1 || waiting_for_map.is_multiple_of(100) {
+                        eprintln!("localize: no map yet, {waiting_for_map} scans skipped");
+                    }
+                    continue;
+                };
+                // counted once per look: a busy stage keeps taking scans in one callback, wake-up or not
+                if !woken && !counted {
+                    found_by_poll += 1;
+                    counted = true;
+                }
+                let view = match scan_view(&msg.scan) {
+                    Ok(v) => v,
+                    Err(e) => {
+                        eprintln!("localize: dropped {e}");
+                        continue;
+                    }
+                };
+                build_samples(&view, &config.segmenter.error, config.segmenter.averaging, &mut seg.samples);
+                seg.corners.clear();
+                let n = (msg.count as usize).min(msg.corners.len());
+                seg.corners.extend(msg.corners[..n].iter().filter_map(corner_from_msg));
+                let result = loc.locate(&view, &seg);
+                let version = *version;
+                let sent = pose_out.send(|p: &mut PoseMsg| {
+                    p.header = msg.scan.header;
+                    p.header.span(Stage::Localize).enter_ns = enter;
+                    p.header.set_producer("gema2");
+                    p.status = match result.status {
+                        Status::Ok => STATUS_OK,
+                        Status::Ambiguous => STATUS_AMBIGUOUS,
+                        Status::Failed => STATUS_FAILED,
+                    };
+                    p.candidates = result.candidates as u32;
+                    p.map_version = version;
+                    p.has_truth = msg.scan.has_truth;
+                    p.truth = msg.scan.truth;
+                    let k = result.hypotheses.len().min(MAX_HYPOTHESES);
+                    p.count = k as u32;
+                    for (slot, h) in p.hypotheses.iter_mut().zip(&result.hypotheses[..k]) {
+                        *slot = HypothesisMsg {
+                            pose: PoseMsgXyt {
+                                x: h.pose.translation.x,
+                                y: h.pose.translation.y,
+                                theta: pose_theta(&h.pose),
+                            },
+                            cost: h.cost.value,
+                            inliers: h.cost.inliers,
+                            through: h.cost.through,
+                            scan_corner: h.scan_corner as u32,
+                            map_corner: h.map_corner,
+                        };
+                    }
+                    // the stage ends as the message is sent: the hop after it is transport only
+                    p.header.span(Stage::Localize).leave_ns = monotonic_ns();
+                });
+                if let Err(e) = sent {
+                    failure = Some(anyhow!("localize: publishing pose {seq}: {e}"));
                     return CallbackProgression::Stop;
                 }
-            };
-            let enter = monotonic_ns();
-            let msg: &CornersMsg = &sample;
-            let seq = msg.scan.header.seq;
-            if !fresh.admit(&msg.scan.header) {
-                continue; // a copy: a resend, or a second segmenter during a hot swap
-            }
-            let Some((loc, version)) = localizer.as_mut() else {
-                waiting_for_map += 1;
-                if waiting_for_map == 1 || waiting_for_map.is_multiple_of(100) {
-                    eprintln!("localize: no map yet, {waiting_for_map} scans skipped");
-                }
-                continue;
-            };
-            found_by_poll += u64::from(!notified);
-            let view = match scan_view(&msg.scan) {
-                Ok(v) => v,
-                Err(e) => {
-                    eprintln!("localize: dropped {e}");
-                    continue;
-                }
-            };
-            build_samples(&view, &config.segmenter.error, config.segmenter.averaging, &mut seg.samples);
-            seg.corners.clear();
-            let n = (msg.count as usize).min(msg.corners.len());
-            seg.corners.extend(msg.corners[..n].iter().filter_map(corner_from_msg));
-            let result = loc.locate(&view, &seg);
-            let version = *version;
-            let sent = pose_out.send(|p: &mut PoseMsg| {
-                p.header = msg.scan.header;
-                p.header.span(Stage::Localize).enter_ns = enter;
-                p.header.set_producer("gema2");
-                p.status = match result.status {
-                    Status::Ok => STATUS_OK,
-                    Status::Ambiguous => STATUS_AMBIGUOUS,
-                    Status::Failed => STATUS_FAILED,
-                };
-                p.candidates = result.candidates as u32;
-                p.map_version = version;
-                p.has_truth = msg.scan.has_truth;
-                p.truth = msg.scan.truth;
-                let k = result.hypotheses.len().min(MAX_HYPOTHESES);
-                p.count = k as u32;
-                for (slot, h) in p.hypotheses.iter_mut().zip(&result.hypotheses[..k]) {
-                    *slot = HypothesisMsg {
-                        pose: PoseMsgXyt {
-                            x: h.pose.translation.x,
-                            y: h.pose.translation.y,
-                            theta: pose_theta(&h.pose),
-                        },
-                        cost: h.cost.value,
-                        inliers: h.cost.inliers,
-                        through: h.cost.through,
-                        scan_corner: h.scan_corner as u32,
-                        map_corner: h.map_corner,
-                    };
-                }
-                // the stage ends as the message is sent: the hop after it is transport only
-                p.header.span(Stage::Localize).leave_ns = monotonic_ns();
-            });
-            if let Err(e) = sent {
-                failure = Some(anyhow!("localize: publishing pose {seq}: {e}"));
-                return CallbackProgression::Stop;
             }
         }
         CallbackProgression::Continue
     };
-    waitset.wait_and_process(on_event).map_err(|e| err("waitset", &e))?;
+    messages::run_waitset(&node, &waitset, on_event).map_err(|e| err("waitset", &e))?;
     if found_by_poll > 0 {
-        eprintln!("localize: {found_by_poll} scans arrived without a wake-up and were found by the poll");
+        eprintln!("localize: scans found by the poll, not by a wake-up, {found_by_poll} times");
     }
     if let Some(r) = pose_out.report() {
         eprintln!("localize: {r}");

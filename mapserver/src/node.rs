@@ -71,7 +71,7 @@ pub fn run(a: MapServerArgs) -> Result<()> {
         index.corners().len()
     );
     // queries and late joiners are served every few milliseconds; the data path never waits here
-    while node.wait(Duration::from_millis(5)).is_ok() {
+    while messages::sleep(&node, Duration::from_millis(5)) {
         publisher.update_connections().map_err(|e| anyhow!("{}: {e:?}", topic.name))?;
         while let Some(request) = server.receive().map_err(|e| anyhow!("corner queries: {e:?}"))? {
             let q = *request.payload();

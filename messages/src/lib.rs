@@ -13,6 +13,7 @@ mod payload;
 mod publish;
 mod runtime;
 mod topic;
+mod waiting;
 
 pub use outlet::{Freshness, Outlet, CONNECT_PATIENCE};
 pub use payload::*;
@@ -25,5 +26,7 @@ pub use topic::{
     open_control, open_corner_queries, open_pubsub, open_topic, service_name, OpenError, Topic, TopicPorts,
     TopicSettings, ALL_TOPICS,
 };
+
+pub use waiting::{run_waitset, sleep, sleep_until, termination_requested, ListenerDrain};
 
 pub use iceoryx2;

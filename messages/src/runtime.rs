@@ -21,7 +21,8 @@ pub enum RuntimeError {
 }
 
 /// Creates this process's node. Termination signals (SIGINT, SIGTERM) are left to iceoryx2,
-/// which makes `WaitSet` loops and `Node::wait` return so the process can finish cleanly.
+/// which records them for the node; [`crate::run_waitset`] and [`crate::sleep`] then return so
+/// the process can finish cleanly (and, unlike iceoryx2's own loops, only then).
 pub fn create_node(name: &str) -> Result<Node<ipc::Service>, RuntimeError> {
     // iceoryx2 warns on every start that it runs without a config file; errors only, unless the
     // environment asks for more (IOX2_LOG_LEVEL)

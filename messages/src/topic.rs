@@ -153,7 +153,8 @@ pub fn open_corner_queries(
     node: &Node<ipc::Service>,
     prefix: &str,
 ) -> Result<request_response::PortFactory<ipc::Service, crate::CornerQuery, (), crate::CornerReply, ()>, OpenError> {
-    open_request_response(node, &service_name(prefix, "map/corners"))
+    // two servers: a restarted map server's may overlap its predecessor's for a moment
+    open_request_response(node, &service_name(prefix, "map/corners"), 2)
 }
 
 /// The supervisor's control service, `<prefix>/control`.
@@ -162,18 +163,20 @@ pub fn open_control(
     prefix: &str,
 ) -> Result<request_response::PortFactory<ipc::Service, crate::ControlRequest, (), crate::ControlReply, ()>, OpenError>
 {
-    open_request_response(node, &service_name(prefix, "control"))
+    // one server: the supervisor that owns the prefix (see `gema2 run`)
+    open_request_response(node, &service_name(prefix, "control"), 1)
 }
 
 fn open_request_response<Q: Debug + ZeroCopySend + 'static, R: Debug + ZeroCopySend + 'static>(
     node: &Node<ipc::Service>,
     service: &str,
+    max_servers: usize,
 ) -> Result<request_response::PortFactory<ipc::Service, Q, (), R, ()>, OpenError> {
     let name = parse_name(service)?;
     node.service_builder(&name)
         .request_response::<Q, R>()
         .max_clients(8)
-        .max_servers(2)
+        .max_servers(max_servers)
         .open_or_create()
         .map_err(|e| OpenError::Open { service: service.into(), message: format!("{e:?}") })
 }

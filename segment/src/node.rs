@@ -11,7 +11,8 @@ use anyhow::{anyhow, Context, Result};
 use clap::Args;
 use messages::iceoryx2::prelude::*;
 use messages::{
-    monotonic_ns, open_topic, CornersMsg, Freshness, LinesMsg, Outlet, ScanMsg, Stage, Topic, MAX_CORNERS, MAX_LINES,
+    monotonic_ns, open_topic, CornersMsg, Freshness, LinesMsg, ListenerDrain, Outlet, ScanMsg, Stage, Topic,
+    MAX_CORNERS, MAX_LINES,
 };
 
 #[derive(Args, Debug, Clone)]
@@ -38,7 +39,7 @@ pub fn run(a: SegmentArgs) -> Result<()> {
     let mut corners_out =
         Outlet::<CornersMsg>::open(&node, &a.stage.prefix, Topic::Corners, BackpressureStrategy::RetryUntilDelivered)?;
     let waitset = WaitSetBuilder::new().create::<ipc::Service>().map_err(|e| anyhow!("waitset: {e:?}"))?;
-    let _woken_by_scans = waitset.attach_notification(&listener).map_err(|e| anyhow!("waitset: {e:?}"))?;
+    let woken_by_scans = waitset.attach_notification(&listener).map_err(|e| anyhow!("waitset: {e:?}"))?;
     let _poll = waitset.attach_interval(messages::MISSED_WAKEUP_POLL).map_err(|e| anyhow!("waitset: {e:?}"))?;
     messages::announce_ready(&node, &a.stage.prefix)?;
     let name = segmenter.name();
@@ -46,70 +47,82 @@ pub fn run(a: SegmentArgs) -> Result<()> {
     let mut bad_scans = 0u64;
     let mut found_by_poll = 0u64;
     let mut fresh = Freshness::default();
-    let on_event = |_: WaitSetAttachmentId<ipc::Service>| {
-        // woken or not, drain the listener (see MISSED_WAKEUP_POLL) and then the queue
-        let notified = listener.try_wait(|_| {}).unwrap_or(0) > 0;
-        loop {
-            let sample = match subscriber.receive() {
-                Ok(Some(s)) => s,
-                Ok(None) => break,
-                Err(e) => {
-                    failure = Some(anyhow!("{}: receive: {e:?}", scans.name));
+    let on_event = |id: WaitSetAttachmentId<ipc::Service>| {
+        let woken = id.has_event_from(&woken_by_scans);
+        // two passes over the queue, the listener drained in between (messages::ListenerDrain)
+        let mut drain = ListenerDrain::new([&listener]);
+        let mut counted = false;
+        for pass in 0..2 {
+            if pass == 1 {
+                drain.once();
+            }
+            loop {
+                let sample = match subscriber.receive() {
+                    Ok(Some(s)) => s,
+                    Ok(None) => break,
+                    Err(e) => {
+                        failure = Some(anyhow!("{}: receive: {e:?}", scans.name));
+                        return CallbackProgression::Stop;
+                    }
+                };
+                let enter = monotonic_ns();
+                drain.once();
+                let scan: &ScanMsg = &sample;
+                if !fresh.admit(&scan.header) {
+                    continue; // a copy of a scan already segmented
+                }
+                // counted once per look: a busy stage keeps taking scans in one callback, wake-up or not
+                if !woken && !counted {
+                    found_by_poll += 1;
+                    counted = true;
+                }
+                let view = match scan_view(scan) {
+                    Ok(v) => v,
+                    Err(e) => {
+                        bad_scans += 1;
+                        eprintln!("segment: dropped {e} ({bad_scans} so far)");
+                        continue;
+                    }
+                };
+                let seg = segmenter.segment(&view);
+                let mut header = scan.header;
+                header.span(Stage::Segment).enter_ns = enter;
+                header.set_producer(name);
+                let sent = lines_out
+                    .send(|m: &mut LinesMsg| {
+                        m.header = header;
+                        m.raw_count = seg.raw_lines.len() as u32;
+                        let n = seg.lines.len().min(MAX_LINES);
+                        m.count = n as u32;
+                        for (slot, l) in m.lines.iter_mut().zip(&seg.lines[..n]) {
+                            *slot = line_to_msg(l);
+                        }
+                        // each message leaves the stage as it is sent: the hop after it is transport
+                        m.header.span(Stage::Segment).leave_ns = monotonic_ns();
+                    })
+                    .and_then(|_| {
+                        corners_out.send(|m: &mut CornersMsg| {
+                            m.scan = *scan;
+                            m.scan.header = header;
+                            let n = seg.corners.len().min(MAX_CORNERS);
+                            m.count = n as u32;
+                            for (slot, c) in m.corners.iter_mut().zip(&seg.corners[..n]) {
+                                *slot = corner_to_msg(c);
+                            }
+                            m.scan.header.span(Stage::Segment).leave_ns = monotonic_ns();
+                        })
+                    });
+                if let Err(e) = sent {
+                    failure = Some(anyhow!("segment: publishing scan {}: {e}", header.seq));
                     return CallbackProgression::Stop;
                 }
-            };
-            let enter = monotonic_ns();
-            let scan: &ScanMsg = &sample;
-            if !fresh.admit(&scan.header) {
-                continue; // a copy of a scan already segmented
-            }
-            found_by_poll += u64::from(!notified);
-            let view = match scan_view(scan) {
-                Ok(v) => v,
-                Err(e) => {
-                    bad_scans += 1;
-                    eprintln!("segment: dropped {e} ({bad_scans} so far)");
-                    continue;
-                }
-            };
-            let seg = segmenter.segment(&view);
-            let mut header = scan.header;
-            header.span(Stage::Segment).enter_ns = enter;
-            header.set_producer(name);
-            let sent = lines_out
-                .send(|m: &mut LinesMsg| {
-                    m.header = header;
-                    m.raw_count = seg.raw_lines.len() as u32;
-                    let n = seg.lines.len().min(MAX_LINES);
-                    m.count = n as u32;
-                    for (slot, l) in m.lines.iter_mut().zip(&seg.lines[..n]) {
-                        *slot = line_to_msg(l);
-                    }
-                    // each message leaves the stage as it is sent: the hop after it is transport
-                    m.header.span(Stage::Segment).leave_ns = monotonic_ns();
-                })
-                .and_then(|_| {
-                    corners_out.send(|m: &mut CornersMsg| {
-                        m.scan = *scan;
-                        m.scan.header = header;
-                        let n = seg.corners.len().min(MAX_CORNERS);
-                        m.count = n as u32;
-                        for (slot, c) in m.corners.iter_mut().zip(&seg.corners[..n]) {
-                            *slot = corner_to_msg(c);
-                        }
-                        m.scan.header.span(Stage::Segment).leave_ns = monotonic_ns();
-                    })
-                });
-            if let Err(e) = sent {
-                failure = Some(anyhow!("segment: publishing scan {}: {e}", header.seq));
-                return CallbackProgression::Stop;
             }
         }
         CallbackProgression::Continue
     };
-    waitset.wait_and_process(on_event).map_err(|e| anyhow!("waitset: {e:?}"))?;
+    messages::run_waitset(&node, &waitset, on_event).map_err(|e| anyhow!("waitset: {e:?}"))?;
     if found_by_poll > 0 {
-        eprintln!("segment: {found_by_poll} scans arrived without a wake-up and were found by the poll");
+        eprintln!("segment: scans found by the poll, not by a wake-up, {found_by_poll} times");
     }
     for r in [lines_out.report(), corners_out.report()].into_iter().flatten() {
         eprintln!("segment: {r}");

@@ -7,7 +7,8 @@ use super::swap::{Swap, SwapOutcome};
 use anyhow::{anyhow, bail, Context, Result};
 use clap::Args;
 use messages::iceoryx2::prelude::*;
-use messages::{monotonic_ns, open_control, open_topic, ready_listener, PoseMsg, Topic, MAX_INSTANCE};
+use messages::iceoryx2::service::port_factory::server::ServerCreateError;
+use messages::{monotonic_ns, open_control, open_topic, ready_listener, ListenerDrain, PoseMsg, Topic, MAX_INSTANCE};
 use std::collections::HashSet;
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
@@ -110,12 +111,19 @@ pub fn run(a: RunArgs) -> Result<()> {
         eprintln!("supervisor: removed the resources of {stale} dead processes");
     }
     let node = messages::create_node("supervisor")?;
+    // the control service takes one server: holding it claims the prefix, so a second run
+    // under the same prefix stops here instead of mixing its scans and poses with this one's
+    let control = open_control(&node, &a.prefix)?;
+    let server = control.server_builder().create().map_err(|e| match e {
+        ServerCreateError::ExceedsMaxSupportedServers => {
+            anyhow!("prefix {:?} is in use by another `gema2 run`: give this one its own --prefix", a.prefix)
+        }
+        e => anyhow!("control: {e:?}"),
+    })?;
     let poses = open_topic::<PoseMsg>(&node, &a.prefix, Topic::Pose)?;
     let pose_in = poses.data.subscriber_builder().create().map_err(|e| anyhow!("{}: {e:?}", poses.name))?;
     let pose_wake = poses.event.listener_builder().create().map_err(|e| anyhow!("{}: {e:?}", poses.name))?;
     let ready = ready_listener(&node, &a.prefix)?;
-    let control = open_control(&node, &a.prefix)?;
-    let server = control.server_builder().create().map_err(|e| anyhow!("control: {e:?}"))?;
 
     let mut instances = Instances(0);
     let mut seen = HashSet::new();
@@ -141,11 +149,18 @@ pub fn run(a: RunArgs) -> Result<()> {
     let mut failure: Option<anyhow::Error> = None;
     let mut last_pose = Instant::now();
     let on_event = |_: WaitSetAttachmentId<ipc::Service>| {
-        // drained on every wake, the tick too: a wake-up can be lost (MISSED_WAKEUP_POLL)
-        let _ = pose_wake.try_wait(|_| {});
-        while let Ok(Some(p)) = pose_in.receive() {
-            monitor.record(&p, monotonic_ns());
-            last_pose = Instant::now();
+        // looked at on every wake, the tick too: a wake-up can be lost (MISSED_WAKEUP_POLL);
+        // two passes, the listener drained in between (messages::ListenerDrain)
+        let mut drain = ListenerDrain::new([&pose_wake]);
+        for pass in 0..2 {
+            if pass == 1 {
+                drain.once();
+            }
+            while let Ok(Some(p)) = pose_in.receive() {
+                monitor.record(&p, monotonic_ns());
+                last_pose = Instant::now();
+                drain.once();
+            }
         }
         let _ = ready.try_wait(|e| {
             seen.insert(e.id.as_value());
@@ -208,7 +223,7 @@ pub fn run(a: RunArgs) -> Result<()> {
         }
         CallbackProgression::Continue
     };
-    let waited = waitset.wait_and_process(on_event);
+    let waited = messages::run_waitset(&node, &waitset, on_event);
     // stop every stage: SIGTERM, a grace period, then SIGKILL; then clean up
     // the recorder last, so it records everything the others sent; it flushes on SIGTERM
     for st in stages.iter_mut().filter(|s| s.spec.kind != Kind::Viewer) {

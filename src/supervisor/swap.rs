@@ -5,7 +5,7 @@
 
 use super::child::{spawn, stop, StageProcess};
 use super::pipeline::Kind;
-use anyhow::{anyhow, Context, Result};
+use anyhow::{anyhow, Result};
 use clap::Args;
 use messages::iceoryx2::active_request::ActiveRequest;
 use messages::iceoryx2::prelude::*;
@@ -159,6 +159,8 @@ pub fn request(a: SwapArgs) -> Result<()> {
         if Instant::now() > deadline {
             anyhow::bail!("no answer from the supervisor within 30 s");
         }
-        node.wait(Duration::from_millis(10)).map_err(|e| anyhow!("{e:?}")).context("waiting for the supervisor")?;
+        if !messages::sleep(&node, Duration::from_millis(10)) {
+            anyhow::bail!("interrupted while waiting for the supervisor");
+        }
     }
 }

@@ -166,7 +166,7 @@ pub fn run(a: RecordArgs) -> Result<Counts> {
     messages::announce_ready(&node, &a.stage.prefix)?;
     eprintln!("viewer: recording {} to {}", a.stage.prefix, describe(&a));
     let mut failure = None;
-    let waited = waitset.wait_and_process(|_| match subs.drain(&mut recorder) {
+    let waited = messages::run_waitset(&node, &waitset, |_| match subs.drain(&mut recorder) {
         Ok(()) => CallbackProgression::Continue,
         Err(e) => {
             failure = Some(e);

@@ -1,0 +1,124 @@
+//! Waiting that only a stop request ends.
+//!
+//! iceoryx2 0.10 reports *any* interrupted wait as an interrupt: `WaitSet::wait_and_process`
+//! returns `WaitSetRunResult::Interrupt` and `Node::wait` fails with `NodeWaitFailure::Interrupt`
+//! whenever the system call returns EINTR. That happens for SIGINT, but also when the process
+//! is stopped and continued (Ctrl-Z then `fg`, SIGSTOP/SIGCONT), when a debugger or `strace`
+//! attaches, or on any other handled signal. A stage that took that for a stop request would
+//! quietly end mid-run (exit status 0, so not restarted either). The functions here ask the
+//! node whether SIGINT or SIGTERM really arrived, and otherwise wait again.
+
+use iceoryx2::node::NodeWaitFailure;
+use iceoryx2::port::listener::Listener;
+use iceoryx2::prelude::*;
+use iceoryx2::waitset::{WaitSetRunError, WaitSetRunResult};
+use std::time::{Duration, Instant};
+
+/// True when SIGINT or SIGTERM arrived. iceoryx2's handler records them for nodes created
+/// with `SignalHandlingMode::HandleTerminationRequests` ([`crate::create_node`]); asking
+/// consumes the record, so call this only to decide to stop.
+pub fn termination_requested(node: &Node<ipc::Service>) -> bool {
+    node.wait(Duration::ZERO).is_err()
+}
+
+/// Runs `waitset` until `on_event` returns `CallbackProgression::Stop` or SIGINT/SIGTERM
+/// arrives; waits that another signal cut short are resumed.
+pub fn run_waitset<F>(
+    node: &Node<ipc::Service>,
+    waitset: &WaitSet<ipc::Service>,
+    mut on_event: F,
+) -> Result<WaitSetRunResult, WaitSetRunError>
+where
+    F: FnMut(WaitSetAttachmentId<ipc::Service>) -> CallbackProgression,
+{
+    loop {
+        match waitset.wait_and_process_once(&mut on_event)? {
+            WaitSetRunResult::AllEventsHandled => {}
+            WaitSetRunResult::Interrupt if !termination_requested(node) => {}
+            stopped => return Ok(stopped),
+        }
+    }
+}
+
+/// Sleeps until `deadline` (resuming after unrelated signals); false when SIGINT or SIGTERM
+/// arrived first.
+pub fn sleep_until(node: &Node<ipc::Service>, deadline: Instant) -> bool {
+    loop {
+        match node.wait(deadline.saturating_duration_since(Instant::now())) {
+            Ok(()) => return true,
+            Err(NodeWaitFailure::TerminationRequest) => return false,
+            Err(NodeWaitFailure::Interrupt) if termination_requested(node) => return false,
+            Err(NodeWaitFailure::Interrupt) => {}
+        }
+    }
+}
+
+/// Drains a stage's listeners once per look at its queues. iceoryx2's listener must be drained on
+/// every wake (see [`crate::MISSED_WAKEUP_POLL`]), but its system calls are best made after the
+/// scan that woke the stage is taken and stamped, so they count in the stage and in neither
+/// hop. A look therefore reads the queues twice: [`once`](Self::once) after stamping the first
+/// message, and before the second pass if no message came in the first; a message whose
+/// notification the drain took is taken in the second pass, any later one wakes the stage.
+pub struct ListenerDrain<'a, const N: usize> {
+    listeners: [&'a Listener<ipc::Service>; N],
+    done: bool,
+}
+
+impl<'a, const N: usize> ListenerDrain<'a, N> {
+    pub fn new(listeners: [&'a Listener<ipc::Service>; N]) -> Self {
+        ListenerDrain { listeners, done: false }
+    }
+
+    /// Drains every listener, the first time it is called in this look.
+    pub fn once(&mut self) {
+        if !self.done {
+            for l in self.listeners {
+                let _ = l.try_wait(|_| {});
+            }
+            self.done = true;
+        }
+    }
+}
+
+/// [`sleep_until`] `now + d`.
+pub fn sleep(node: &Node<ipc::Service>, d: Duration) -> bool {
+    sleep_until(node, Instant::now() + d)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::sync::atomic::{AtomicBool, Ordering};
+
+    static HANDLED: AtomicBool = AtomicBool::new(false);
+    extern "C" fn on_usr2(_: libc::c_int) {
+        HANDLED.store(true, Ordering::Relaxed);
+    }
+
+    /// A handled signal that is not a stop request (SIGUSR2 here, installed without SA_RESTART)
+    /// interrupts the sleep, which must still last its whole time.
+    #[test]
+    fn a_sleep_cut_short_by_another_signal_sleeps_on() {
+        let node = crate::create_node("waiting_test").unwrap();
+        // iceoryx2 installs its handlers for most signals on first use: let it, then take SIGUSR2
+        assert!(!termination_requested(&node));
+        // SAFETY: the handler only stores to an atomic; sigaction without SA_RESTART makes the
+        // sleep return EINTR.
+        unsafe {
+            let mut act: libc::sigaction = std::mem::zeroed();
+            act.sa_sigaction = on_usr2 as *const () as usize;
+            libc::sigaction(libc::SIGUSR2, &act, std::ptr::null_mut());
+        }
+        let me = unsafe { libc::pthread_self() };
+        let poker = std::thread::spawn(move || {
+            std::thread::sleep(Duration::from_millis(50));
+            // SAFETY: signals the test's thread, which is alive until this thread is joined.
+            unsafe { libc::pthread_kill(me, libc::SIGUSR2) };
+        });
+        let start = Instant::now();
+        assert!(sleep(&node, Duration::from_millis(300)), "an unrelated signal was taken for a stop");
+        poker.join().unwrap();
+        assert!(HANDLED.load(Ordering::Relaxed), "the signal did not arrive during the sleep");
+        assert!(start.elapsed() >= Duration::from_millis(300));
+    }
+}
