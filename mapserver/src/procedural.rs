@@ -317,11 +317,31 @@ pub fn radial(seed: u64) -> WallMap {
 
 /// The bundled maps by name.
 pub fn by_name(name: &str) -> Option<WallMap> {
+    match name {
+        "apartment" => Some(apartment()),
+        _ => by_name_seeded(name, bundled_seed(name)?),
+    }
+}
+
+/// The seed the bundled map called `name` was drawn with (the apartment is a fixed plan).
+pub fn bundled_seed(name: &str) -> Option<u64> {
     Some(match name {
-        "office" => office(2024, 3, 8),
-        "apartment" => apartment(),
-        "warehouse" => warehouse(7),
-        "radial" => radial(11),
+        "office" => 2024,
+        "warehouse" => 7,
+        "radial" => 11,
+        _ => return None,
+    })
+}
+
+/// Another map of the same character as the bundled one called `name`, drawn with `seed`:
+/// the office, warehouse and radial generators are random in their layout, so other seeds
+/// give maps the bundled defaults were never tuned on. `None` for an unknown name and for
+/// the apartment, which is one fixed plan.
+pub fn by_name_seeded(name: &str, seed: u64) -> Option<WallMap> {
+    Some(match name {
+        "office" => office(seed, 3, 8),
+        "warehouse" => warehouse(seed),
+        "radial" => radial(seed),
         _ => return None,
     })
 }
@@ -345,5 +365,18 @@ mod tests {
             let idx = CornerIndex::build(&m.walls, &MapCornerConfig::default());
             assert!(m.walls.len() >= 30 && idx.corners().len() >= 20, "{name}: {} walls", m.walls.len());
         }
+    }
+
+    #[test]
+    fn other_seeds_draw_other_layouts_of_the_same_kind() {
+        for name in ["office", "warehouse", "radial"] {
+            let bundled = by_name(name).unwrap();
+            assert_eq!(by_name_seeded(name, bundled_seed(name).unwrap()).as_ref(), Some(&bundled));
+            let other = by_name_seeded(name, 99).unwrap();
+            assert_ne!(other, bundled, "{name}");
+            let (n, m) = (other.walls.len(), bundled.walls.len());
+            assert!(n * 3 > m * 2 && n * 2 < m * 3, "{name}: {n} walls against {m}");
+        }
+        assert!(by_name_seeded("apartment", 3).is_none() && by_name_seeded("nope", 3).is_none());
     }
 }

@@ -8,11 +8,13 @@ use std::path::PathBuf;
 #[derive(Subcommand)]
 pub enum MapCommand {
     /// Write a generated map as JSON: office, apartment, warehouse, radial, or office-N
-    /// (an office of about N walls).
+    /// (an office of about N walls). Without --seed, the bundled map of that name.
     Generate {
         kind: String,
-        #[arg(long, default_value_t = 1)]
-        seed: u64,
+        /// Draw another layout of the same kind (office, warehouse, radial, office-N); the
+        /// apartment is one fixed plan.
+        #[arg(long)]
+        seed: Option<u64>,
         #[arg(long)]
         out: PathBuf,
     },
@@ -26,11 +28,18 @@ pub fn run(c: MapCommand) -> Result<()> {
     match c {
         MapCommand::Generate { kind, seed, out } => {
             let map = if let Some(n) = kind.strip_prefix("office-") {
-                procedural::office_with_walls(seed, n.parse().context("office-N needs a number")?)
+                procedural::office_with_walls(seed.unwrap_or(1), n.parse().context("office-N needs a number")?)
             } else {
-                match procedural::by_name(&kind) {
+                let map = match seed {
+                    None => procedural::by_name(&kind),
+                    Some(seed) => procedural::by_name_seeded(&kind, seed),
+                };
+                match map {
                     Some(m) => m,
-                    None => bail!("unknown map kind {kind:?}"),
+                    None if seed.is_some() && procedural::by_name(&kind).is_some() => {
+                        bail!("{kind} is one fixed plan and takes no --seed")
+                    }
+                    None => bail!("unknown map kind {kind:?}: office, apartment, warehouse, radial or office-N"),
                 }
             };
             std::fs::write(&out, map.to_json(&kind)).with_context(|| format!("writing {}", out.display()))?;
