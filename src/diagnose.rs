@@ -8,7 +8,13 @@ use segment::Segmentation;
 use std::collections::BTreeMap;
 
 /// The first stage at which the right pose was lost.
-pub fn classify(seg: &Segmentation, loc: &Localization, truth: &Pose) -> &'static str {
+pub fn classify(
+    seg: &Segmentation,
+    loc: &Localization,
+    truth: &Pose,
+    model: &localize::MapModel,
+    config: &localize::LocalizerConfig,
+) -> &'static str {
     let near = |p: &Pose| same_pose(p, truth, SUCCESS_POSITION, SUCCESS_HEADING_DEG.to_radians());
     let best_right = loc.hypotheses.first().is_some_and(|h| near(&h.pose));
     if best_right {
@@ -22,7 +28,8 @@ pub fn classify(seg: &Segmentation, loc: &Localization, truth: &Pose) -> &'stati
         return "no scan corner";
     }
     match loc.all_candidates.iter().position(|c| near(&c.0)) {
-        None => "no candidate near the truth past the first screening pass",
+        None if right_match_exists(seg, truth, model, config) => "right match dropped by the first screening pass",
+        None => "no scan corner matches a map corner at the truth",
         Some(rank) if !loc.hypotheses.iter().any(|h| near(&h.pose)) => {
             if rank < 32 {
                 "candidate lost in the coarse cost or refinement"
@@ -32,6 +39,28 @@ pub fn classify(seg: &Segmentation, loc: &Localization, truth: &Pose) -> &'stati
         }
         Some(_) => "right pose out-ranked by the cost",
     }
+}
+
+/// Whether one of the scan corners the search matches, with one of the map corners it is
+/// matched against, gives a pose near the truth.
+fn right_match_exists(
+    seg: &Segmentation,
+    truth: &Pose,
+    model: &localize::MapModel,
+    cfg: &localize::LocalizerConfig,
+) -> bool {
+    seg.corners.iter().take(cfg.corners_tried).any(|c| {
+        let tolerance = (3.0 * c.inner_angle_sigma()).clamp(cfg.min_angle_tolerance, cfg.max_angle_tolerance);
+        model.corners.similar(c.inner_angle, tolerance).iter().any(|m| {
+            localize::matching::arms_fit(c, m, cfg.arm_slack)
+                && same_pose(
+                    &localize::pose_from_corners(c, m),
+                    truth,
+                    SUCCESS_POSITION,
+                    SUCCESS_HEADING_DEG.to_radians(),
+                )
+        })
+    })
 }
 
 #[derive(Default)]

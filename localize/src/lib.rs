@@ -8,6 +8,7 @@ pub mod matching;
 pub mod model;
 pub mod node;
 pub mod refine;
+pub mod slide;
 
 pub use cost::{Cost, CostConfig, CostKind};
 pub use gema2::{Gema2, Gema2Config};
@@ -15,3 +16,4 @@ pub use localizer::{same_pose, FirstLook, Hypothesis, Localization, Localizer, L
 pub use matching::pose_from_corners;
 pub use model::MapModel;
 pub use refine::RefineConfig;
+pub use slide::{SlideConfig, FROM_SLIDE};

@@ -19,6 +19,7 @@ use crate::cost::{cost, Cost, CostConfig};
 use crate::matching::{arms_fit, pose_from_corners};
 use crate::model::{MapModel, FIELD_CAP};
 use crate::refine::{refine, RefineConfig};
+use crate::slide::{slide_lines, slide_poses, SlideConfig, SlideLine, FROM_SLIDE};
 use laser::{angle_diff, pose_theta, Pose, ScanView};
 use mapserver::{DistanceField, RayScratch};
 use nalgebra::Point2;
@@ -89,6 +90,9 @@ pub struct LocalizerConfig {
     pub record_candidates: bool,
     /// A cheaper search tried first; see [`FirstLook`].
     pub first_look: FirstLook,
+    /// Hypotheses from scan lines laid along map walls, tried when neither look's best pose is
+    /// confirmed; see [`crate::slide`].
+    pub slide: SlideConfig,
     /// Tracking (section 5.1): after an `ok` scan, only map corners within this many metres of
     /// the last pose are matched; any other outcome returns to global search. `None`: always
     /// global.
@@ -124,6 +128,7 @@ impl Default for LocalizerConfig {
             max_hypotheses: 32,
             record_candidates: false,
             first_look: FirstLook::default(),
+            slide: SlideConfig::default(),
             track_radius: None,
         }
     }
@@ -200,7 +205,8 @@ pub struct Hypothesis {
     pub pose: Pose,
     pub cost: Cost,
     /// Index of the scan corner (in the segmentation's corner list) and of the map corner (in
-    /// the map's inner-angle-sorted corner list) that produced it.
+    /// the map's inner-angle-sorted corner list) that produced it; for a pose of the slide
+    /// search, [`FROM_SLIDE`] and the index of the wall.
     pub scan_corner: u16,
     pub map_corner: u32,
 }
@@ -216,8 +222,10 @@ pub struct LocateTimes {
     /// Full eq. 7 over the refined hypotheses.
     pub cost: Duration,
     /// Whether the full search ran: the [`FirstLook`] did not settle the scan. Each step's
-    /// time above is the sum over both searches.
+    /// time above is the sum over all searches.
     pub full_search: bool,
+    /// Whether the slide search ran: the full search's best pose was not confirmed either.
+    pub slide_search: bool,
 }
 
 #[derive(Clone, Debug)]
@@ -264,6 +272,9 @@ pub struct Localizer {
     candidates: Vec<Candidate>,
     /// [`Self::keep_best`]'s kept candidates as (x, position), sorted by x.
     kept_by_x: Vec<(f64, usize)>,
+    /// The scan's lines as the slide search reads them, and those it lays along walls.
+    lines: Vec<SlideLine>,
+    slide_lines: Vec<usize>,
     scratch: RayScratch,
     expected: Vec<f64>,
     out: Localization,
@@ -281,6 +292,8 @@ impl Localizer {
             refine_pts: Vec::new(),
             candidates: Vec::new(),
             kept_by_x: Vec::new(),
+            lines: Vec::new(),
+            slide_lines: Vec::new(),
             scratch: RayScratch::default(),
             expected: Vec::new(),
             out: Localization {
@@ -305,6 +318,25 @@ impl Localizer {
 
     /// Localizes one scan from its segmentation.
     pub fn locate(&mut self, scan: &ScanView<'_>, seg: &Segmentation) -> &Localization {
+        self.lines.clear();
+        self.lines.extend(seg.lines.iter().map(SlideLine::from));
+        self.locate_lines_given(scan, seg)
+    }
+
+    /// [`locate`](Self::locate) for a segmentation whose lines arrive separately (the
+    /// pipeline's localizer gets samples, corners and line extents; `seg.lines` is ignored).
+    pub fn locate_with_lines(
+        &mut self,
+        scan: &ScanView<'_>,
+        seg: &Segmentation,
+        lines: impl IntoIterator<Item = SlideLine>,
+    ) -> &Localization {
+        self.lines.clear();
+        self.lines.extend(lines);
+        self.locate_lines_given(scan, seg)
+    }
+
+    fn locate_lines_given(&mut self, scan: &ScanView<'_>, seg: &Segmentation) -> &Localization {
         self.out.hypotheses.clear();
         self.out.status = Status::Failed;
         self.out.times = LocateTimes::default();
@@ -313,14 +345,20 @@ impl Localizer {
         let first = self.config.first_look;
         let mut settled = false;
         if first.corners > 0 && first.corners < self.config.corners_tried {
-            self.search(scan, seg, first.corners, first.prescreened, first.screened, first.refined);
+            self.search(scan, seg, Source::Corners(first.corners), first.prescreened, first.screened, first.refined);
             self.rank();
             settled = first.confirms(self.out.status, self.out.hypotheses.first());
         }
+        let cfg = self.config;
         if !settled {
             self.out.times.full_search = true;
-            let cfg = self.config;
-            self.search(scan, seg, cfg.corners_tried, cfg.prescreened, cfg.screened, cfg.refined);
+            self.search(scan, seg, Source::Corners(cfg.corners_tried), cfg.prescreened, cfg.screened, cfg.refined);
+            self.rank();
+            settled = first.confirms(self.out.status, self.out.hypotheses.first());
+        }
+        if !settled && cfg.slide.lines > 0 {
+            self.out.times.slide_search = true;
+            self.search(scan, seg, Source::Slides, cfg.prescreened, cfg.screened, cfg.refined);
             self.rank();
         }
         self.prior = match (self.config.track_radius, self.out.status, self.out.hypotheses.first()) {
@@ -330,22 +368,22 @@ impl Localizer {
         &self.out
     }
 
-    /// Matches the `corners` best scan corners, keeps the `screened` best candidates by the
-    /// screen (its first pass keeps `prescreened`) and the `refined` best of those by the
-    /// coarse cost, refines them and adds them to the hypotheses with their full eq. 7 cost
-    /// (unranked). Adds each step's time.
+    /// Makes the candidates of `source`, keeps the `screened` best by the screen (its first
+    /// pass keeps `prescreened`) and the `refined` best of those by the coarse cost, refines
+    /// them and adds them to the hypotheses with their full eq. 7 cost (unranked). Adds each
+    /// step's time.
     fn search(
         &mut self,
         scan: &ScanView<'_>,
         seg: &Segmentation,
-        corners: usize,
+        source: Source,
         prescreened: usize,
         screened: usize,
         refined: usize,
     ) {
         let t0 = Instant::now();
         self.out.all_candidates.clear();
-        self.match_corners(seg, corners, prescreened.max(screened));
+        self.make_candidates(seg, source, prescreened.max(screened));
         self.out.candidates = self.candidates.len();
         if self.config.record_candidates {
             self.candidates.sort_by(|a, b| a.score.total_cmp(&b.score));
@@ -399,59 +437,58 @@ impl Localizer {
         times.cost += t4 - t3;
     }
 
-    /// Eqs. 5-6 for every similar map corner whose arms fit, for each of the best scan
-    /// corners; each pose is screened by the distance field.
-    fn match_corners(&mut self, seg: &Segmentation, corners: usize, keep: usize) {
+    /// The candidate poses of `source`, each screened by the distance field; the `keep` best
+    /// are kept.
+    fn make_candidates(&mut self, seg: &Segmentation, source: Source, keep: usize) {
         self.candidates.clear();
-        let cfg = &self.config;
-        let model = &self.model;
+        let cfg = self.config;
+        let model = Arc::clone(&self.model);
         let field = &model.field;
         // screening in two passes: one in `prescreen_step` points for all poses, then every
-        // point for the `prescreened` best
+        // point for the `keep` best
         self.screen_few.clear();
         self.screen_few.extend(self.screen_pts.iter().step_by(cfg.prescreen_step.max(1)));
-        let few = &self.screen_few;
         let cap = cfg.screen_cap.min(FIELD_CAP);
-        // the first pass keeps the `keep` best sums: a pose is dropped as soon as its partial
-        // sum reaches the `keep`-th best so far (sums only grow), which leaves the kept set as
-        // it was and stops most wrong poses after a few points; a pose that puts every point
-        // far from the walls is never worth more work
-        let n_few = few.len().max(1) as f64;
-        let mut limit = cap * cap * 0.95 * n_few;
-        let best = &mut self.best_sums;
-        best.clear();
-        for (ci, c) in seg.corners.iter().take(corners).enumerate() {
-            let tolerance = (3.0 * c.inner_angle_sigma()).clamp(cfg.min_angle_tolerance, cfg.max_angle_tolerance);
-            let range = model.corners.similar_range(c.inner_angle, tolerance);
-            for k in range {
-                let m = &model.corners.corners()[k];
-                if let (Some(p), Some(r)) = (self.prior, cfg.track_radius) {
-                    if (m.position - p).norm() > r {
-                        continue;
+        let mut pass = FirstPass::new(field, &self.screen_few, cap, keep, &mut self.best_sums);
+        let candidates = &mut self.candidates;
+        match source {
+            Source::Corners(corners) => {
+                for (ci, c) in seg.corners.iter().take(corners).enumerate() {
+                    let tolerance =
+                        (3.0 * c.inner_angle_sigma()).clamp(cfg.min_angle_tolerance, cfg.max_angle_tolerance);
+                    let range = model.corners.similar_range(c.inner_angle, tolerance);
+                    for k in range {
+                        let m = &model.corners.corners()[k];
+                        if let (Some(p), Some(r)) = (self.prior, cfg.track_radius) {
+                            if (m.position - p).norm() > r {
+                                continue;
+                            }
+                        }
+                        if !arms_fit(c, m, cfg.arm_slack) {
+                            continue;
+                        }
+                        let pose = pose_from_corners(c, m);
+                        if let Some(score) = pass.score(&pose) {
+                            candidates.push(Candidate { pose, score, scan_corner: ci as u16, map_corner: k as u32 });
+                        }
                     }
                 }
-                if !arms_fit(c, m, cfg.arm_slack) {
-                    continue;
-                }
-                let pose = pose_from_corners(c, m);
-                let Some(sum) = screen_sum(field, &pose, few, cap, limit) else {
-                    continue;
-                };
-                self.candidates.push(Candidate {
-                    pose,
-                    score: sum / n_few,
-                    scan_corner: ci as u16,
-                    map_corner: k as u32,
-                });
-                // sums are non-negative, so their bit patterns order as the sums do
-                if best.len() < keep {
-                    best.push(sum.to_bits());
-                } else if best.peek().is_some_and(|&top| sum.to_bits() < top) {
-                    best.pop();
-                    best.push(sum.to_bits());
-                }
-                if best.len() == keep {
-                    limit = limit.min(best.peek().map_or(limit, |&top| f64::from_bits(top)));
+            }
+            Source::Slides => {
+                slide_lines(&self.lines, &cfg.slide, &mut self.slide_lines);
+                for &li in &self.slide_lines {
+                    for (wi, wall) in model.map.walls.iter().enumerate() {
+                        slide_poses(&self.lines[li], wall, &cfg.slide, |pose| {
+                            if let Some(score) = pass.score(&pose) {
+                                candidates.push(Candidate {
+                                    pose,
+                                    score,
+                                    scan_corner: FROM_SLIDE,
+                                    map_corner: wi as u32,
+                                });
+                            }
+                        });
+                    }
                 }
             }
         }
@@ -521,6 +558,61 @@ impl Localizer {
         } else {
             Status::Ok
         };
+    }
+}
+
+/// Where a search's candidate poses come from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Source {
+    /// The given number of best scan corners, matched against similar map corners (eqs. 5-6).
+    Corners(usize),
+    /// The longest scan lines laid along every map wall ([`crate::slide`]).
+    Slides,
+}
+
+/// The screen's first pass over one in `prescreen_step` points. It keeps the `keep` best sums:
+/// a pose is dropped as soon as its partial sum reaches the `keep`-th best so far (sums only
+/// grow), which leaves the kept set as it was and stops most wrong poses after a few points; a
+/// pose that puts every point far from the walls is never worth more work.
+struct FirstPass<'a> {
+    field: &'a DistanceField,
+    points: &'a [Point2<f64>],
+    cap: f64,
+    keep: usize,
+    limit: f64,
+    /// The best sums so far, as a max-heap of their bit patterns.
+    best: &'a mut BinaryHeap<u64>,
+}
+
+impl<'a> FirstPass<'a> {
+    fn new(
+        field: &'a DistanceField,
+        points: &'a [Point2<f64>],
+        cap: f64,
+        keep: usize,
+        best: &'a mut BinaryHeap<u64>,
+    ) -> Self {
+        best.clear();
+        let limit = cap * cap * 0.95 * points.len().max(1) as f64;
+        FirstPass { field, points, cap, keep, limit, best }
+    }
+
+    /// The pose's mean capped squared distance over the points, or `None` when it cannot be
+    /// among the `keep` best.
+    fn score(&mut self, pose: &Pose) -> Option<f64> {
+        let sum = screen_sum(self.field, pose, self.points, self.cap, self.limit)?;
+        let best = &mut *self.best;
+        // sums are non-negative, so their bit patterns order as the sums do
+        if best.len() < self.keep {
+            best.push(sum.to_bits());
+        } else if best.peek().is_some_and(|&top| sum.to_bits() < top) {
+            best.pop();
+            best.push(sum.to_bits());
+        }
+        if best.len() == self.keep {
+            self.limit = self.limit.min(best.peek().map_or(self.limit, |&top| f64::from_bits(top)));
+        }
+        Some(sum / self.points.len().max(1) as f64)
     }
 }
 

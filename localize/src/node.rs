@@ -3,6 +3,7 @@
 //! a new map version is used from the next scan on. A scan seen before (two segmenters during a
 //! hot swap) is skipped; gaps are fine.
 
+use crate::slide::SlideLine;
 use crate::{Gema2Config, Localizer, MapModel, Status};
 use anyhow::{anyhow, Context, Result};
 use clap::Args;
@@ -127,7 +128,8 @@ pub fn run(a: LocalizeArgs) -> Result<()> {
                 seg.corners.clear();
                 let n = (msg.count as usize).min(msg.corners.len());
                 seg.corners.extend(msg.corners[..n].iter().filter_map(corner_from_msg));
-                let result = loc.locate(&view, &seg);
+                let lines = msg.lines[..(msg.line_count as usize).min(msg.lines.len())].iter().filter_map(slide_line);
+                let result = loc.locate_with_lines(&view, &seg, lines);
                 let version = *version;
                 let sent = pose_out.send(|p: &mut PoseMsg| {
                     p.header = msg.scan.header;
@@ -181,4 +183,14 @@ pub fn run(a: LocalizeArgs) -> Result<()> {
         None => Ok(()),
     }
     .context("localize")
+}
+
+/// A line from the wire as the slide search reads it; `None` if any number is not finite.
+fn slide_line(m: &messages::LineMsg) -> Option<SlideLine> {
+    let finite = m.start.iter().chain(&m.end).chain([&m.direction_sigma]).all(|v| v.is_finite());
+    finite.then(|| SlideLine {
+        start: nalgebra::Point2::new(m.start[0], m.start[1]),
+        end: nalgebra::Point2::new(m.end[0], m.end[1]),
+        direction_sigma: m.direction_sigma,
+    })
 }

@@ -118,6 +118,8 @@ pub struct LineMsg {
     /// Visible extent, sensor frame, metres.
     pub start: [f64; 2],
     pub end: [f64; 2],
+    /// Standard deviation of the line's direction, radians.
+    pub direction_sigma: f64,
     /// |l|: samples in the line.
     pub samples: u32,
     pub _pad: u32,
@@ -159,14 +161,16 @@ pub struct CornerMsg {
 }
 
 /// `gema2/corners`: a scan's corners, best first, with the scan they derive from (the cost
-/// function needs its readings).
+/// function needs its readings) and its filtered lines (the localizer's slide search lays them
+/// along walls when no corner matches).
 #[derive(Clone, Copy, Debug, ZeroCopySend)]
 #[repr(C)]
 pub struct CornersMsg {
     pub scan: ScanMsg,
     pub count: u32,
-    pub _pad: u32,
+    pub line_count: u32,
     pub corners: [CornerMsg; MAX_CORNERS],
+    pub lines: [LineMsg; MAX_LINES],
 }
 
 /// One pose hypothesis.

@@ -109,6 +109,11 @@ pub fn run(a: SegmentArgs) -> Result<()> {
                             for (slot, c) in m.corners.iter_mut().zip(&seg.corners[..n]) {
                                 *slot = corner_to_msg(c);
                             }
+                            let n = seg.lines.len().min(MAX_LINES);
+                            m.line_count = n as u32;
+                            for (slot, l) in m.lines.iter_mut().zip(&seg.lines[..n]) {
+                                *slot = line_to_msg(l);
+                            }
                             m.scan.header.span(Stage::Segment).leave_ns = monotonic_ns();
                         })
                     });

@@ -26,7 +26,13 @@ pub fn scan_view(msg: &ScanMsg) -> Result<ScanView<'_>, String> {
 }
 
 pub fn line_to_msg(l: &Line) -> LineMsg {
-    LineMsg { start: [l.start.x, l.start.y], end: [l.end.x, l.end.y], samples: l.samples, _pad: 0 }
+    LineMsg {
+        start: [l.start.x, l.start.y],
+        end: [l.end.x, l.end.y],
+        direction_sigma: l.direction_sigma,
+        samples: l.samples,
+        _pad: 0,
+    }
 }
 
 fn arm_to_msg(a: &Arm) -> ArmMsg {

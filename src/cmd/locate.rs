@@ -106,6 +106,11 @@ pub fn configs(a: &LocateArgs) -> Result<(SegmenterConfig, LocalizerConfig, MapC
             "first_refined" => loc.first_look.refined = v as usize,
             "first_inliers" => loc.first_look.min_inliers = v,
             "first_through" => loc.first_look.max_through = v,
+            "slide_lines" => loc.slide.lines = v as usize,
+            "slide_min_length" => loc.slide.min_length = v,
+            "slide_step" => loc.slide.step = v,
+            "slide_slack" => loc.slide.slack = v,
+            "slide_sigma_deg" => loc.slide.max_direction_sigma = v.to_radians(),
             "coarse_beams" => loc.coarse_beams = v as usize,
             "coarse_sigma" => loc.coarse_sigma = v,
             "sparse_beams" => loc.sparse_beams = v as usize,
@@ -166,7 +171,7 @@ pub fn run(a: LocateArgs) -> Result<()> {
                 .with_context(|| format!("writing {}", path.display()))?;
         }
         if let (true, Some(truth)) = (a.diagnose, scan.truth.as_ref()) {
-            let what = crate::diagnose::classify(seg, loc, truth);
+            let what = crate::diagnose::classify(seg, loc, truth, &model, &loc_cfg);
             if std::env::var_os("GEMA2_DUMP").is_some_and(|v| v.to_str().is_some_and(|v| what.starts_with(v))) {
                 eprintln!("scan {index}: {what}");
                 crate::diagnose::dump(seg, loc, truth, &model);

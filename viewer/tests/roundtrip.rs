@@ -40,7 +40,13 @@ fn lines(seq: u64, n: usize) -> Box<LinesMsg> {
     l.header = header(seq);
     l.count = n as u32;
     for (k, line) in l.lines[..n].iter_mut().enumerate() {
-        *line = LineMsg { start: [k as f64, 0.0], end: [k as f64, 1.0], samples: 10 + k as u32, _pad: 0 };
+        *line = LineMsg {
+            start: [k as f64, 0.0],
+            end: [k as f64, 1.0],
+            direction_sigma: 0.01,
+            samples: 10 + k as u32,
+            _pad: 0,
+        };
     }
     l
 }
