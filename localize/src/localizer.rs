@@ -358,7 +358,7 @@ impl Localizer {
         }
         if !settled && cfg.slide.lines > 0 {
             self.out.times.slide_search = true;
-            self.search(scan, seg, Source::Slides, cfg.prescreened, cfg.screened, cfg.refined);
+            self.search(scan, seg, Source::Slides, cfg.prescreened, cfg.slide.screened, cfg.refined);
             self.rank();
         }
         self.prior = match (self.config.track_radius, self.out.status, self.out.hypotheses.first()) {

@@ -114,6 +114,19 @@ fn hopeless_scans_fail_cleanly() {
         })
         .collect();
     assert_eq!(locate(&map, wall, g), Status::Failed);
+    // a corridor whose ends are out of range: two parallel walls say nothing of where along
+    // them the sensor is (the apartment's hall is such a corridor)
+    let corridor: Vec<f32> = (0..n)
+        .map(|i| {
+            let s = g.angle(i).sin().abs();
+            if s > 1e-3 {
+                (0.9 / s).min(5.6) as f32
+            } else {
+                5.6
+            }
+        })
+        .collect();
+    assert_eq!(locate(&map, corridor, g), Status::Failed);
     // a round room: plenty of points, no straight line, no corner
     assert_eq!(locate(&map, vec![2.0; n], g), Status::Failed);
     // a scan in a map it does not belong to (a lone box)
