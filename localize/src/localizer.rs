@@ -13,13 +13,15 @@
 //! 4. those are refined against the walls and ranked by the full one-sided eq. 7.
 //!
 //! All this runs first for the single best corner with few hypotheses (the [`FirstLook`]),
-//! and for the `corners_tried` best only when that look's best pose is not confirmed.
+//! and for the `corners_tried` best only when that look's best pose is not confirmed. When
+//! that is not confirmed either, the scan's longest lines are laid along the map's walls
+//! ([`crate::slide`]) and those poses go through the same steps, ranked with the others.
 
 use crate::cost::{cost, Cost, CostConfig};
 use crate::matching::{arms_fit, pose_from_corners};
 use crate::model::{MapModel, FIELD_CAP};
 use crate::refine::{refine, RefineConfig};
-use crate::slide::{slide_lines, slide_poses, SlideConfig, SlideLine, FROM_SLIDE};
+use crate::slide::{slide_lines, slide_poses, slide_step, SlideConfig, SlideLine, FROM_SLIDE};
 use laser::{angle_diff, pose_theta, Pose, ScanView};
 use mapserver::{DistanceField, RayScratch};
 use nalgebra::Point2;
@@ -184,7 +186,8 @@ pub enum Status {
     Ok,
     /// Two distinct poses explain it about equally well.
     Ambiguous,
-    /// No corner, no candidate, or no pose that explains the scan.
+    /// No corner, no candidate, or no pose that explains the scan; or, in a scan with no
+    /// corner, several poses that explain it equally well.
     Failed,
 }
 
@@ -360,6 +363,13 @@ impl Localizer {
             self.out.times.slide_search = true;
             self.search(scan, seg, Source::Slides, cfg.prescreened, cfg.slide.screened, cfg.refined);
             self.rank();
+            // with no corner in view, an equally good pose further along the same wall means the
+            // scan does not say where along it the sensor is (a corridor whose ends are out of
+            // range): that is no answer, as the paper's cornerless scan. Twins elsewhere (two
+            // identical aisles) stay `ambiguous`: the scan does fix each of them.
+            if seg.corners.is_empty() && self.out.status == Status::Ambiguous && self.slides_along_a_wall() {
+                self.out.status = Status::Failed;
+            }
         }
         self.prior = match (self.config.track_radius, self.out.status, self.out.hypotheses.first()) {
             (Some(_), Status::Ok, Some(h)) => Some(Point2::from(h.pose.translation.vector)),
@@ -476,9 +486,10 @@ impl Localizer {
             }
             Source::Slides => {
                 slide_lines(&self.lines, &cfg.slide, &mut self.slide_lines);
+                let step = slide_step(&self.lines, &self.slide_lines, &model.map.walls, &cfg.slide);
                 for &li in &self.slide_lines {
                     for (wi, wall) in model.map.walls.iter().enumerate() {
-                        slide_poses(&self.lines[li], wall, &cfg.slide, |pose| {
+                        slide_poses(&self.lines[li], wall, step, &cfg.slide, |pose| {
                             if let Some(score) = pass.score(&pose) {
                                 candidates.push(Candidate {
                                     pose,
@@ -527,6 +538,27 @@ impl Localizer {
             )
             .value;
         }
+    }
+
+    /// Whether a distinct hypothesis about as good as the best (within the ambiguity margin)
+    /// has its heading and lies along the wall the best was slid on.
+    fn slides_along_a_wall(&self) -> bool {
+        let cfg = &self.config;
+        let hyps = &self.out.hypotheses;
+        let Some(best) = hyps.first().filter(|h| h.scan_corner == FROM_SLIDE) else {
+            return false;
+        };
+        let Some(wall) = self.model.map.walls.get(best.map_corner as usize) else {
+            return false;
+        };
+        let along = (wall.b - wall.a).normalize();
+        hyps[1..].iter().any(|h| {
+            let d = h.pose.translation.vector - best.pose.translation.vector;
+            h.cost.value - best.cost.value < cfg.ambiguity_margin
+                && !same_pose(&h.pose, &best.pose, cfg.distinct_position, cfg.distinct_heading)
+                && angle_diff(pose_theta(&h.pose), pose_theta(&best.pose)).abs() <= cfg.distinct_heading
+                && along.perp(&d).abs() <= 0.5 * cfg.distinct_position
+        })
     }
 
     /// Sorts hypotheses, merges those that converged to the same pose, and sets the status.

@@ -70,6 +70,8 @@ pub struct SlideConfig {
     pub min_other_length: f64,
     /// Candidates kept by the screen for the coarse cost (the corner search's `screened`).
     pub screened: usize,
+    /// Most poses made per scan (see [`slide_step`]).
+    pub max_poses: usize,
 }
 
 impl Default for SlideConfig {
@@ -82,6 +84,7 @@ impl Default for SlideConfig {
             slack: 0.2,
             min_other_length: 0.3,
             screened: 384,
+            max_poses: 8192,
         }
     }
 }
@@ -105,21 +108,47 @@ pub fn slide_lines(lines: &[SlideLine], cfg: &SlideConfig, out: &mut Vec<usize>)
     out.truncate(cfg.lines);
 }
 
+/// The step along walls for laying `lines[chosen]` along `walls`: `cfg.step`, or longer where
+/// that would make more than `cfg.max_poses` poses. The slide search is otherwise linear in the
+/// map's wall length; the budget keeps it bounded on large maps (at a coarser step, refinement
+/// has more to pull).
+pub fn slide_step(lines: &[SlideLine], chosen: &[usize], walls: &[Wall], cfg: &SlideConfig) -> f64 {
+    // poses at step s: 2 (floor(room / s) + 1) for each pair with room >= 0
+    let (mut room, mut pairs) = (0.0, 0usize);
+    for &i in chosen {
+        let length = lines[i].length();
+        for w in walls {
+            let r = w.length() - length + 2.0 * cfg.slack;
+            if r >= 0.0 {
+                room += r;
+                pairs += 1;
+            }
+        }
+    }
+    let budget = cfg.max_poses as f64 / 2.0 - pairs as f64;
+    if budget <= 0.0 {
+        return f64::INFINITY; // one position per wall and way round
+    }
+    cfg.step.max(room / budget)
+}
+
 /// Calls `offer` with every pose that lays `line` (sensor frame) onto `wall`: both ways round,
-/// at positions along the wall `cfg.step` apart, the line within the wall's extent give or
-/// take `cfg.slack`. Nothing when the line is longer than the wall allows.
-pub fn slide_poses(line: &SlideLine, wall: &Wall, cfg: &SlideConfig, mut offer: impl FnMut(Pose)) {
+/// at positions along the wall `step` apart (one, centred, for an infinite step), the line
+/// within the wall's extent give or take `cfg.slack`. Nothing when the line is longer than the
+/// wall allows.
+pub fn slide_poses(line: &SlideLine, wall: &Wall, step: f64, cfg: &SlideConfig, mut offer: impl FnMut(Pose)) {
     let span = wall.b - wall.a;
     let wall_length = span.norm();
     let line_length = line.length();
     let room = wall_length - line_length + 2.0 * cfg.slack;
-    if room < 0.0 || wall_length < 1e-9 || cfg.step <= 0.0 {
+    if room < 0.0 || wall_length < 1e-9 || step <= 0.0 || step.is_nan() {
         return;
     }
     let w = span / wall_length;
     // positions of the line's first end along the wall, centred in the room there is
-    let steps = (room / cfg.step).floor() as usize;
-    let first = -cfg.slack + 0.5 * (room - steps as f64 * cfg.step);
+    let steps = if step.is_finite() { (room / step).floor() as usize } else { 0 };
+    let step = if steps == 0 { 0.0 } else { step };
+    let first = -cfg.slack + 0.5 * (room - steps as f64 * step);
     for forward in [true, false] {
         // the rotation that turns the line's direction onto the wall's, or against it; the
         // line end that lands nearer the wall's start is then `start` or `end`
@@ -129,7 +158,7 @@ pub fn slide_poses(line: &SlideLine, wall: &Wall, cfg: &SlideConfig, mut offer: 
             UnitComplex::from_cos_sin_unchecked(target.x * d.x + target.y * d.y, target.y * d.x - target.x * d.y);
         let turned = rotation * near_end.coords;
         for k in 0..=steps {
-            let along = first + k as f64 * cfg.step;
+            let along = first + k as f64 * step;
             let t: Vector2<f64> = wall.a.coords + w * along - turned;
             offer(Isometry2::from_parts(t.into(), rotation));
         }
@@ -179,7 +208,7 @@ mod tests {
             let cfg = SlideConfig::default();
             let mut best = f64::INFINITY;
             let mut best_heading = f64::INFINITY;
-            slide_poses(&l, &wall, &cfg, |p| {
+            slide_poses(&l, &wall, cfg.step, &cfg, |p| {
                 let e = (p.translation.vector - truth.translation.vector).norm();
                 let h = laser::angle_diff(pose_theta(&p), th).abs();
                 if h < 1e-6 && e < best {
@@ -210,16 +239,43 @@ mod tests {
     }
 
     #[test]
+    fn the_step_grows_to_keep_within_the_pose_budget() {
+        let short = line(Point2::new(1.0, -0.5), Point2::new(1.0, 0.5));
+        let walls: Vec<Wall> =
+            (0..100).map(|k| Wall { a: Point2::new(0.0, k as f64), b: Point2::new(10.0, k as f64) }).collect();
+        let count = |cfg: &SlideConfig| {
+            let step = slide_step(&[short], &[0], &walls, cfg);
+            let mut n = 0;
+            for w in &walls {
+                slide_poses(&short, w, step, cfg, |_| n += 1);
+            }
+            (step, n)
+        };
+        let roomy = SlideConfig { max_poses: 1 << 20, ..SlideConfig::default() };
+        assert_eq!(count(&roomy), (roomy.step, 100 * 2 * 63));
+        let tight = SlideConfig { max_poses: 4000, ..SlideConfig::default() };
+        let (step, n) = count(&tight);
+        assert!(step > tight.step && n <= 4000 && n > 3000, "{step} {n}");
+        // fewer poses than walls allow: one per wall and way round, centred
+        let tiny = SlideConfig { max_poses: 100, ..SlideConfig::default() };
+        let (step, n) = count(&tiny);
+        assert!(step.is_infinite() && n == 200, "{step} {n}");
+        let mut centre = Vec::new();
+        slide_poses(&short, &walls[0], step, &tiny, |p| centre.push(p * short.start));
+        assert!(centre.iter().all(|c| (c.x - 4.5).abs() < 1e-9 || (c.x - 5.5).abs() < 1e-9), "{centre:?}");
+    }
+
+    #[test]
     fn a_line_longer_than_the_wall_gives_nothing_and_steps_cover_the_room() {
         let cfg = SlideConfig::default();
         let wall = Wall { a: Point2::new(0.0, 0.0), b: Point2::new(3.0, 0.0) };
         let long = line(Point2::new(1.0, -2.0), Point2::new(1.0, 2.0));
         let mut n = 0;
-        slide_poses(&long, &wall, &cfg, |_| n += 1);
+        slide_poses(&long, &wall, cfg.step, &cfg, |_| n += 1);
         assert_eq!(n, 0);
         let short = line(Point2::new(1.0, -1.0), Point2::new(1.0, 1.0));
         let mut starts = Vec::new();
-        slide_poses(&short, &wall, &cfg, |p| starts.push(p * short.start));
+        slide_poses(&short, &wall, cfg.step, &cfg, |p| starts.push(p * short.start));
         // two ways round, (3 - 2 + 0.4) / 0.15 = 9.33 -> 10 positions each
         assert_eq!(starts.len(), 20);
         for s in &starts {

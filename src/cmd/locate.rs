@@ -111,6 +111,7 @@ pub fn configs(a: &LocateArgs) -> Result<(SegmenterConfig, LocalizerConfig, MapC
             "slide_step" => loc.slide.step = v,
             "slide_slack" => loc.slide.slack = v,
             "slide_screened" => loc.slide.screened = v as usize,
+            "slide_max_poses" => loc.slide.max_poses = v as usize,
             "slide_sigma_deg" => loc.slide.max_direction_sigma = v.to_radians(),
             "coarse_beams" => loc.coarse_beams = v as usize,
             "coarse_sigma" => loc.coarse_sigma = v,
