@@ -41,6 +41,7 @@ pub struct Outcome {
     pub steps: [f64; 7],
     /// Whether the localizer's full search ran (its first look did not settle the scan).
     pub full_search: bool,
+    pub slide_search: bool,
 }
 
 impl Outcome {
@@ -52,7 +53,15 @@ impl Outcome {
             )),
             _ => None,
         };
-        Outcome { status, error, has_truth: truth.is_some(), micros, steps: [0.0; 7], full_search: false }
+        Outcome {
+            status,
+            error,
+            has_truth: truth.is_some(),
+            micros,
+            steps: [0.0; 7],
+            full_search: false,
+            slide_search: false,
+        }
     }
 
     /// Records the step times of a segmentation and localization.
@@ -68,6 +77,7 @@ impl Outcome {
             us(loc.cost),
         ];
         self.full_search = loc.full_search;
+        self.slide_search = loc.slide_search;
         self
     }
 
@@ -132,9 +142,13 @@ impl Summary {
             self.count(Status::Ambiguous),
             self.count(Status::Failed)
         );
+        let share = |f: fn(&Outcome) -> bool| {
+            100.0 * self.outcomes.iter().filter(|o| f(o)).count() as f64 / self.scans().max(1) as f64
+        };
         s += &format!(
-            "first look settled {:.1} % of scans (the rest ran the full search)\n",
-            100.0 * self.outcomes.iter().filter(|o| !o.full_search).count() as f64 / self.scans().max(1) as f64
+            "first look settled {:.1} % of scans (the rest ran the full search); the slide search ran on {:.1} %\n",
+            share(|o| !o.full_search),
+            share(|o| o.slide_search)
         );
         let names = ["samples", "inference", "filter+corners", "matching", "coarse cost", "refine", "cost"];
         s += "median us per step:";
