@@ -96,7 +96,8 @@ pub struct LocalizerConfig {
     /// confirmed; see [`crate::slide`].
     pub slide: SlideConfig,
     /// Tracking (section 5.1): after an `ok` scan, only map corners within this many metres of
-    /// the last pose are matched; any other outcome returns to global search. `None`: always
+    /// the last pose are matched, and only walls within it are slid along; any other outcome
+    /// returns to global search. `None`: always
     /// global.
     pub track_radius: Option<f64>,
 }
@@ -489,6 +490,12 @@ impl Localizer {
                 let step = slide_step(&self.lines, &self.slide_lines, &model.map.walls, &cfg.slide);
                 for &li in &self.slide_lines {
                     for (wi, wall) in model.map.walls.iter().enumerate() {
+                        // tracking: only the walls near the last pose, as with map corners
+                        if let (Some(p), Some(r)) = (self.prior, cfg.track_radius) {
+                            if wall.closest(p).0 > r {
+                                continue;
+                            }
+                        }
                         slide_poses(&self.lines[li], wall, step, &cfg.slide, |pose| {
                             if let Some(score) = pass.score(&pose) {
                                 candidates.push(Candidate {

@@ -167,6 +167,40 @@ fn tracking_restricts_matching_to_the_last_pose() {
     assert!(checked >= 20, "{checked}");
 }
 
+/// Tracking restricts the slide search too: after an `ok` scan, a scan with no corner is slid
+/// only along the walls near the last pose.
+#[test]
+fn tracking_restricts_the_slide_search_to_walls_near_the_last_pose() {
+    let map = procedural::office(2024, 3, 8);
+    let mut sim = Simulator::new(&map, SensorModel::urg04lx(), Scenario::Clean, 9);
+    // every candidate kept by the screen, so `candidates` counts all the poses made
+    let keep_all = LocalizerConfig { prescreened: 1 << 20, ..LocalizerConfig::default() };
+    let tracking = LocalizerConfig { track_radius: Some(6.0), ..keep_all };
+    let mut tracked = Gema2::new(model(map.clone()), SegmenterConfig::default(), tracking);
+    let mut global = Gema2::new(model(map.clone()), SegmenterConfig::default(), keep_all);
+    let mut checked = 0;
+    for _ in 0..40 {
+        let scan = sim.next_scan();
+        let (seg, first) = tracked.process(&scan.view());
+        if first.status != Status::Ok {
+            continue;
+        }
+        // the same scan with its corners taken away: only the slide search can place it
+        let mut cornerless = seg.clone();
+        cornerless.corners.clear();
+        let near = tracked.localizer.locate(&scan.view(), &cornerless);
+        if !near.times.slide_search || near.candidates == 0 {
+            continue;
+        }
+        let near = near.candidates;
+        let all = global.localizer.locate(&scan.view(), &cornerless);
+        assert!(all.times.slide_search);
+        assert!(near < all.candidates, "tracking slid {near} poses of {}", all.candidates);
+        checked += 1;
+    }
+    assert!(checked >= 10, "{checked}");
+}
+
 /// The first look settles the scans the map explains, with the pose the full search finds;
 /// scans whose best corners are furniture go on to the full search.
 #[test]
