@@ -50,8 +50,7 @@ fn right_match_exists(
     cfg: &localize::LocalizerConfig,
 ) -> bool {
     seg.corners.iter().take(cfg.corners_tried).any(|c| {
-        let tolerance = (3.0 * c.inner_angle_sigma()).clamp(cfg.min_angle_tolerance, cfg.max_angle_tolerance);
-        model.corners.similar(c.inner_angle, tolerance).iter().any(|m| {
+        model.corners.similar(c.inner_angle, cfg.angle_tolerance(c)).iter().any(|m| {
             localize::matching::arms_fit(c, m, cfg.arm_slack)
                 && same_pose(
                     &localize::pose_from_corners(c, m),

@@ -137,6 +137,17 @@ impl Default for LocalizerConfig {
     }
 }
 
+impl LocalizerConfig {
+    /// The inner angle tolerance of matching scan corner `c`: three standard deviations of its
+    /// angle, clamped to [`min_angle_tolerance`, `max_angle_tolerance`].
+    ///
+    /// [`min_angle_tolerance`]: Self::min_angle_tolerance
+    /// [`max_angle_tolerance`]: Self::max_angle_tolerance
+    pub fn angle_tolerance(&self, c: &segment::Corner) -> f64 {
+        (3.0 * c.inner_angle_sigma()).clamp(self.min_angle_tolerance, self.max_angle_tolerance)
+    }
+}
+
 /// A first, cheaper search, as the paper's: the best scan corner (or few best), fewer
 /// hypotheses screened and refined.
 ///
@@ -465,9 +476,7 @@ impl Localizer {
         match source {
             Source::Corners(corners) => {
                 for (ci, c) in seg.corners.iter().take(corners).enumerate() {
-                    let tolerance =
-                        (3.0 * c.inner_angle_sigma()).clamp(cfg.min_angle_tolerance, cfg.max_angle_tolerance);
-                    let range = model.corners.similar_range(c.inner_angle, tolerance);
+                    let range = model.corners.similar_range(c.inner_angle, cfg.angle_tolerance(c));
                     for k in range {
                         let m = &model.corners.corners()[k];
                         if let (Some(p), Some(r)) = (self.prior, cfg.track_radius) {
