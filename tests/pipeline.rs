@@ -453,3 +453,65 @@ fn a_stage_finds_a_scan_that_came_without_a_wake_up() {
         String::from_utf8_lossy(&out.stderr)
     );
 }
+
+/// The scheduling policy, priority and allowed cores of a running process.
+fn scheduling_of(pid: u32) -> (i32, i32, Vec<usize>) {
+    let pid = pid as libc::pid_t;
+    // SAFETY: plain queries of another process's scheduling into structs we own.
+    unsafe {
+        let policy = libc::sched_getscheduler(pid) & !libc::SCHED_RESET_ON_FORK;
+        let mut param = libc::sched_param { sched_priority: 0 };
+        libc::sched_getparam(pid, &mut param);
+        let mut set: libc::cpu_set_t = std::mem::zeroed();
+        libc::sched_getaffinity(pid, std::mem::size_of::<libc::cpu_set_t>(), &mut set);
+        let cores = (0..libc::CPU_SETSIZE as usize).filter(|&c| libc::CPU_ISSET(c, &set)).collect();
+        (policy, param.sched_priority, cores)
+    }
+}
+
+#[test]
+fn a_realtime_pipeline_runs_each_stage_where_and_how_its_file_says() {
+    let dir = tempfile::tempdir().unwrap();
+    let (_, plain) = setup(dir.path(), 60, "20");
+    // the plain pipeline with every stage placed, the supervisor pinned and holding PM QoS
+    let text = std::fs::read_to_string(&plain).unwrap();
+    let placed = format!("[supervisor]\ncpu = 0\npriority = 40\nwake_latency_us = 0\n\n{text}")
+        .replace("kind = \"localize\"\n", "kind = \"localize\"\ncpu = 0\npriority = 30\n")
+        .replace("kind = \"segment\"\n", "kind = \"segment\"\ncpu = 0\npriority = 20\n")
+        .replace("kind = \"acquire\"\n", "kind = \"acquire\"\ncpu = 0\npriority = 10\n");
+    let pipeline = dir.path().join("realtime.toml");
+    std::fs::write(&pipeline, placed).unwrap();
+    let csv = dir.path().join("poses.csv");
+    let p = prefix("realtime");
+    let mut run = run_in_background(&pipeline, &p, 60, &csv);
+    let started = Instant::now();
+    while stage_pids("acquire", &p).is_empty() {
+        if let Ok(Some(_)) = run.try_wait() {
+            // the system refused real-time scheduling: the error must say what is missing
+            let out = run.wait_with_output().unwrap();
+            let err = String::from_utf8_lossy(&out.stderr);
+            assert!(!out.status.success(), "ended before its stages started: {err}");
+            assert!(err.contains("CAP_SYS_NICE") || err.contains("/dev/cpu_dma_latency"), "{err}");
+            return;
+        }
+        assert!(started.elapsed() < Duration::from_secs(30), "timed out waiting for the stages");
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    let cores = std::thread::available_parallelism().map(|n| n.get()).unwrap();
+    for (kind, priority) in [("acquire", 10), ("segment", 20), ("localize", 30)] {
+        for pid in stage_pids(kind, &p) {
+            assert_eq!(scheduling_of(pid), (libc::SCHED_FIFO, priority, vec![0]), "stage {kind}");
+        }
+    }
+    // no cpu of its own: not confined to the supervisor's core, and not real-time either
+    for pid in stage_pids("mapserver", &p) {
+        let (policy, _, allowed) = scheduling_of(pid);
+        assert_eq!(policy, libc::SCHED_OTHER, "the supervisor's priority leaked into the map server");
+        assert_eq!(allowed.len(), cores, "the map server runs on {allowed:?}");
+    }
+    let out = run.wait_with_output().unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{err}");
+    assert!(err.contains("idle cores wake within 0 us"), "{err}");
+    assert_eq!(rows(&csv).len(), 60);
+}

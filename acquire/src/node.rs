@@ -133,7 +133,7 @@ pub fn run(a: AcquireArgs) -> Result<()> {
         // a sensor source can block on the port: notice SIGINT/SIGTERM ourselves too
         install_stop_handlers();
     }
-    a.stage.pin()?;
+    a.stage.place()?;
     let period = match a.rate.as_str() {
         // a sensor paces itself
         _ if a.serial.is_some() => None,

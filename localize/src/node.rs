@@ -30,7 +30,7 @@ pub struct LocalizeArgs {
 }
 
 pub fn run(a: LocalizeArgs) -> Result<()> {
-    a.stage.pin()?;
+    a.stage.place()?;
     let node = messages::create_node("localize")?;
     let corners = open_topic::<CornersMsg>(&node, &a.stage.prefix, Topic::Corners)?;
     let map = open_topic::<MapMsg>(&node, &a.stage.prefix, Topic::Map)?;

@@ -44,7 +44,7 @@ fn load(spec: &str) -> Result<(WallMap, CornerIndex)> {
 }
 
 pub fn run(a: MapServerArgs) -> Result<()> {
-    a.stage.pin()?;
+    a.stage.place()?;
     // SAFETY: the handler only stores to an atomic.
     unsafe { libc::signal(libc::SIGHUP, on_sighup as *const () as libc::sighandler_t) };
     let (mut map, mut index) = load(&a.map)?;

@@ -10,6 +10,7 @@
 
 mod outlet;
 mod payload;
+pub mod placement;
 mod publish;
 mod runtime;
 mod topic;
@@ -17,10 +18,11 @@ mod waiting;
 
 pub use outlet::{Freshness, Outlet, CONNECT_PATIENCE};
 pub use payload::*;
+pub use placement::pin_to_cpu;
 pub use publish::{publish, Zeroable};
 pub use runtime::{
-    announce_ready, cleanup_dead_nodes, create_node, dead_node_pids, instance, monotonic_ns, pin_to_cpu,
-    ready_listener, RuntimeError, StageArgs, MAX_INSTANCE, MISSED_WAKEUP_POLL,
+    announce_ready, cleanup_dead_nodes, create_node, dead_node_pids, instance, monotonic_ns, ready_listener,
+    RuntimeError, StageArgs, MAX_INSTANCE, MISSED_WAKEUP_POLL,
 };
 pub use topic::{
     open_control, open_corner_queries, open_pubsub, open_topic, service_name, OpenError, Topic, TopicPorts,

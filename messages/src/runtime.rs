@@ -1,5 +1,6 @@
-//! What every gema2 process does the same way: name its node, pin itself to a core, read the
-//! clock that message headers use, and clean up after processes that died.
+//! What every gema2 process does the same way: name its node, take its place on the machine
+//! ([`crate::placement`]), read the clock that message headers use, and clean up after
+//! processes that died.
 
 use iceoryx2::prelude::*;
 use std::time::Duration;
@@ -16,8 +17,8 @@ pub const MISSED_WAKEUP_POLL: Duration = Duration::from_millis(50);
 pub enum RuntimeError {
     #[error("cannot create the iceoryx2 node {name:?}: {message}")]
     Node { name: String, message: String },
-    #[error("cannot pin to CPU {cpu}: {message}")]
-    Pin { cpu: usize, message: String },
+    #[error(transparent)]
+    Placement(#[from] crate::placement::PlacementError),
 }
 
 /// Creates this process's node. Termination signals (SIGINT, SIGTERM) are left to iceoryx2,
@@ -45,31 +46,22 @@ pub struct StageArgs {
     /// Pin to this CPU core.
     #[arg(long)]
     pub cpu: Option<usize>,
+    /// Run under SCHED_FIFO at this priority (1-99; needs root or CAP_SYS_NICE).
+    #[arg(long)]
+    pub priority: Option<u8>,
 }
 
 impl StageArgs {
-    /// Pins the process to `--cpu`, when given.
-    pub fn pin(&self) -> Result<(), RuntimeError> {
-        self.cpu.map_or(Ok(()), pin_to_cpu)
+    /// Pins the process to `--cpu` and sets its `--priority`, when given.
+    pub fn place(&self) -> Result<(), RuntimeError> {
+        if let Some(cpu) = self.cpu {
+            crate::placement::pin_to_cpu(cpu)?;
+        }
+        if let Some(p) = self.priority {
+            crate::placement::set_realtime_priority(p, false)?;
+        }
+        Ok(())
     }
-}
-
-/// Pins the calling process (all its threads) to one CPU core.
-pub fn pin_to_cpu(cpu: usize) -> Result<(), RuntimeError> {
-    let cores = std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1);
-    if cpu >= cores.max(libc::CPU_SETSIZE as usize) {
-        return Err(RuntimeError::Pin { cpu, message: format!("this machine has {cores} cores") });
-    }
-    // SAFETY: `set` is a plain bit set on the stack; sched_setaffinity reads it.
-    let rc = unsafe {
-        let mut set: libc::cpu_set_t = std::mem::zeroed();
-        libc::CPU_SET(cpu, &mut set);
-        libc::sched_setaffinity(0, std::mem::size_of::<libc::cpu_set_t>(), &set)
-    };
-    if rc != 0 {
-        return Err(RuntimeError::Pin { cpu, message: std::io::Error::last_os_error().to_string() });
-    }
-    Ok(())
 }
 
 /// Monotonic clock, nanoseconds: the same clock in every process of the machine.

@@ -25,7 +25,7 @@ pub struct SegmentArgs {
 }
 
 pub fn run(a: SegmentArgs) -> Result<()> {
-    a.stage.pin()?;
+    a.stage.place()?;
     let mut segmenter = segmenter_by_name(&a.implementation, SegmenterConfig::default())
         .ok_or_else(|| anyhow!("unknown segment implementation {:?}: one of {SEGMENTERS:?}", a.implementation))?;
     let node = messages::create_node(&format!("segment-{}", a.implementation))?;

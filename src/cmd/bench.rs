@@ -26,8 +26,9 @@ pub struct BenchArgs {
     /// Wall counts of the scaling table.
     #[arg(long, value_delimiter = ',', default_value = "50,200,1000,5000")]
     pub walls: Vec<usize>,
-    /// Measure the process pipeline instead: latency at 10 Hz with stages on separate cores and
-    /// on one core, and throughput at --rate max.
+    /// Measure the process pipeline instead: latency at 10 Hz with every hop across cores and
+    /// with all stages on one core, each with default and with real-time scheduling, and
+    /// throughput at --rate max.
     #[arg(long)]
     pub pipeline: bool,
     /// Seconds of each pipeline measurement.
@@ -35,15 +36,30 @@ pub struct BenchArgs {
     pub seconds: f64,
 }
 
-/// A pipeline file for the simulator in the office with the given cores (acquire, segment,
-/// localize).
-fn pipeline_file(cores: [usize; 3]) -> String {
+/// Where the stages of a benchmark pipeline run.
+struct Layout {
+    /// Cores of acquire, segment, localize and the supervisor (the pose consumer).
+    cores: [usize; 4],
+    /// SCHED_FIFO priorities rising downstream, and idle cores kept awake (PM QoS 0 us).
+    realtime: bool,
+}
+
+/// A pipeline file for the simulator in the office laid out as `layout`.
+fn pipeline_file(layout: &Layout) -> String {
+    let [acquire, segment, localize, supervisor] = layout.cores;
+    let priority = |p: u8| if layout.realtime { format!("priority = {p}\n") } else { String::new() };
+    let wake = if layout.realtime { "wake_latency_us = 0\n" } else { "" };
     format!(
-        "[[stage]]\nname = \"mapserver\"\nkind = \"mapserver\"\nargs = [\"--map\", \"office\"]\n\n\
-         [[stage]]\nname = \"localize\"\nkind = \"localize\"\ncpu = {}\n\n\
-         [[stage]]\nname = \"segment\"\nkind = \"segment\"\ncpu = {}\n\n\
-         [[stage]]\nname = \"acquire\"\nkind = \"acquire\"\nargs = [\"--map\", \"office\"]\ncpu = {}\nrestart = \"never\"\n",
-        cores[2], cores[1], cores[0]
+        "[supervisor]\ncpu = {supervisor}\n{}{wake}\n\
+         [[stage]]\nname = \"mapserver\"\nkind = \"mapserver\"\nargs = [\"--map\", \"office\"]\n\n\
+         [[stage]]\nname = \"localize\"\nkind = \"localize\"\ncpu = {localize}\n{}\n\
+         [[stage]]\nname = \"segment\"\nkind = \"segment\"\ncpu = {segment}\n{}\n\
+         [[stage]]\nname = \"acquire\"\nkind = \"acquire\"\nargs = [\"--map\", \"office\"]\ncpu = {acquire}\n{}\
+         restart = \"never\"\n",
+        priority(40),
+        priority(30),
+        priority(20),
+        priority(10),
     )
 }
 
@@ -51,17 +67,39 @@ fn bench_pipeline(a: &BenchArgs) -> Result<()> {
     let dir = std::env::temp_dir().join(format!("gema2-bench-{}", std::process::id()));
     std::fs::create_dir_all(&dir)?;
     let cores = std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1);
+    let other = 1.min(cores - 1);
     let recorder = crate::supervisor::child::viewer_binary();
-    let runs: [(&str, [usize; 3], &str, f64, bool); 4] = [
-        ("stages on separate cores, 10 Hz", [0, 0, 1.min(cores - 1)], "10", 10.0, false),
-        ("all stages on one core, 10 Hz", [0, 0, 0], "10", 10.0, false),
-        ("separate cores, --rate max", [0, 0, 1.min(cores - 1)], "max", 2000.0, false),
-        ("separate cores, --rate max, recorded by the viewer", [0, 0, 1.min(cores - 1)], "max", 2000.0, true),
+    // latency: every hop crosses cores (neighbours on different cores), or none does; with the
+    // system's default scheduling, then real-time. Throughput: the heaviest stage alone.
+    let apart = [0, other, 0, other];
+    let runs: [(&str, Layout, &str, f64, bool); 6] = [
+        ("every hop across cores, 10 Hz", Layout { cores: apart, realtime: false }, "10", 10.0, false),
+        ("all on one core, 10 Hz", Layout { cores: [0; 4], realtime: false }, "10", 10.0, false),
+        ("every hop across cores, real-time, 10 Hz", Layout { cores: apart, realtime: true }, "10", 10.0, false),
+        ("all on one core, real-time, 10 Hz", Layout { cores: [0; 4], realtime: true }, "10", 10.0, false),
+        (
+            "localize alone on a core, --rate max",
+            Layout { cores: [0, 0, other, 0], realtime: false },
+            "max",
+            2000.0,
+            false,
+        ),
+        (
+            "localize alone on a core, --rate max, recorded by the viewer",
+            Layout { cores: [0, 0, other, 0], realtime: false },
+            "max",
+            2000.0,
+            true,
+        ),
     ];
-    for (k, (title, cpus, rate, hz, record)) in runs.iter().enumerate() {
+    for (k, (title, layout, rate, hz, record)) in runs.iter().enumerate() {
         let file = dir.join(format!("p{k}.toml"));
-        std::fs::write(&file, pipeline_file(*cpus))?;
-        println!("== {title} (acquire, segment, localize on cores {cpus:?})");
+        std::fs::write(&file, pipeline_file(layout))?;
+        let [ac, sc, lc, pc] = layout.cores;
+        println!("== {title} (acquire, segment, localize, consumer on cores {ac}, {sc}, {lc}, {pc})");
+        if layout.realtime {
+            println!("(SCHED_FIFO priorities 10, 20, 30, 40 downstream; idle cores held to 0 us wake-up by PM QoS)");
+        }
         if *record {
             if let Err(e) = &recorder {
                 println!("skipped: {e:#}");
@@ -70,7 +108,7 @@ fn bench_pipeline(a: &BenchArgs) -> Result<()> {
             println!("(the viewer's own counts, recorded and missed per topic, are on stderr)");
         }
         let scans = (hz * a.seconds).round() as u64;
-        crate::supervisor::run(crate::supervisor::RunArgs {
+        let outcome = crate::supervisor::run(crate::supervisor::RunArgs {
             pipeline: Some(file),
             scans: Some(scans),
             rate: Some((*rate).into()),
@@ -79,7 +117,12 @@ fn bench_pipeline(a: &BenchArgs) -> Result<()> {
             timeout: Some(a.seconds * 6.0 + 30.0),
             record: record.then(|| dir.join("bench.rrd")),
             max_size: None,
-        })?;
+        });
+        match outcome {
+            // real-time scheduling is the system's to grant: without it, say so and go on
+            Err(e) if layout.realtime => println!("skipped: {e:#}"),
+            other => other?,
+        }
         if *record {
             let size = std::fs::metadata(dir.join("bench.rrd")).map(|m| m.len()).unwrap_or(0);
             println!("recording: {:.1} MB", size as f64 / 1e6);

@@ -58,6 +58,9 @@ pub fn spawn(spec: &StageSpec, prefix: &str, implementation: Option<&str>, insta
     if let Some(cpu) = spec.cpu {
         cmd.arg("--cpu").arg(cpu.to_string());
     }
+    if let Some(p) = spec.priority {
+        cmd.arg("--priority").arg(p.to_string());
+    }
     if let Some(i) = implementation.or(spec.implementation.as_deref()) {
         if spec.kind == Kind::Segment {
             cmd.arg("--impl").arg(i);
@@ -66,6 +69,7 @@ pub fn spawn(spec: &StageSpec, prefix: &str, implementation: Option<&str>, insta
     cmd.env("GEMA2_INSTANCE", instance.to_string());
     cmd.stdin(Stdio::null());
     stop_with_supervisor(&mut cmd);
+    give_back_cores(&mut cmd);
     let program = cmd.get_program().to_string_lossy().into_owned();
     cmd.spawn().with_context(|| format!("starting stage {} ({program})", spec.name))
 }
@@ -90,6 +94,26 @@ fn stop_with_supervisor(cmd: &mut Command) {
             }
             Ok(())
         });
+    }
+}
+
+/// The CPU affinity the supervisor had before it pinned itself ([`super::pipeline::SupervisorSpec`]).
+static STARTED_WITH: std::sync::OnceLock<messages::placement::Affinity> = std::sync::OnceLock::new();
+
+/// Records the supervisor's affinity before it pins itself, for [`give_back_cores`].
+pub fn remember_affinity(a: messages::placement::Affinity) {
+    let _ = STARTED_WITH.set(a);
+}
+
+/// A stage inherits the affinity of the thread that starts it: once the supervisor has pinned
+/// itself, a stage with no `cpu` of its own would share the supervisor's one core. It gets
+/// the cores the supervisor started with instead (a stage with a `cpu` pins itself anyway).
+fn give_back_cores(cmd: &mut Command) {
+    use std::os::unix::process::CommandExt;
+    if let Some(affinity) = STARTED_WITH.get().copied() {
+        // SAFETY: restore_affinity is one system call, async-signal-safe as code between fork
+        // and exec must be.
+        unsafe { cmd.pre_exec(move || messages::placement::restore_affinity(&affinity)) };
     }
 }
 

@@ -50,6 +50,8 @@ pub struct StageSpec {
     #[serde(default)]
     pub args: Vec<String>,
     pub cpu: Option<usize>,
+    /// SCHED_FIFO priority (1-99): see `messages::placement`.
+    pub priority: Option<u8>,
     #[serde(default = "on_failure")]
     pub restart: Restart,
 }
@@ -58,9 +60,25 @@ fn on_failure() -> Restart {
     Restart::OnFailure
 }
 
+/// How the supervisor itself runs: it is the consumer of the poses, so its wake-up is the last
+/// hop's; and it holds the machine-wide wake-up latency request for the run.
+#[derive(Clone, Debug, Default, Deserialize, PartialEq, Eq)]
+#[serde(deny_unknown_fields)]
+pub struct SupervisorSpec {
+    /// Core to pin the supervisor to (stages without a `cpu` keep the cores it started with).
+    pub cpu: Option<usize>,
+    /// SCHED_FIFO priority (1-99); not inherited by the stages.
+    pub priority: Option<u8>,
+    /// Hold a PM QoS request bounding idle cores' wake-up latency to this many microseconds
+    /// while the pipeline runs (0: idle cores poll instead of sleeping); needs root.
+    pub wake_latency_us: Option<u32>,
+}
+
 #[derive(Clone, Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Pipeline {
+    #[serde(default)]
+    pub supervisor: SupervisorSpec,
     #[serde(rename = "stage")]
     pub stages: Vec<StageSpec>,
 }
@@ -68,10 +86,17 @@ pub struct Pipeline {
 impl Pipeline {
     pub fn parse(text: &str, origin: &Path) -> Result<Self> {
         let p: Pipeline = toml::from_str(text).with_context(|| format!("{}: not a pipeline", origin.display()))?;
+        let priorities = messages::placement::REALTIME_PRIORITIES;
         for (k, s) in p.stages.iter().enumerate() {
             if p.stages[..k].iter().any(|o| o.name == s.name) {
                 bail!("{}: two stages are called {:?}", origin.display(), s.name);
             }
+            if let Some(q) = s.priority.filter(|q| !priorities.contains(q)) {
+                bail!("{}: stage {:?}: priority {q} is not in 1..=99", origin.display(), s.name);
+            }
+        }
+        if let Some(q) = p.supervisor.priority.filter(|q| !priorities.contains(q)) {
+            bail!("{}: [supervisor] priority {q} is not in 1..=99", origin.display());
         }
         if !p.stages.iter().any(|s| s.kind == Kind::Acquire) {
             bail!("{}: no acquire stage: nothing would produce scans", origin.display());
@@ -111,10 +136,23 @@ mod tests {
             p.stages.iter().map(|s| s.kind).collect::<Vec<_>>(),
             vec![Kind::Mapserver, Kind::Localize, Kind::Segment, Kind::Acquire]
         );
+        let low = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/pipelines/low-latency.toml"));
+        let p = Pipeline::load(Some(low)).unwrap();
+        assert_eq!(p.supervisor, SupervisorSpec { cpu: Some(1), priority: Some(40), wake_latency_us: Some(0) });
+        assert!(p.stages.iter().filter(|s| s.kind != Kind::Mapserver).all(|s| s.priority.is_some()));
         let err = Pipeline::parse("[[stage]]\nname = \"a\"\nkind = \"segment\"\n", Path::new("p.toml")).unwrap_err();
         assert!(format!("{err:#}").contains("no acquire stage"));
         let err = Pipeline::parse("[[stage]]\nname = \"a\"\nkind = \"laser\"\n", Path::new("p.toml")).unwrap_err();
         assert!(format!("{err:#}").contains("p.toml"));
+        let err = Pipeline::parse("[[stage]]\nname = \"a\"\nkind = \"acquire\"\npriority = 0\n", Path::new("p.toml"))
+            .unwrap_err();
+        assert!(format!("{err:#}").contains("p.toml: stage \"a\": priority 0"), "{err:#}");
+        let err = Pipeline::parse(
+            "[supervisor]\npriority = 100\n[[stage]]\nname = \"a\"\nkind = \"acquire\"\n",
+            Path::new("p.toml"),
+        )
+        .unwrap_err();
+        assert!(format!("{err:#}").contains("[supervisor] priority 100"), "{err:#}");
         let mut args = vec!["--rate".to_owned(), "10".to_owned()];
         set_arg(&mut args, "--rate", "max");
         set_arg(&mut args, "--scans", "5");

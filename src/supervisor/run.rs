@@ -102,9 +102,27 @@ pub fn run(a: RunArgs) -> Result<()> {
                 implementation: None,
                 args,
                 cpu: None,
+                priority: None,
                 restart: Restart::OnFailure,
             },
         );
+    }
+    // the supervisor's own place: it consumes the poses, and holds the wake-up latency request
+    let placement = &pipeline.supervisor;
+    let _wake_latency = match placement.wake_latency_us {
+        Some(us) => {
+            let r = messages::placement::WakeLatencyRequest::hold(us).context("[supervisor] wake_latency_us")?;
+            eprintln!("supervisor: idle cores wake within {} us while the pipeline runs (PM QoS)", r.micros);
+            Some(r)
+        }
+        None => None,
+    };
+    if let Some(cpu) = placement.cpu {
+        super::child::remember_affinity(messages::placement::Affinity::current()?);
+        messages::pin_to_cpu(cpu).context("[supervisor] cpu")?;
+    }
+    if let Some(p) = placement.priority {
+        messages::placement::set_realtime_priority(p, true).context("[supervisor] priority")?;
     }
     let stale = messages::cleanup_dead_nodes();
     if stale > 0 {

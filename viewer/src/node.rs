@@ -145,7 +145,7 @@ impl Subscriptions {
 
 /// Runs the recorder until SIGINT or SIGTERM; prints what it recorded.
 pub fn run(a: RecordArgs) -> Result<Counts> {
-    a.stage.pin()?;
+    a.stage.place()?;
     let output = Output::open(OutputSpec {
         file: a.out.clone(),
         max_size: a.max_size,

@@ -1,0 +1,178 @@
+//! Where and how a process runs: its CPU core, its real-time priority, and how fast idle cores
+//! wake up. These decide most of what an IPC hop costs. A message's own transport is a few
+//! microseconds; the rest is the kernel waking the receiver, and a receiver that is not on the
+//! sender's core, or that shares it at a lower priority, or whose core sleeps deeply, waits.
+//!
+//! - [`pin_to_cpu`]: one core per stage, so a stage is never moved away from its warm caches.
+//! - [`set_realtime_priority`]: `SCHED_FIFO`. A stage that wakes at a higher priority than the
+//!   one that woke it runs at once instead of when the sender next blocks; priorities rising
+//!   downstream drain the pipeline before it takes the next scan.
+//! - [`WakeLatencyRequest`]: Linux's PM QoS request on `/dev/cpu_dma_latency`. While it is held,
+//!   idle cores stay in states they leave within that many microseconds; at 0 they poll
+//!   instead of halting. On this project's 2-core VM (a `haltpoll` guest that never polls
+//!   before halting) that took a cross-core wake-up from 96 to 22 us p50. The price is idle
+//!   cores that spin: power on a robot, CPU time taken from neighbours on a shared host.
+//!
+//! All three are opt-in (`cpu`, `priority` and `[supervisor] wake_latency_us` in the pipeline
+//! file). Each fails with an error when the system refuses it, never silently: a pipeline that
+//! was asked to be real-time and quietly is not would mislead whoever measures it.
+
+use std::fs::File;
+use std::io::Write;
+use thiserror::Error;
+
+#[derive(Debug, Error)]
+pub enum PlacementError {
+    #[error("cannot pin to CPU {cpu}: {message}")]
+    Pin { cpu: usize, message: String },
+    #[error(
+        "cannot run at SCHED_FIFO priority {priority}: {message} (real-time priorities need root, \
+         CAP_SYS_NICE or an rtprio limit)"
+    )]
+    Priority { priority: u8, message: String },
+    #[error("cannot request a CPU wake-up latency of {micros} us on {path}: {message} (it needs root)")]
+    WakeLatency { micros: u32, path: &'static str, message: String },
+}
+
+/// Lowest and highest `SCHED_FIFO` priority Linux accepts.
+pub const REALTIME_PRIORITIES: std::ops::RangeInclusive<u8> = 1..=99;
+
+/// Pins the calling thread (and what it forks from now on) to one CPU core.
+pub fn pin_to_cpu(cpu: usize) -> Result<(), PlacementError> {
+    let cores = std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1);
+    if cpu >= cores.max(libc::CPU_SETSIZE as usize) {
+        return Err(PlacementError::Pin { cpu, message: format!("this machine has {cores} cores") });
+    }
+    // SAFETY: `set` is a plain bit set on the stack; sched_setaffinity reads it.
+    let rc = unsafe {
+        let mut set: libc::cpu_set_t = std::mem::zeroed();
+        libc::CPU_SET(cpu, &mut set);
+        libc::sched_setaffinity(0, std::mem::size_of::<libc::cpu_set_t>(), &set)
+    };
+    if rc != 0 {
+        return Err(PlacementError::Pin { cpu, message: std::io::Error::last_os_error().to_string() });
+    }
+    Ok(())
+}
+
+/// The calling thread's CPU affinity, to hand back to processes it starts after pinning itself
+/// (see [`restore_affinity`]).
+#[derive(Clone, Copy)]
+pub struct Affinity(libc::cpu_set_t);
+
+impl Affinity {
+    pub fn current() -> Result<Self, PlacementError> {
+        // SAFETY: sched_getaffinity writes the set we pass.
+        unsafe {
+            let mut set: libc::cpu_set_t = std::mem::zeroed();
+            if libc::sched_getaffinity(0, std::mem::size_of::<libc::cpu_set_t>(), &mut set) != 0 {
+                return Err(PlacementError::Pin {
+                    cpu: usize::MAX,
+                    message: format!("reading the CPU affinity: {}", std::io::Error::last_os_error()),
+                });
+            }
+            Ok(Affinity(set))
+        }
+    }
+}
+
+/// Sets the calling thread's affinity to `a`. Only a system call: safe between `fork` and
+/// `exec`.
+pub fn restore_affinity(a: &Affinity) -> std::io::Result<()> {
+    // SAFETY: sched_setaffinity reads the set; it is async-signal-safe.
+    let rc = unsafe { libc::sched_setaffinity(0, std::mem::size_of::<libc::cpu_set_t>(), &a.0) };
+    if rc != 0 {
+        return Err(std::io::Error::last_os_error());
+    }
+    Ok(())
+}
+
+/// Runs the calling process under `SCHED_FIFO` at `priority` (1-99). With `reset_on_fork`,
+/// processes it starts begin as ordinary ones (they set their own priorities).
+pub fn set_realtime_priority(priority: u8, reset_on_fork: bool) -> Result<(), PlacementError> {
+    if !REALTIME_PRIORITIES.contains(&priority) {
+        return Err(PlacementError::Priority { priority, message: "priorities run from 1 to 99".into() });
+    }
+    let policy = libc::SCHED_FIFO | if reset_on_fork { libc::SCHED_RESET_ON_FORK } else { 0 };
+    let param = libc::sched_param { sched_priority: priority as i32 };
+    // SAFETY: sched_setscheduler reads the parameter struct we pass.
+    if unsafe { libc::sched_setscheduler(0, policy, &param) } != 0 {
+        return Err(PlacementError::Priority { priority, message: std::io::Error::last_os_error().to_string() });
+    }
+    Ok(())
+}
+
+/// A PM QoS request that bounds how long idle cores take to wake up, held while this value
+/// lives (the kernel drops the request when the file is closed, also when the process dies).
+pub struct WakeLatencyRequest {
+    _file: File,
+    pub micros: u32,
+}
+
+impl WakeLatencyRequest {
+    const PATH: &'static str = "/dev/cpu_dma_latency";
+
+    pub fn hold(micros: u32) -> Result<Self, PlacementError> {
+        let error =
+            |e: std::io::Error| PlacementError::WakeLatency { micros, path: Self::PATH, message: e.to_string() };
+        let mut file = std::fs::OpenOptions::new().write(true).open(Self::PATH).map_err(error)?;
+        // the kernel reads a binary 32-bit value (microseconds)
+        let value = i32::try_from(micros).unwrap_or(i32::MAX);
+        file.write_all(&value.to_ne_bytes()).map_err(error)?;
+        Ok(WakeLatencyRequest { _file: file, micros })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn bad_requests_are_refused_with_the_reason() {
+        let e = pin_to_cpu(100_000).unwrap_err().to_string();
+        assert!(e.contains("CPU 100000") && e.contains("cores"), "{e}");
+        for p in [0, 100] {
+            let e = set_realtime_priority(p, true).unwrap_err().to_string();
+            assert!(e.contains(&format!("priority {p}")) && e.contains("1 to 99"), "{e}");
+        }
+    }
+
+    /// Where the system allows it (root), a real-time priority takes effect and, with
+    /// reset-on-fork, is not inherited; elsewhere the refusal names what is missing.
+    #[test]
+    fn a_realtime_priority_takes_effect_or_says_why_not() {
+        // a thread of its own, so the test harness's other threads keep their policy
+        std::thread::spawn(|| match set_realtime_priority(3, true) {
+            Ok(()) => {
+                // SAFETY: plain queries of the calling thread's scheduling.
+                let policy = unsafe { libc::sched_getscheduler(0) };
+                assert_eq!(policy & !libc::SCHED_RESET_ON_FORK, libc::SCHED_FIFO);
+                let mut param = libc::sched_param { sched_priority: 0 };
+                assert_eq!(unsafe { libc::sched_getparam(0, &mut param) }, 0);
+                assert_eq!(param.sched_priority, 3);
+            }
+            Err(e) => assert!(e.to_string().contains("CAP_SYS_NICE"), "{e}"),
+        })
+        .join()
+        .unwrap();
+    }
+
+    /// The kernel's effective wake-up latency (reading the device gives it) is at most what a
+    /// held request asks; without permission the error names the device. (That it returns
+    /// when the request is dropped cannot be checked here: another program may hold one too.)
+    #[test]
+    fn a_wake_latency_request_holds_while_it_lives() {
+        use std::io::Read;
+        let effective = || {
+            let mut v = [0u8; 4];
+            File::open(WakeLatencyRequest::PATH).and_then(|mut f| f.read_exact(&mut v)).map(|_| i32::from_ne_bytes(v))
+        };
+        match WakeLatencyRequest::hold(7) {
+            Ok(request) => {
+                let value = effective().unwrap();
+                assert!(value <= 7, "the kernel reports {value} us while {} us is held", request.micros);
+            }
+            Err(e) => assert!(e.to_string().contains("/dev/cpu_dma_latency"), "{e}"),
+        }
+    }
+}
