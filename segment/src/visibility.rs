@@ -267,21 +267,25 @@ impl LineVisibility {
 /// sensor's side of the chord from its predecessor to the new one (a far bound on the far
 /// side). Returns the position of the new candidate (the number of candidates kept before it).
 fn push_chain(chain: &mut Vec<Point2<f64>>, c: Point2<f64>, near: bool) -> usize {
-    while chain.len() >= 2 {
-        let (a, b) = (chain[chain.len() - 2], chain[chain.len() - 1]);
+    let mut kept = chain.len();
+    // (a, b) = the last two kept candidates: each dropped b makes its predecessor the next b
+    for pair in chain.windows(2).rev() {
+        let (a, b) = (pair[0], pair[1]);
         let chord = c - a;
         let side_b = cross(&chord, &(b - a));
         // cross(c - a, origin - a) = cross(a, c)
         let side_origin = cross(&a.coords, &c.coords);
         // b with the sensor (near) or against it (far), or on the chord: never restrictive
-        let dominated = if near { side_b * side_origin >= 0.0 } else { side_b * side_origin <= 0.0 };
+        let product = side_b * side_origin;
+        let dominated = if near { product >= 0.0 } else { product <= 0.0 };
         if !dominated {
             break;
         }
-        chain.pop();
+        kept -= 1;
     }
+    chain.truncate(kept);
     chain.push(c);
-    chain.len() - 1
+    kept
 }
 
 #[inline]
