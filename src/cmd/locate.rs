@@ -51,7 +51,7 @@ pub struct LocateArgs {
     /// refine_iterations, first_corners (0: no first look), first_prescreened, first_screened,
     /// first_refined, first_inliers, first_through, coarse_beams, coarse_sigma, sparse_beams,
     /// sparse_kept, arm_slack, map_sigma (a floor on the map's accuracy), cost_stride,
-    /// front_cap, through_cap, ambiguity, min_inliers, max_through, merge_angle (degrees),
+    /// front_cap, through_cap, ambiguity, cornerless_tie, min_inliers, max_through, merge_angle (degrees),
     /// min_samples, error_constant, error_proportional.
     #[arg(long = "set", value_name = "KEY=VALUE")]
     pub set: Vec<String>,
@@ -123,6 +123,7 @@ pub fn configs(a: &LocateArgs) -> Result<(SegmenterConfig, LocalizerConfig, MapC
             "cost_stride" => loc.cost.stride = v as usize,
             "through_cap" => loc.cost.through_cap = v,
             "ambiguity" => loc.ambiguity_margin = v,
+            "cornerless_tie" => loc.cornerless_tie = v,
             "min_inliers" => loc.min_inliers = v,
             "max_through" => loc.max_through = v,
             "merge_angle" => seg.filter.merge_angle = v.to_radians(),
