@@ -23,7 +23,7 @@ use crate::model::{MapModel, FIELD_CAP};
 use crate::refine::{refine, RefineConfig};
 use crate::slide::{slide_lines, slide_poses, slide_step, SlideConfig, SlideLine, FROM_SLIDE};
 use laser::{angle_diff, pose_theta, Pose, ScanView};
-use mapserver::{DistanceField, RayScratch};
+use mapserver::{DistanceField, RayScratch, Wall};
 use nalgebra::Point2;
 use segment::{ErrorModel, Segmentation};
 use std::collections::BinaryHeap;
@@ -263,6 +263,8 @@ pub struct Localization {
     /// With `record_candidates`: every candidate (pose, screening score, scan corner index),
     /// in screening order.
     pub all_candidates: Vec<(Pose, f64, u16)>,
+    /// The distance between poses along a wall that the slide search used, when it ran.
+    pub slide_step: Option<f64>,
 }
 
 impl Localization {
@@ -326,6 +328,7 @@ impl Localizer {
                 candidates: 0,
                 times: LocateTimes::default(),
                 all_candidates: Vec::new(),
+                slide_step: None,
             },
         }
     }
@@ -364,6 +367,7 @@ impl Localizer {
         self.out.hypotheses.clear();
         self.out.status = Status::Failed;
         self.out.times = LocateTimes::default();
+        self.out.slide_step = None;
         subsample(seg, self.config.screen_points, &mut self.screen_pts);
         subsample(seg, self.config.refine_points, &mut self.refine_pts);
         let first = self.config.first_look;
@@ -505,15 +509,14 @@ impl Localizer {
             }
             Source::Slides => {
                 slide_lines(&self.lines, &cfg.slide, &mut self.slide_lines);
-                let step = slide_step(&self.lines, &self.slide_lines, &model.map.walls, &cfg.slide);
+                // tracking: only the walls near the last pose, as with map corners; the step is
+                // sized for those walls alone
+                let prior = self.prior.zip(cfg.track_radius);
+                let near = |w: &&Wall| prior.is_none_or(|(p, r)| w.closest(p).0 <= r);
+                let step = slide_step(&self.lines, &self.slide_lines, model.map.walls.iter().filter(near), &cfg.slide);
+                self.out.slide_step = Some(step);
                 for &li in &self.slide_lines {
-                    for (wi, wall) in model.map.walls.iter().enumerate() {
-                        // tracking: only the walls near the last pose, as with map corners
-                        if let (Some(p), Some(r)) = (self.prior, cfg.track_radius) {
-                            if wall.closest(p).0 > r {
-                                continue;
-                            }
-                        }
+                    for (wi, wall) in model.map.walls.iter().enumerate().filter(|(_, w)| near(w)) {
                         slide_poses(&self.lines[li], wall, step, &cfg.slide, |pose| {
                             if let Some(score) = pass.score(&pose) {
                                 candidates.push(Candidate {

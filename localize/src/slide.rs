@@ -112,12 +112,17 @@ pub fn slide_lines(lines: &[SlideLine], cfg: &SlideConfig, out: &mut Vec<usize>)
 /// that would make more than `cfg.max_poses` poses. The slide search is otherwise linear in the
 /// map's wall length; the budget keeps it bounded on large maps (at a coarser step, refinement
 /// has more to pull).
-pub fn slide_step(lines: &[SlideLine], chosen: &[usize], walls: &[Wall], cfg: &SlideConfig) -> f64 {
+pub fn slide_step<'a>(
+    lines: &[SlideLine],
+    chosen: &[usize],
+    walls: impl Iterator<Item = &'a Wall> + Clone,
+    cfg: &SlideConfig,
+) -> f64 {
     // poses at step s: 2 (floor(room / s) + 1) for each pair with room >= 0
     let (mut room, mut pairs) = (0.0, 0usize);
     for &i in chosen {
         let length = lines[i].length();
-        for w in walls {
+        for w in walls.clone() {
             let r = w.length() - length + 2.0 * cfg.slack;
             if r >= 0.0 {
                 room += r;
@@ -244,7 +249,7 @@ mod tests {
         let walls: Vec<Wall> =
             (0..100).map(|k| Wall { a: Point2::new(0.0, k as f64), b: Point2::new(10.0, k as f64) }).collect();
         let count = |cfg: &SlideConfig| {
-            let step = slide_step(&[short], &[0], &walls, cfg);
+            let step = slide_step(&[short], &[0], walls.iter(), cfg);
             let mut n = 0;
             for w in &walls {
                 slide_poses(&short, w, step, cfg, |_| n += 1);

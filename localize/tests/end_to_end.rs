@@ -201,6 +201,36 @@ fn tracking_restricts_the_slide_search_to_walls_near_the_last_pose() {
     assert!(checked >= 10, "{checked}");
 }
 
+/// Under tracking the slide search sizes its step for the walls near the last pose, not for the
+/// whole map: on a map so large that sliding along every wall must coarsen the step to stay
+/// within the pose budget, a tracked scan slides more finely (sized for the whole map, both
+/// steps were the same).
+#[test]
+fn tracking_slides_at_the_step_its_nearby_walls_allow() {
+    let map = procedural::office_with_walls(3, 5000);
+    let mut sim = Simulator::new(&map, SensorModel::urg04lx(), Scenario::Clean, 12);
+    let tracking = LocalizerConfig { track_radius: Some(6.0), ..LocalizerConfig::default() };
+    let mut tracked = Gema2::new(model(map.clone()), SegmenterConfig::default(), tracking);
+    let mut global = Gema2::new(model(map), SegmenterConfig::default(), LocalizerConfig::default());
+    let step = tracking.slide.step;
+    let mut checked = 0;
+    for _ in 0..40 {
+        let scan = sim.next_scan();
+        let (seg, first) = tracked.process(&scan.view());
+        if first.status != Status::Ok {
+            continue;
+        }
+        let mut cornerless = seg.clone();
+        cornerless.corners.clear();
+        let Some(near) = tracked.localizer.locate(&scan.view(), &cornerless).slide_step else { continue };
+        let all = global.localizer.locate(&scan.view(), &cornerless).slide_step.expect("the same scan slides");
+        assert!(all > step, "the whole map fits the budget at {all} m: not a test of tracking");
+        assert!(step <= near && near < all, "tracked step {near} m, global {all} m");
+        checked += 1;
+    }
+    assert!(checked >= 5, "{checked}");
+}
+
 /// The first look settles the scans the map explains, with the pose the full search finds;
 /// scans whose best corners are furniture go on to the full search.
 #[test]
