@@ -25,6 +25,8 @@ use thiserror::Error;
 pub enum PlacementError {
     #[error("cannot pin to CPU {cpu}: {message}")]
     Pin { cpu: usize, message: String },
+    #[error("cannot read the CPU affinity: {0}")]
+    Affinity(String),
     #[error(
         "cannot run at SCHED_FIFO priority {priority}: {message} (real-time priorities need root, \
          CAP_SYS_NICE or an rtprio limit)"
@@ -66,10 +68,7 @@ impl Affinity {
         unsafe {
             let mut set: libc::cpu_set_t = std::mem::zeroed();
             if libc::sched_getaffinity(0, std::mem::size_of::<libc::cpu_set_t>(), &mut set) != 0 {
-                return Err(PlacementError::Pin {
-                    cpu: usize::MAX,
-                    message: format!("reading the CPU affinity: {}", std::io::Error::last_os_error()),
-                });
+                return Err(PlacementError::Affinity(std::io::Error::last_os_error().to_string()));
             }
             Ok(Affinity(set))
         }
