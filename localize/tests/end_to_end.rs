@@ -6,7 +6,7 @@ use localize::cost::cost;
 use localize::refine::{refine, RefineConfig};
 use localize::{pose_from_corners, same_pose, CostConfig, Gema2, LocalizerConfig, MapModel, Status};
 use mapserver::{procedural, MapCornerConfig, RayScratch, Wall, WallMap};
-use segment::{ErrorModel, LineVisibilitySegmenter, Segmenter, SegmenterConfig};
+use segment::{ErrorModel, LineVisibilitySegmenter, Segmentation, Segmenter, SegmenterConfig};
 use std::sync::Arc;
 
 fn model(map: WallMap) -> Arc<MapModel> {
@@ -167,17 +167,16 @@ fn tracking_restricts_matching_to_the_last_pose() {
     assert!(checked >= 20, "{checked}");
 }
 
-/// Tracking restricts the slide search too: after an `ok` scan, a scan with no corner is slid
-/// only along the walls near the last pose.
-#[test]
-fn tracking_restricts_the_slide_search_to_walls_near_the_last_pose() {
-    let map = procedural::office(2024, 3, 8);
-    let mut sim = Simulator::new(&map, SensorModel::urg04lx(), Scenario::Clean, 9);
-    // every candidate kept by the screen, so `candidates` counts all the poses made
-    let keep_all = LocalizerConfig { prescreened: 1 << 20, ..LocalizerConfig::default() };
-    let tracking = LocalizerConfig { track_radius: Some(6.0), ..keep_all };
-    let mut tracked = Gema2::new(model(map.clone()), SegmenterConfig::default(), tracking);
-    let mut global = Gema2::new(model(map.clone()), SegmenterConfig::default(), keep_all);
+/// Simulates 40 clean scans in `map`; each that `tracked` places `ok` goes to `check` stripped of
+/// its corners (only the slide search can place it), with the tracker's last pose still that
+/// `ok` one. Returns how many scans `check` counted.
+fn each_ok_scan_without_corners(
+    map: &WallMap,
+    seed: u64,
+    tracked: &mut Gema2,
+    mut check: impl FnMut(&LaserScan, &Segmentation, &mut Gema2) -> bool,
+) -> usize {
+    let mut sim = Simulator::new(map, SensorModel::urg04lx(), Scenario::Clean, seed);
     let mut checked = 0;
     for _ in 0..40 {
         let scan = sim.next_scan();
@@ -185,19 +184,36 @@ fn tracking_restricts_the_slide_search_to_walls_near_the_last_pose() {
         if first.status != Status::Ok {
             continue;
         }
-        // the same scan with its corners taken away: only the slide search can place it
         let mut cornerless = seg.clone();
         cornerless.corners.clear();
-        let near = tracked.localizer.locate(&scan.view(), &cornerless);
+        if check(&scan, &cornerless, tracked) {
+            checked += 1;
+        }
+    }
+    checked
+}
+
+/// Tracking restricts the slide search too: after an `ok` scan, a scan with no corner is slid
+/// only along the walls near the last pose.
+#[test]
+fn tracking_restricts_the_slide_search_to_walls_near_the_last_pose() {
+    let map = procedural::office(2024, 3, 8);
+    // every candidate kept by the screen, so `candidates` counts all the poses made
+    let keep_all = LocalizerConfig { prescreened: 1 << 20, ..LocalizerConfig::default() };
+    let tracking = LocalizerConfig { track_radius: Some(6.0), ..keep_all };
+    let mut tracked = Gema2::new(model(map.clone()), SegmenterConfig::default(), tracking);
+    let mut global = Gema2::new(model(map.clone()), SegmenterConfig::default(), keep_all);
+    let checked = each_ok_scan_without_corners(&map, 9, &mut tracked, |scan, cornerless, tracked| {
+        let near = tracked.localizer.locate(&scan.view(), cornerless);
         if !near.times.slide_search || near.candidates == 0 {
-            continue;
+            return false;
         }
         let near = near.candidates;
-        let all = global.localizer.locate(&scan.view(), &cornerless);
+        let all = global.localizer.locate(&scan.view(), cornerless);
         assert!(all.times.slide_search);
         assert!(near < all.candidates, "tracking slid {near} poses of {}", all.candidates);
-        checked += 1;
-    }
+        true
+    });
     assert!(checked >= 10, "{checked}");
 }
 
@@ -208,26 +224,19 @@ fn tracking_restricts_the_slide_search_to_walls_near_the_last_pose() {
 #[test]
 fn tracking_slides_at_the_step_its_nearby_walls_allow() {
     let map = procedural::office_with_walls(3, 5000);
-    let mut sim = Simulator::new(&map, SensorModel::urg04lx(), Scenario::Clean, 12);
     let tracking = LocalizerConfig { track_radius: Some(6.0), ..LocalizerConfig::default() };
     let mut tracked = Gema2::new(model(map.clone()), SegmenterConfig::default(), tracking);
-    let mut global = Gema2::new(model(map), SegmenterConfig::default(), LocalizerConfig::default());
+    let mut global = Gema2::new(model(map.clone()), SegmenterConfig::default(), LocalizerConfig::default());
     let step = tracking.slide.step;
-    let mut checked = 0;
-    for _ in 0..40 {
-        let scan = sim.next_scan();
-        let (seg, first) = tracked.process(&scan.view());
-        if first.status != Status::Ok {
-            continue;
-        }
-        let mut cornerless = seg.clone();
-        cornerless.corners.clear();
-        let Some(near) = tracked.localizer.locate(&scan.view(), &cornerless).slide_step else { continue };
-        let all = global.localizer.locate(&scan.view(), &cornerless).slide_step.expect("the same scan slides");
+    let checked = each_ok_scan_without_corners(&map, 12, &mut tracked, |scan, cornerless, tracked| {
+        let Some(near) = tracked.localizer.locate(&scan.view(), cornerless).slide_step else {
+            return false;
+        };
+        let all = global.localizer.locate(&scan.view(), cornerless).slide_step.expect("the same scan slides");
         assert!(all > step, "the whole map fits the budget at {all} m: not a test of tracking");
         assert!(step <= near && near < all, "tracked step {near} m, global {all} m");
-        checked += 1;
-    }
+        true
+    });
     assert!(checked >= 5, "{checked}");
 }
 
