@@ -25,7 +25,7 @@ use thiserror::Error;
 pub enum PlacementError {
     #[error("cannot pin to CPU {cpu}: {message}")]
     Pin { cpu: usize, message: String },
-    #[error("cannot read the CPU affinity: {0}")]
+    #[error("cannot read the CPU affinity or scheduling: {0}")]
     Affinity(String),
     #[error(
         "cannot run at SCHED_FIFO priority {priority}: {message} (real-time priorities need root, \
@@ -101,6 +101,39 @@ pub fn set_realtime_priority(priority: u8, reset_on_fork: bool) -> Result<(), Pl
     Ok(())
 }
 
+/// The calling thread's CPU affinity, scheduling policy and priority as they were when saved,
+/// put back when this is dropped: a program that runs a pipeline and goes on (`gema2 bench`
+/// runs several) leaves it as it found it.
+pub struct SavedPlacement {
+    affinity: Affinity,
+    policy: libc::c_int,
+    param: libc::sched_param,
+}
+
+impl SavedPlacement {
+    pub fn save() -> Result<Self, PlacementError> {
+        let affinity = Affinity::current()?;
+        let mut param = libc::sched_param { sched_priority: 0 };
+        // SAFETY: plain queries of the calling thread's scheduling into a struct we own.
+        let policy = unsafe { libc::sched_getscheduler(0) };
+        if policy < 0 || unsafe { libc::sched_getparam(0, &mut param) } != 0 {
+            return Err(PlacementError::Affinity(format!(
+                "reading the scheduling policy: {}",
+                std::io::Error::last_os_error()
+            )));
+        }
+        Ok(SavedPlacement { affinity, policy, param })
+    }
+}
+
+impl Drop for SavedPlacement {
+    fn drop(&mut self) {
+        // SAFETY: sets the calling thread's policy from values read from it before.
+        unsafe { libc::sched_setscheduler(0, self.policy, &self.param) };
+        let _ = restore_affinity(&self.affinity);
+    }
+}
+
 /// A PM QoS request that bounds how long idle cores take to wake up, held while this value
 /// lives (the kernel drops the request when the file is closed, also when the process dies).
 pub struct WakeLatencyRequest {
@@ -151,6 +184,30 @@ mod tests {
                 assert_eq!(param.sched_priority, 3);
             }
             Err(e) => assert!(e.to_string().contains("CAP_SYS_NICE"), "{e}"),
+        })
+        .join()
+        .unwrap();
+    }
+
+    /// What a saved placement saw comes back when it is dropped, whatever was set meanwhile.
+    #[test]
+    fn a_saved_placement_is_put_back() {
+        std::thread::spawn(|| {
+            let before = Affinity::current().unwrap();
+            // SAFETY: a plain query of the calling thread's policy.
+            let policy = || unsafe { libc::sched_getscheduler(0) } & !libc::SCHED_RESET_ON_FORK;
+            let original = policy();
+            {
+                let _saved = SavedPlacement::save().unwrap();
+                pin_to_cpu(0).unwrap();
+                if set_realtime_priority(5, true).is_ok() {
+                    assert_eq!(policy(), libc::SCHED_FIFO);
+                }
+            }
+            assert_eq!(policy(), original);
+            let after = Affinity::current().unwrap();
+            // SAFETY: CPU_EQUAL compares two bit sets we own.
+            assert!(unsafe { libc::CPU_EQUAL(&before.0, &after.0) });
         })
         .join()
         .unwrap();
