@@ -124,6 +124,11 @@ impl SavedPlacement {
         }
         Ok(SavedPlacement { affinity, policy, param })
     }
+
+    /// The affinity as it was saved.
+    pub fn affinity(&self) -> Affinity {
+        self.affinity
+    }
 }
 
 impl Drop for SavedPlacement {

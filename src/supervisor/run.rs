@@ -118,11 +118,11 @@ pub fn run(a: RunArgs) -> Result<()> {
         None => None,
     };
     // put back on return: `gema2 bench` runs several pipelines from this thread
-    let _saved = (placement.cpu.is_some() || placement.priority.is_some())
+    let saved = (placement.cpu.is_some() || placement.priority.is_some())
         .then(messages::placement::SavedPlacement::save)
         .transpose()?;
-    if let Some(cpu) = placement.cpu {
-        super::child::remember_affinity(messages::placement::Affinity::current()?);
+    if let (Some(cpu), Some(saved)) = (placement.cpu, &saved) {
+        super::child::remember_affinity(saved.affinity());
         messages::pin_to_cpu(cpu).context("[supervisor] cpu")?;
     }
     if let Some(p) = placement.priority {
