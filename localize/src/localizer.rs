@@ -388,6 +388,11 @@ impl Localizer {
             self.out.times.slide_search = true;
             self.search(scan, seg, Source::Slides, cfg.prescreened, cfg.slide.screened, cfg.refined);
             self.rank();
+            if self.out.status == Status::Ok
+                && self.out.hypotheses.first().is_some_and(|h| h.cost.inliers < cfg.slide.min_inliers_ok)
+            {
+                self.out.status = Status::Ambiguous;
+            }
             // with no corner in view, an equally good pose further along the same wall means the
             // scan does not say where along it the sensor is (a corridor whose ends are out of
             // range): that is no answer, as the paper's cornerless scan. Twins elsewhere (two

@@ -279,3 +279,35 @@ fn the_first_look_settles_clean_scans_and_defers_furnished_ones() {
         assert!(agreed + 2 >= settled, "{scenario:?}: the full search agreed on {agreed} of {settled} settled scans");
     }
 }
+
+/// A pose found once the slide search has run is `ok` only when at least
+/// `slide.min_inliers_ok` of its beams agree with the map; below that it stays the answer, as
+/// `ambiguous`. Nothing else changes: the same poses in the same order.
+#[test]
+fn a_slid_pose_needs_half_its_beams_to_be_ok() {
+    let map = procedural::apartment();
+    let lenient_cfg = LocalizerConfig {
+        slide: localize::SlideConfig { min_inliers_ok: 0.0, ..Default::default() },
+        ..LocalizerConfig::default()
+    };
+    let strict_cfg = LocalizerConfig::default();
+    let mut strict = Gema2::new(model(map.clone()), SegmenterConfig::default(), strict_cfg);
+    let mut lenient = Gema2::new(model(map.clone()), SegmenterConfig::default(), lenient_cfg);
+    let mut sim = Simulator::new(&map, SensorModel::urg04lx(), Scenario::Furniture, 33);
+    let mut demoted = 0;
+    for _ in 0..120 {
+        let scan = sim.next_scan();
+        let (_, a) = strict.process(&scan.view());
+        let (_, b) = lenient.process(&scan.view());
+        let poses = |l: &localize::Localization| l.hypotheses.iter().map(|h| h.pose).collect::<Vec<_>>();
+        assert_eq!(poses(a), poses(b), "the rule changes a status, never a pose");
+        let low = a.best().is_some_and(|h| h.cost.inliers < strict_cfg.slide.min_inliers_ok);
+        if a.times.slide_search && low && b.status == Status::Ok {
+            assert_eq!(a.status, Status::Ambiguous, "a slid pose with {:?} inliers", a.best().map(|h| h.cost.inliers));
+            demoted += 1;
+        } else {
+            assert_eq!(a.status, b.status);
+        }
+    }
+    assert!(demoted > 0, "no furnished scan had a weakly supported slid pose: the test shows nothing");
+}

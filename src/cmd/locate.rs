@@ -113,6 +113,7 @@ pub fn configs(a: &LocateArgs) -> Result<(SegmenterConfig, LocalizerConfig, MapC
             "slide_screened" => loc.slide.screened = v as usize,
             "slide_max_poses" => loc.slide.max_poses = v as usize,
             "slide_sigma_deg" => loc.slide.max_direction_sigma = v.to_radians(),
+            "slide_min_inliers_ok" => loc.slide.min_inliers_ok = v,
             "coarse_beams" => loc.coarse_beams = v as usize,
             "coarse_sigma" => loc.coarse_sigma = v,
             "sparse_beams" => loc.sparse_beams = v as usize,
