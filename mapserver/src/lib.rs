@@ -10,6 +10,7 @@ pub mod map;
 pub mod node;
 pub mod procedural;
 pub mod raycast;
+pub mod thick;
 pub mod wire;
 
 pub use bundled::{bundled, load_map, BUNDLED};
