@@ -22,6 +22,17 @@ pub enum MapCommand {
     Info { map: PathBuf },
     /// Build a wall map from a log whose poses are true (a SLAM-corrected log).
     Build(super::build_map::BuildArgs),
+    /// Draw a centre-line map's walls with thickness, as a floor plan does: two faces per wall
+    /// and a jamb at each door (the outline of the walls' union).
+    Thicken {
+        /// A bundled map's name or a map file.
+        map: String,
+        /// Wall thickness, metres.
+        #[arg(long, default_value_t = 0.12)]
+        thickness: f64,
+        #[arg(long)]
+        out: PathBuf,
+    },
 }
 
 pub fn run(c: MapCommand) -> Result<()> {
@@ -47,6 +58,17 @@ pub fn run(c: MapCommand) -> Result<()> {
             Ok(())
         }
         MapCommand::Build(a) => super::build_map::run(a),
+        MapCommand::Thicken { map, thickness, out } => {
+            if !(thickness.is_finite() && thickness > 0.0) {
+                bail!("--thickness {thickness}: a wall thickness is a positive number of metres");
+            }
+            let m = mapserver::load_map(&map)?;
+            let thick = mapserver::thick::thicken(&m, thickness);
+            let name = format!("{}-thick", out.file_stem().map_or("map".into(), |s| s.to_string_lossy()));
+            std::fs::write(&out, thick.to_json(&name)).with_context(|| format!("writing {}", out.display()))?;
+            eprintln!("{}: {} walls (from {})", out.display(), thick.walls.len(), m.walls.len());
+            Ok(())
+        }
         MapCommand::Info { map } => {
             let m = mapserver::WallMap::load(&map)?;
             let idx = CornerIndex::of_map(&m, &MapCornerConfig::default());
