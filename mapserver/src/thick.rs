@@ -121,9 +121,14 @@ impl Rect {
         })
     }
 
+    /// The unit axis across the wall, `u` turned a quarter counter-clockwise.
+    fn across(&self) -> Vector2<f64> {
+        Vector2::new(-self.u.y, self.u.x)
+    }
+
     /// The four edges, counter-clockwise.
     fn edges(&self) -> [(Point2<f64>, Point2<f64>); 4] {
-        let (u, v) = (self.u * self.half_length, Vector2::new(-self.u.y, self.u.x) * self.half_width);
+        let (u, v) = (self.u * self.half_length, self.across() * self.half_width);
         let p = [self.c - u - v, self.c + u - v, self.c + u + v, self.c - u + v];
         [(p[0], p[1]), (p[1], p[2]), (p[2], p[3]), (p[3], p[0])]
     }
@@ -131,7 +136,7 @@ impl Rect {
     /// The parameter interval of segment a-b (0 at a, 1 at b) inside the rectangle shrunk by
     /// `margin` (grown when negative), if it is not empty (Cyrus-Beck clipping).
     fn clip(&self, a: Point2<f64>, b: Point2<f64>, margin: f64) -> Option<(f64, f64)> {
-        let v = Vector2::new(-self.u.y, self.u.x);
+        let v = self.across();
         let (mut t0, mut t1) = (0.0f64, 1.0f64);
         for (axis, extent) in [(self.u, self.half_length), (v, self.half_width)] {
             // |axis . (p(t) - c)| < extent - margin, with p(t) = a + t (b - a)
@@ -155,7 +160,7 @@ impl Rect {
     #[cfg(test)]
     fn contains(&self, p: Point2<f64>, margin: f64) -> bool {
         let d = p - self.c;
-        let v = Vector2::new(-self.u.y, self.u.x);
+        let v = self.across();
         d.dot(&self.u).abs() < self.half_length - margin && d.dot(&v).abs() < self.half_width - margin
     }
 }
