@@ -13,6 +13,7 @@ pub mod fit;
 pub mod inference;
 pub mod line;
 pub mod node;
+pub mod noise;
 pub mod sample;
 pub mod segmenter;
 pub mod split_merge;

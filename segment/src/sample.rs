@@ -19,6 +19,11 @@ impl ErrorModel {
     /// The paper's calibration: e(d) = 2 cm.
     pub const PAPER: ErrorModel = ErrorModel { constant: 0.02, proportional: 0.0 };
 
+    /// This model with both terms multiplied by `k`.
+    pub fn scaled(&self, k: f64) -> ErrorModel {
+        ErrorModel { constant: self.constant * k, proportional: self.proportional * k }
+    }
+
     /// e(d), metres; never negative (eq. 2 uses |e(d)|).
     #[inline]
     pub fn at(&self, d: f64) -> f64 {
