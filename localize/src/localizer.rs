@@ -303,6 +303,9 @@ pub struct Localizer {
     slide_lines: Vec<usize>,
     scratch: RayScratch,
     expected: Vec<f64>,
+    /// The cost's e(d) for the scan being located: the configured one widened as the
+    /// segmentation widened its own ([`Segmentation::noise_scale`]).
+    error: ErrorModel,
     out: Localization,
 }
 
@@ -322,6 +325,7 @@ impl Localizer {
             slide_lines: Vec::new(),
             scratch: RayScratch::default(),
             expected: Vec::new(),
+            error: config.error,
             out: Localization {
                 hypotheses: Vec::new(),
                 status: Status::Failed,
@@ -368,6 +372,10 @@ impl Localizer {
         self.out.status = Status::Failed;
         self.out.times = LocateTimes::default();
         self.out.slide_step = None;
+        // a scan noisier than the configured e(d) would count the right pose's beams as seeing
+        // through walls; a scale below 1 (or not a number) is not a measurement
+        let scale = if seg.noise_scale > 1.0 && seg.noise_scale.is_finite() { seg.noise_scale } else { 1.0 };
+        self.error = self.config.error.scaled(scale);
         subsample(seg, self.config.screen_points, &mut self.screen_pts);
         subsample(seg, self.config.refine_points, &mut self.refine_pts);
         let first = self.config.first_look;
@@ -451,15 +459,8 @@ impl Localizer {
         let final_cfg =
             CostConfig { sigma_floor: self.config.cost.sigma_floor.max(model.map.sigma), ..self.config.cost };
         for c in &self.candidates {
-            let cost = cost(
-                scan,
-                &c.pose,
-                &model.caster,
-                &self.config.error,
-                &final_cfg,
-                &mut self.scratch,
-                &mut self.expected,
-            );
+            let cost =
+                cost(scan, &c.pose, &model.caster, &self.error, &final_cfg, &mut self.scratch, &mut self.expected);
             if cost.value.is_finite() {
                 self.out.hypotheses.push(Hypothesis {
                     pose: c.pose,
@@ -560,16 +561,8 @@ impl Localizer {
             ..self.config.cost
         };
         for c in self.candidates.iter_mut() {
-            c.score = cost(
-                scan,
-                &c.pose,
-                &self.model.caster,
-                &self.config.error,
-                &cfg,
-                &mut self.scratch,
-                &mut self.expected,
-            )
-            .value;
+            c.score =
+                cost(scan, &c.pose, &self.model.caster, &self.error, &cfg, &mut self.scratch, &mut self.expected).value;
         }
     }
 

@@ -124,7 +124,11 @@ pub fn run(a: LocalizeArgs) -> Result<()> {
                         continue;
                     }
                 };
-                build_samples(&view, &config.segmenter.error, config.segmenter.averaging, &mut seg.samples);
+                // below 1 or not finite is no measurement (a zeroed or corrupt message)
+                let scale = msg.noise_scale;
+                seg.noise_scale = if scale.is_finite() { scale.max(1.0) } else { 1.0 };
+                let error = config.segmenter.error.scaled(seg.noise_scale);
+                build_samples(&view, &error, config.segmenter.averaging, &mut seg.samples);
                 seg.corners.clear();
                 let n = (msg.count as usize).min(msg.corners.len());
                 seg.corners.extend(msg.corners[..n].iter().filter_map(corner_from_msg));

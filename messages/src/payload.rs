@@ -169,6 +169,10 @@ pub struct CornersMsg {
     pub scan: ScanMsg,
     pub count: u32,
     pub line_count: u32,
+    /// The segmenter's e(d) was the configured one times this, the scan's measured noise
+    /// (`segment::Segmentation::noise_scale`); the localizer widens its own alike. Values
+    /// below 1 (a zeroed message) mean 1.
+    pub noise_scale: f64,
     pub corners: [CornerMsg; MAX_CORNERS],
     pub lines: [LineMsg; MAX_LINES],
 }

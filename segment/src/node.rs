@@ -104,6 +104,7 @@ pub fn run(a: SegmentArgs) -> Result<()> {
                         corners_out.send(|m: &mut CornersMsg| {
                             m.scan = *scan;
                             m.scan.header = header;
+                            m.noise_scale = seg.noise_scale;
                             let n = seg.corners.len().min(MAX_CORNERS);
                             m.count = n as u32;
                             for (slot, c) in m.corners.iter_mut().zip(&seg.corners[..n]) {

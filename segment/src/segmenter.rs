@@ -5,6 +5,7 @@ use crate::end::{extract_wall_ends, EndConfig};
 use crate::filter::{filter_lines, FilterConfig};
 use crate::inference::infer_lines;
 use crate::line::Line;
+use crate::noise::noise_scale;
 use crate::sample::{build_samples, ErrorModel, Sample};
 use laser::ScanView;
 use serde::{Deserialize, Serialize};
@@ -21,6 +22,15 @@ pub struct SegmenterConfig {
     pub corner: CornerConfig,
     /// Wall ends, ranked with the corners (see [`crate::end`]).
     pub ends: EndConfig,
+    /// A scan measured noisier than `error` by more than this factor is segmented (and
+    /// localized) with `error` widened to its measured noise ([`crate::noise`]); 0 never
+    /// widens.
+    #[serde(default = "default_noise_tolerance")]
+    pub noise_tolerance: f64,
+}
+
+fn default_noise_tolerance() -> f64 {
+    1.25
 }
 
 impl Default for SegmenterConfig {
@@ -31,13 +41,17 @@ impl Default for SegmenterConfig {
             filter: FilterConfig::default(),
             corner: CornerConfig::default(),
             ends: EndConfig::default(),
+            noise_tolerance: default_noise_tolerance(),
         }
     }
 }
 
 /// What segmentation produced for one scan.
-#[derive(Clone, Debug, Default)]
+#[derive(Clone, Debug)]
 pub struct Segmentation {
+    /// The configured e(d) was multiplied by this for the scan (1, or the scan's measured
+    /// noise relative to it; see [`crate::noise`]). The localizer widens its own e(d) alike.
+    pub noise_scale: f64,
     pub samples: Vec<Sample>,
     /// L: lines as line visibility inferred them (lines of one sample are not kept).
     pub raw_lines: Vec<Line>,
@@ -47,6 +61,19 @@ pub struct Segmentation {
     pub corners: Vec<Corner>,
     /// Time spent building samples, inferring lines, and filtering + extracting corners.
     pub times: SegmentTimes,
+}
+
+impl Default for Segmentation {
+    fn default() -> Self {
+        Segmentation {
+            noise_scale: 1.0,
+            samples: Vec::new(),
+            raw_lines: Vec::new(),
+            lines: Vec::new(),
+            corners: Vec::new(),
+            times: SegmentTimes::default(),
+        }
+    }
 }
 
 /// Per-step compute time of one segmentation.
@@ -70,11 +97,12 @@ pub trait Segmenter: Send {
 pub struct LineVisibilitySegmenter {
     pub config: SegmenterConfig,
     out: Segmentation,
+    scratch: Vec<f64>,
 }
 
 impl LineVisibilitySegmenter {
     pub fn new(config: SegmenterConfig) -> Self {
-        LineVisibilitySegmenter { config, out: Segmentation::default() }
+        LineVisibilitySegmenter { config, out: Segmentation::default(), scratch: Vec::new() }
     }
 }
 
@@ -87,11 +115,13 @@ impl Segmenter for LineVisibilitySegmenter {
         let c = &self.config;
         let out = &mut self.out;
         let t0 = Instant::now();
-        build_samples(scan, &c.error, c.averaging, &mut out.samples);
+        out.noise_scale = noise_scale(scan, &c.error, c.noise_tolerance, &mut self.scratch);
+        let error = c.error.scaled(out.noise_scale);
+        build_samples(scan, &error, c.averaging, &mut out.samples);
         let t1 = Instant::now();
-        infer_lines(&out.samples, scan.geometry.angle_increment, &c.error, &mut out.raw_lines);
+        infer_lines(&out.samples, scan.geometry.angle_increment, &error, &mut out.raw_lines);
         let t2 = Instant::now();
-        filter_lines(&out.raw_lines, &out.samples, &c.error, &c.filter, &mut out.lines);
+        filter_lines(&out.raw_lines, &out.samples, &error, &c.filter, &mut out.lines);
         extract_corners(&out.lines, &c.corner, &mut out.corners);
         extract_wall_ends(scan, &out.samples, &out.lines, c.averaging, &c.corner, &c.ends, &mut out.corners);
         let t3 = Instant::now();

@@ -9,7 +9,8 @@ use crate::end::extract_wall_ends;
 use crate::filter::filter_lines;
 use crate::fit::Moments;
 use crate::line::Line;
-use crate::sample::{build_samples, Sample};
+use crate::noise::noise_scale;
+use crate::sample::{build_samples, ErrorModel, Sample};
 use crate::segmenter::{SegmentTimes, Segmentation, Segmenter, SegmenterConfig};
 use laser::ScanView;
 use std::time::Instant;
@@ -19,16 +20,16 @@ pub struct SplitAndMergeSegmenter {
     pub config: SegmenterConfig,
     out: Segmentation,
     stack: Vec<(usize, usize)>,
+    scratch: Vec<f64>,
 }
 
 impl SplitAndMergeSegmenter {
     pub fn new(config: SegmenterConfig) -> Self {
-        SplitAndMergeSegmenter { config, out: Segmentation::default(), stack: Vec::new() }
+        SplitAndMergeSegmenter { config, out: Segmentation::default(), stack: Vec::new(), scratch: Vec::new() }
     }
 
     /// Splits `samples[first..=last]` into lines pushed onto `out` (in scan order).
-    fn split(&mut self, first: usize, last: usize) {
-        let c = self.config;
+    fn split(&mut self, first: usize, last: usize, error: &ErrorModel) {
         let samples = &self.out.samples;
         self.stack.clear();
         self.stack.push((first, last));
@@ -41,7 +42,7 @@ impl SplitAndMergeSegmenter {
             if len > 1e-9 {
                 for (k, s) in samples.iter().enumerate().take(b).skip(a + 1) {
                     let off = (s.point() - pa).perp(&chord).abs() / len;
-                    let excess = off / c.error.at(s.d);
+                    let excess = off / error.at(s.d);
                     if excess > worst.0 {
                         worst = (excess, k);
                     }
@@ -61,7 +62,7 @@ impl SplitAndMergeSegmenter {
                 for s in &samples[a..=b] {
                     m.add(s.point());
                 }
-                if let Some(line) = Line::from_moments(samples, a, b, m, &c.error) {
+                if let Some(line) = Line::from_moments(samples, a, b, m, error) {
                     self.out.raw_lines.push(line);
                 }
             }
@@ -83,20 +84,22 @@ impl Segmenter for SplitAndMergeSegmenter {
     fn segment(&mut self, scan: &ScanView<'_>) -> &Segmentation {
         let c = self.config;
         let t0 = Instant::now();
-        build_samples(scan, &c.error, c.averaging, &mut self.out.samples);
+        self.out.noise_scale = noise_scale(scan, &c.error, c.noise_tolerance, &mut self.scratch);
+        let error = c.error.scaled(self.out.noise_scale);
+        build_samples(scan, &error, c.averaging, &mut self.out.samples);
         let t1 = Instant::now();
         self.out.raw_lines.clear();
         let n = self.out.samples.len();
         let mut start = 0;
         for k in 1..=n {
             if k == n || breaks(&self.out.samples[k - 1], &self.out.samples[k]) {
-                self.split(start, k - 1);
+                self.split(start, k - 1, &error);
                 start = k;
             }
         }
         let t2 = Instant::now();
         let out = &mut self.out;
-        filter_lines(&out.raw_lines, &out.samples, &c.error, &c.filter, &mut out.lines);
+        filter_lines(&out.raw_lines, &out.samples, &error, &c.filter, &mut out.lines);
         extract_corners(&out.lines, &c.corner, &mut out.corners);
         extract_wall_ends(scan, &out.samples, &out.lines, c.averaging, &c.corner, &c.ends, &mut out.corners);
         let t3 = Instant::now();

@@ -52,7 +52,10 @@ pub struct LocateArgs {
     /// first_refined, first_inliers, first_through, coarse_beams, coarse_sigma, sparse_beams,
     /// sparse_kept, arm_slack, map_sigma (a floor on the map's accuracy), cost_stride,
     /// front_cap, through_cap, ambiguity, cornerless_tie, min_inliers, max_through, merge_angle (degrees),
-    /// min_samples, error_constant, error_proportional.
+    /// min_samples, averaging (readings per sample, section 4.1), noise_tolerance (0: never
+    /// widen e(d) to a noisier scan's measured noise), error_constant,
+    /// error_proportional, slide_lines, slide_min_length, slide_step, slide_slack,
+    /// slide_screened, slide_max_poses, slide_sigma_deg, slide_min_inliers_ok.
     #[arg(long = "set", value_name = "KEY=VALUE")]
     pub set: Vec<String>,
     /// Write scan N's samples, lines, corners and (true-pose) map as JSON to this folder.
@@ -129,6 +132,8 @@ pub fn configs(a: &LocateArgs) -> Result<(SegmenterConfig, LocalizerConfig, MapC
             "max_through" => loc.max_through = v,
             "merge_angle" => seg.filter.merge_angle = v.to_radians(),
             "min_samples" => seg.filter.min_samples = v as u32,
+            "averaging" => seg.averaging = v as usize,
+            "noise_tolerance" => seg.noise_tolerance = v,
             "error_constant" => {
                 seg.error.constant = v;
                 loc.error.constant = v;

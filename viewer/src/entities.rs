@@ -46,6 +46,8 @@ pub const METRICS_STATUS: &str = "metrics/status";
 pub const METRICS_SUCCESS: &str = "metrics/success";
 /// Per scan with truth and a pose: position error, metres.
 pub const METRICS_POSITION_ERROR: &str = "metrics/position_error";
+/// The segmenter's e(d) widening for the scan's measured noise (1: as configured).
+pub const METRICS_NOISE_SCALE: &str = "metrics/noise_scale";
 /// Status changes, bad messages and map versions (`TextLog`).
 pub const LOG: &str = "log";
 

@@ -330,6 +330,7 @@ impl Recorder {
                     .with_radii([0.05]),
             )
             .map_err(stream_err)?;
+        self.scalar(METRICS_NOISE_SCALE, Some(m.noise_scale.max(1.0)).filter(|v| v.is_finite()))?;
         self.output.account(512 + 16 * n as u64);
         if let Some(k) = self.kept.iter_mut().rev().find(|k| k.seq == h.seq) {
             k.corners = positions;
