@@ -373,9 +373,8 @@ impl Localizer {
         self.out.times = LocateTimes::default();
         self.out.slide_step = None;
         // a scan noisier than the configured e(d) would count the right pose's beams as seeing
-        // through walls; a scale below 1 (or not a number) is not a measurement
-        let scale = if seg.noise_scale > 1.0 && seg.noise_scale.is_finite() { seg.noise_scale } else { 1.0 };
-        self.error = self.config.error.scaled(scale);
+        // through walls
+        self.error = self.config.error.scaled(segment::noise::usable_scale(seg.noise_scale));
         subsample(seg, self.config.screen_points, &mut self.screen_pts);
         subsample(seg, self.config.refine_points, &mut self.refine_pts);
         let first = self.config.first_look;

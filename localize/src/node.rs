@@ -15,6 +15,7 @@ use messages::{
     monotonic_ns, open_topic, CornersMsg, Freshness, HypothesisMsg, ListenerDrain, MapMsg, Outlet, PoseMsg, PoseMsgXyt,
     Stage, Topic, MAX_HYPOTHESES, STATUS_AMBIGUOUS, STATUS_FAILED, STATUS_OK,
 };
+use segment::noise::usable_scale;
 use segment::sample::build_samples;
 use segment::wire::{corner_from_msg, scan_view};
 use segment::Segmentation;
@@ -124,9 +125,7 @@ pub fn run(a: LocalizeArgs) -> Result<()> {
                         continue;
                     }
                 };
-                // below 1 or not finite is no measurement (a zeroed or corrupt message)
-                let scale = msg.noise_scale;
-                seg.noise_scale = if scale.is_finite() { scale.max(1.0) } else { 1.0 };
+                seg.noise_scale = usable_scale(msg.noise_scale);
                 let error = config.segmenter.error.scaled(seg.noise_scale);
                 build_samples(&view, &error, config.segmenter.averaging, &mut seg.samples);
                 seg.corners.clear();

@@ -64,6 +64,16 @@ pub fn noise_ratio(scan: &ScanView<'_>, error: &ErrorModel, scratch: &mut Vec<f6
     Some(*median / NORMAL_MAD)
 }
 
+/// A widening factor as received from elsewhere (a message, a caller's segmentation), made
+/// safe to multiply e(d) by: below 1 or not finite is no measurement, and means 1.
+pub fn usable_scale(scale: f64) -> f64 {
+    if scale.is_finite() && scale > 1.0 {
+        scale
+    } else {
+        1.0
+    }
+}
+
 /// How much to widen e(d) for this scan: its [`noise_ratio`] when that exceeds `tolerance`,
 /// else 1. `tolerance` keeps a sensor that matches its calibration on its calibrated e(d):
 /// the ratio of such a sensor scatters from scan to scan (0.9-1.2 on the simulated logs), and
@@ -160,6 +170,14 @@ mod tests {
             .collect();
         let ratio = noise_ratio(&ScanView { geometry: g, ranges: &ranges }, &ErrorModel::default(), &mut Vec::new());
         assert!(ratio.unwrap() < 0.05, "{ratio:?}");
+    }
+
+    #[test]
+    fn a_received_scale_is_used_only_when_it_widens() {
+        assert_eq!(usable_scale(1.7), 1.7);
+        for bad in [0.0, 0.5, -3.0, f64::NAN, f64::INFINITY, f64::NEG_INFINITY] {
+            assert_eq!(usable_scale(bad), 1.0, "{bad}");
+        }
     }
 
     #[test]
