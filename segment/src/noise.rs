@@ -40,10 +40,7 @@ pub fn noise_ratio(scan: &ScanView<'_>, error: &ErrorModel, scratch: &mut Vec<f6
         Reading::Valid(d) => Some(d),
         _ => None,
     };
-    // three beams a step apart see three collinear points iff their inverse ranges satisfy
-    // 1/a + 1/c = 2 cos(step) / b (1/d along a line is a sinusoid of the beam angle), at any
-    // incidence and beam spacing; scaled by b^2 the miss is the second difference of the ranges'
-    // noise, to first order
+    // the collinearity miss of the module docs
     let two_cos = 2.0 * scan.geometry.angle_increment.cos();
     let mut window = [None; 3];
     for i in 0..scan.len() {
@@ -84,7 +81,7 @@ pub fn noise_scale(scan: &ScanView<'_>, error: &ErrorModel, tolerance: f64, scra
         return 1.0;
     }
     match noise_ratio(scan, error, scratch) {
-        Some(ratio) if ratio > tolerance && ratio.is_finite() => ratio,
+        Some(ratio) if ratio > tolerance => usable_scale(ratio),
         _ => 1.0,
     }
 }
