@@ -92,3 +92,33 @@ fn unknown_maps_and_missing_logs_are_clear_errors() {
     assert!(!out.status.success());
     assert!(text(&out.stderr).contains("/no/such.log"));
 }
+
+/// A sensor other than the URG-04LX: a SICK-like 180-degree, 361-beam, 30 m scanner. The log
+/// says so (ROBOTLASER1's start angle, field of view, resolution and maximum range), and
+/// `locate` reads that layout back and localizes with it.
+#[test]
+fn sim_simulates_another_field_of_view_and_reach() {
+    let dir = tempfile::tempdir().unwrap();
+    let log = dir.path().join("sick.log");
+    let log_s = log.to_str().unwrap();
+    let args = ["sim", "--map", "apartment", "--scans", "30", "--seed", "2", "--beams", "361", "--fov", "180"];
+    let out = gema2(&[&args[..], &["--range-max", "30", "--noise-proportional", "0", "--out", log_s]].concat());
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let body = std::fs::read_to_string(&log).unwrap();
+    let line = body.lines().find(|l| l.starts_with("ROBOTLASER1")).expect("a laser line");
+    let f: Vec<f64> = line.split_whitespace().skip(2).take(7).map(|t| t.parse().unwrap()).collect();
+    let (start, fov, resolution, max_range, readings) = (f[0], f[1], f[2], f[3], f[6]);
+    assert!((start + std::f64::consts::FRAC_PI_2).abs() < 1e-6, "{line}");
+    assert!((fov - std::f64::consts::PI).abs() < 1e-6 && (resolution - 0.5f64.to_radians()).abs() < 1e-9);
+    assert_eq!((max_range, readings), (30.0, 361.0));
+    let out = gema2(&["locate", "--map", "apartment", "--log", log_s]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let err = text(&out.stderr);
+    let success: f64 = err.split("success ").nth(1).and_then(|s| s.split(' ').next()).unwrap().parse().unwrap();
+    assert!(success >= 80.0, "{err}");
+
+    for (flag, value) in [("--fov", "0"), ("--fov", "400"), ("--range-max", "nan"), ("--beams", "1")] {
+        let out = gema2(&["sim", "--map", "apartment", "--scans", "1", flag, value, "--out", log_s]);
+        assert!(!out.status.success() && text(&out.stderr).contains(flag), "{flag} {value}: {}", text(&out.stderr));
+    }
+}

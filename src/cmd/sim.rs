@@ -3,6 +3,7 @@
 use acquire::{write_robotlaser1, Scenario, SensorModel, Simulator};
 use anyhow::{Context, Result};
 use clap::Args;
+use laser::ScanGeometry;
 use std::io::{BufWriter, Write};
 use std::path::PathBuf;
 
@@ -18,9 +19,16 @@ pub struct SimArgs {
     pub scans: usize,
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
-    /// Beams over the URG-04LX's 240 degrees (682 is the real sensor).
+    /// Beams over the field of view (682 over 240 degrees is the URG-04LX).
     #[arg(long, default_value_t = 682)]
     pub beams: usize,
+    /// Field of view, degrees, centred ahead; without it, the URG-04LX's 240 degrees (steps
+    /// 44..725 of a 1024-step turn). 180 with 181 or 361 beams is a SICK LMS.
+    #[arg(long)]
+    pub fov: Option<f64>,
+    /// Largest range, metres (readings beyond it are "no return").
+    #[arg(long, default_value_t = 5.6)]
+    pub range_max: f64,
     /// Range noise: constant and proportional standard deviation.
     #[arg(long, default_value_t = 0.01)]
     pub noise: f64,
@@ -30,22 +38,58 @@ pub struct SimArgs {
     pub out: PathBuf,
 }
 
-pub fn sensor_of(beams: usize, noise: f64, proportional: f64) -> SensorModel {
-    let mut s = if beams == 682 { SensorModel::urg04lx() } else { SensorModel::urg04lx_with_beams(beams) };
-    s.noise_constant = noise;
-    s.noise_proportional = proportional;
-    s
+impl SimArgs {
+    /// The simulated sensor: the URG-04LX, or the layout and reach these arguments give.
+    pub fn sensor(&self) -> Result<SensorModel> {
+        anyhow::ensure!(self.beams >= 2, "--beams must be at least 2, not {}", self.beams);
+        anyhow::ensure!(
+            self.range_max.is_finite() && self.range_max > 0.1,
+            "--range-max must be a finite range above 0.1 m, not {}",
+            self.range_max
+        );
+        anyhow::ensure!(
+            self.noise.is_finite()
+                && self.noise >= 0.0
+                && self.noise_proportional.is_finite()
+                && self.noise_proportional >= 0.0,
+            "--noise and --noise-proportional must be finite and not negative"
+        );
+        let mut s = match self.fov {
+            None if self.beams == 682 => SensorModel::urg04lx(),
+            None => SensorModel::urg04lx_with_beams(self.beams),
+            Some(fov) => {
+                anyhow::ensure!(fov > 0.0 && fov <= 360.0, "--fov must be in (0, 360] degrees, not {fov}");
+                SensorModel {
+                    geometry: ScanGeometry::centred(self.beams, fov.to_radians(), self.range_max),
+                    beams: self.beams,
+                    ..SensorModel::urg04lx()
+                }
+            }
+        };
+        s.geometry.range_max = self.range_max;
+        s.noise_constant = self.noise;
+        s.noise_proportional = self.noise_proportional;
+        Ok(s)
+    }
 }
 
 pub fn run(a: SimArgs) -> Result<()> {
     let map = mapserver::load_map(&a.map)?;
-    let mut sim = Simulator::new(&map, sensor_of(a.beams, a.noise, a.noise_proportional), a.scenario, a.seed);
+    let mut sim = Simulator::new(&map, a.sensor()?, a.scenario, a.seed);
     let file = std::fs::File::create(&a.out).with_context(|| format!("creating {}", a.out.display()))?;
     let mut w = BufWriter::new(file);
     writeln!(
         w,
-        "# gema2 sim --map {} --scenario {} --scans {} --seed {} --beams {}",
-        a.map, a.scenario, a.scans, a.seed, a.beams
+        "# gema2 sim --map {} --scenario {} --scans {} --seed {} --beams {}{} --range-max {} --noise {} --noise-proportional {}",
+        a.map,
+        a.scenario,
+        a.scans,
+        a.seed,
+        a.beams,
+        a.fov.map(|f| format!(" --fov {f}")).unwrap_or_default(),
+        a.range_max,
+        a.noise,
+        a.noise_proportional
     )?;
     for _ in 0..a.scans {
         write_robotlaser1(&mut w, &sim.next_scan())?;
