@@ -359,6 +359,7 @@ fn a_payload_type_mismatch_across_processes_names_the_service() {
         .unwrap()
         .to_string();
     assert!(err.contains(&format!("{p}/map")) && err.contains("IncompatibleTypes"), "{err}");
+    assert!(err.contains("built from the same sources"), "the likely cause is named: {err}");
     map.stop();
 }
 

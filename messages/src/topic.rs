@@ -1,6 +1,7 @@
 //! Every topic: its service name, payload type and settings, and the one way to open it.
 
 use iceoryx2::prelude::*;
+use iceoryx2::service::builder::publish_subscribe::{PublishSubscribeOpenError, PublishSubscribeOpenOrCreateError};
 use iceoryx2::service::port_factory::{event, publish_subscribe, request_response};
 use std::fmt::Debug;
 use thiserror::Error;
@@ -133,9 +134,21 @@ pub fn open_pubsub<T: Debug + ZeroCopySend + 'static>(
         .max_subscribers(s.max_subscribers)
         .max_nodes(32)
         .open_or_create()
-        .map_err(|e| OpenError::Open {
-            service: service.into(),
-            message: format!("{e:?} (payload {})", std::any::type_name::<T>()),
+        .map_err(|e| {
+            let payload = std::any::type_name::<T>();
+            let hint = if matches!(
+                e,
+                PublishSubscribeOpenOrCreateError::PublishSubscribeOpenError(
+                    PublishSubscribeOpenError::IncompatibleTypes
+                )
+            ) {
+                // what it usually means in practice: one binary is older than the others
+                "; another process created it with a different payload layout: are all the \
+                 processes (a `viewer` too) built from the same sources?"
+            } else {
+                ""
+            };
+            OpenError::Open { service: service.into(), message: format!("{e:?} (payload {payload}){hint}") }
         })?;
     let event = node
         .service_builder(&name)
