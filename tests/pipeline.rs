@@ -455,6 +455,36 @@ fn a_stage_finds_a_scan_that_came_without_a_wake_up() {
     );
 }
 
+/// A warm-up sent on the scan topic passes through segment and localize to the pose topic's
+/// readers, and publishes nothing on its way.
+#[test]
+fn a_warm_up_passes_down_the_pipeline_without_a_message() {
+    let p = prefix("warm");
+    let seg = StageChild::spawn(Command::new(exe()).args(["stage", "segment", "--prefix", &p]).stderr(Stdio::null()));
+    let loc = StageChild::spawn(Command::new(exe()).args(["stage", "localize", "--prefix", &p]).stderr(Stdio::null()));
+    let node = messages::create_node("warmtest").unwrap();
+    let scans = messages::Outlet::<messages::ScanMsg>::open(
+        &node,
+        &p,
+        messages::Topic::Scan,
+        messages::iceoryx2::prelude::BackpressureStrategy::DiscardData,
+    )
+    .unwrap();
+    let poses = messages::open_topic::<messages::PoseMsg>(&node, &p, messages::Topic::Pose).unwrap();
+    let pose_in = poses.data.subscriber_builder().create().unwrap();
+    let pose_wake = poses.event.listener_builder().create().unwrap();
+    // a warm-up sent before a stage listens is lost: send one every 100 ms until one arrives
+    let mut arrived = false;
+    wait_for("a warm-up at the pose topic", Duration::from_secs(30), || {
+        scans.warm_up().unwrap();
+        pose_wake.timed_wait(|e| arrived |= e.id == messages::WARM_UP, Duration::from_millis(100)).unwrap();
+        arrived
+    });
+    assert!(pose_in.receive().unwrap().is_none(), "a warm-up made a pose");
+    seg.stop();
+    loc.stop();
+}
+
 /// The scheduling policy, priority and allowed cores of a running process.
 fn scheduling_of(pid: u32) -> (i32, i32, Vec<usize>) {
     let pid = pid as libc::pid_t;

@@ -49,6 +49,10 @@ pub struct AcquireArgs {
     /// Number of the first scan.
     #[arg(long, default_value_t = 0)]
     pub first_seq: u64,
+    /// At a fixed rate, wake the pipeline this many microseconds before each scan without a
+    /// message (`messages::WARM_UP`), so that the scan's own wake-ups find a warm path; 0: never.
+    #[arg(long, default_value_t = 200)]
+    pub warm_up_us: u64,
 }
 
 /// Writes a scan into a message.
@@ -170,6 +174,15 @@ pub fn run(a: AcquireArgs) -> Result<()> {
         // after publishing (simulating or parsing the next scan) would hold up a consumer that
         // shares this core, and count as transport in the hop after this stage.
         if let Some(p) = period {
+            let lead = a.warm_up_us.saturating_mul(1000);
+            let warm_up_at = next.saturating_sub(lead);
+            let now = monotonic_ns();
+            if lead > 0 && next > now {
+                if warm_up_at > now && !messages::sleep(&node, Duration::from_nanos(warm_up_at - now)) {
+                    break;
+                }
+                scans_out.warm_up().map_err(|e| anyhow!("acquire: {e}"))?;
+            }
             let now = monotonic_ns();
             if next > now && !messages::sleep(&node, Duration::from_nanos(next - now)) {
                 break; // SIGINT or SIGTERM

@@ -62,6 +62,7 @@ pub fn run(a: LocalizeArgs) -> Result<()> {
         // (messages::ListenerDrain)
         let mut drain = ListenerDrain::new([&map_wake, &corners_wake]);
         let mut counted = false;
+        let mut took = false;
         for pass in 0..2 {
             if pass == 1 {
                 drain.once();
@@ -101,6 +102,7 @@ pub fn run(a: LocalizeArgs) -> Result<()> {
                 };
                 let enter = monotonic_ns();
                 drain.once();
+                took = true;
                 let msg: &CornersMsg = &sample;
                 let seq = msg.scan.header.seq;
                 if !fresh.admit(&msg.scan.header) {
@@ -170,6 +172,12 @@ pub fn run(a: LocalizeArgs) -> Result<()> {
                     failure = Some(anyhow!("localize: publishing pose {seq}: {e}"));
                     return CallbackProgression::Stop;
                 }
+            }
+        }
+        // woken ahead of a scan: wake the pose's readers too
+        if !took && drain.warm_up_seen() {
+            if let Err(e) = pose_out.warm_up() {
+                eprintln!("localize: {e}");
             }
         }
         CallbackProgression::Continue

@@ -14,11 +14,13 @@
 //! p50/p90/p99 of send-to-receive in microseconds. Compare with `gema2 bench --pipeline`'s
 //! hops.
 //!
-//! `raw RECEIVER_CPU SENDER_CPU` measures the kernel alone, without iceoryx2: a forked
-//! receiver blocks on an eventfd (what a futex or pipe costs too) and then on a Unix datagram
-//! socket pair (the trigger iceoryx2 0.10's `ipc::Service` events use), woken 400 times at
-//! 100 Hz. It prints the wake-up (write to the receiver running) and the writer's own system
-//! call time.
+//! `raw RECEIVER_CPU SENDER_CPU [PERIOD_MS [LEAD_US]]` measures the kernel alone, without
+//! iceoryx2: a forked receiver blocks on an eventfd (what a futex or pipe costs too) and then on
+//! a Unix datagram socket pair (the trigger iceoryx2 0.10's `ipc::Service` events use), woken
+//! 400 times every PERIOD_MS (default 10). It prints the wake-up (write to the receiver
+//! running) and the writer's own system call time. With LEAD_US the receiver is also woken
+//! that long before each measured wake-up, as the pipeline's warm-up does (`acquire
+//! --warm-up-us`): `$E raw 1 0 100` against `$E raw 1 0 100 200`.
 
 use anyhow::{anyhow, bail, Result};
 use iceoryx2::prelude::*;
@@ -39,10 +41,15 @@ fn main() -> Result<()> {
                 args.get(i).and_then(|a| a.parse().ok()).ok_or_else(|| anyhow!("raw RECEIVER_CPU SENDER_CPU"))
             };
             let (receiver, sender) = (cpu(1)?, cpu(2)?);
-            raw("eventfd", receiver, sender)?;
-            raw("unix datagram", receiver, sender)
+            let number = |i: usize, default: u64| args.get(i).map_or(Ok(default), |a| a.parse::<u64>());
+            let period = Duration::from_millis(number(3, 10)?);
+            let lead = Duration::from_micros(number(4, 0)?).min(period);
+            raw("eventfd", receiver, sender, period, lead)?;
+            raw("unix datagram", receiver, sender, period, lead)
         }
-        _ => bail!("usage: wakeup_floor send | listen [block|waitset] | raw RECEIVER_CPU SENDER_CPU"),
+        _ => bail!(
+            "usage: wakeup_floor send | listen [block|waitset] | raw RECEIVER_CPU SENDER_CPU [PERIOD_MS [LEAD_US]]"
+        ),
     }
 }
 
@@ -62,7 +69,12 @@ fn raw_channel(kind: &str) -> Result<(i32, i32)> {
     }
 }
 
-fn raw(kind: &str, receiver_cpu: usize, sender_cpu: usize) -> Result<()> {
+/// What the sender writes: a measured wake-up, or (in the high half, so that an eventfd's sum
+/// still tells them apart) a warm-up ahead of one.
+const MEASURED: u64 = 1;
+const WARM_UP: u64 = 1 << 32;
+
+fn raw(kind: &str, receiver_cpu: usize, sender_cpu: usize, period: Duration, lead: Duration) -> Result<()> {
     let (rx, tx) = raw_channel(kind)?;
     // the send time travels through a pipe the receiver reads after it woke
     let mut stamps = [0; 2];
@@ -75,12 +87,15 @@ fn raw(kind: &str, receiver_cpu: usize, sender_cpu: usize) -> Result<()> {
     if child == 0 {
         pin_to_cpu(receiver_cpu)?;
         let mut micros = Vec::with_capacity(SCANS);
-        for _ in 0..SCANS {
+        while micros.len() < SCANS {
             let (mut token, mut sent) = (0u64, 0u64);
             // SAFETY: reads 8 bytes into a u64.
             unsafe {
                 libc::read(rx, (&mut token as *mut u64).cast(), 8);
                 let woke = monotonic_ns();
+                if token & MEASURED == 0 {
+                    continue; // a warm-up alone
+                }
                 libc::read(stamps[0], (&mut sent as *mut u64).cast(), 8);
                 micros.push(woke.saturating_sub(sent) as f64 / 1e3);
             }
@@ -91,12 +106,16 @@ fn raw(kind: &str, receiver_cpu: usize, sender_cpu: usize) -> Result<()> {
     pin_to_cpu(sender_cpu)?;
     let mut micros = Vec::with_capacity(SCANS);
     for _ in 0..SCANS {
-        std::thread::sleep(Duration::from_millis(10));
-        let one = 1u64;
+        std::thread::sleep(period - lead);
+        if !lead.is_zero() {
+            // SAFETY: writes 8 bytes from a u64.
+            unsafe { libc::write(tx, (&WARM_UP as *const u64).cast(), 8) };
+            std::thread::sleep(lead);
+        }
         let sent = monotonic_ns();
         // SAFETY: writes 8 bytes from a u64.
         unsafe {
-            libc::write(tx, (&one as *const u64).cast(), 8);
+            libc::write(tx, (&MEASURED as *const u64).cast(), 8);
             micros.push((monotonic_ns() - sent) as f64 / 1e3);
             libc::write(stamps[1], (&sent as *const u64).cast(), 8);
         }

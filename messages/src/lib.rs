@@ -16,7 +16,7 @@ mod runtime;
 mod topic;
 mod waiting;
 
-pub use outlet::{Freshness, Outlet, CONNECT_PATIENCE};
+pub use outlet::{Freshness, Outlet, CONNECT_PATIENCE, WARM_UP};
 pub use payload::*;
 pub use placement::pin_to_cpu;
 pub use publish::{publish, Zeroable};

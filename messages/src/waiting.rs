@@ -62,21 +62,28 @@ pub fn sleep_until(node: &Node<ipc::Service>, deadline: Instant) -> bool {
 pub struct ListenerDrain<'a, const N: usize> {
     listeners: [&'a Listener<ipc::Service>; N],
     done: bool,
+    warm_up: bool,
 }
 
 impl<'a, const N: usize> ListenerDrain<'a, N> {
     pub fn new(listeners: [&'a Listener<ipc::Service>; N]) -> Self {
-        ListenerDrain { listeners, done: false }
+        ListenerDrain { listeners, done: false, warm_up: false }
     }
 
     /// Drains every listener, the first time it is called in this look.
     pub fn once(&mut self) {
         if !self.done {
             for l in self.listeners {
-                let _ = l.try_wait(|_| {});
+                let _ = l.try_wait(|e| self.warm_up |= e.id == crate::WARM_UP);
             }
             self.done = true;
         }
+    }
+
+    /// Whether the drain took a [`crate::WARM_UP`]: a stage that found no message in this look
+    /// passes it on.
+    pub fn warm_up_seen(&self) -> bool {
+        self.warm_up
     }
 }
 

@@ -110,3 +110,33 @@ fn an_outlet_loses_nothing_to_a_subscriber_that_connects_late() {
     assert!(out.resent > 0, "the buffer never filled before the subscriber connected: the test tests nothing");
     assert_eq!(out.missed, 0);
 }
+
+/// A warm-up wakes the topic's listener without a message, and a stage's drain tells it from a
+/// message's notification.
+#[test]
+fn a_warm_up_wakes_the_listener_with_no_message() {
+    use iceoryx2::prelude::BackpressureStrategy;
+    let p = prefix("warm");
+    let node = create_node("test").unwrap();
+    let topic = open_topic::<ScanMsg>(&node, &p, Topic::Scan).unwrap();
+    let sub = topic.data.subscriber_builder().create().unwrap();
+    let listener = topic.event.listener_builder().create().unwrap();
+    let mut out = Outlet::<ScanMsg>::open(&node, &p, Topic::Scan, BackpressureStrategy::DiscardData).unwrap();
+
+    out.warm_up().unwrap();
+    let mut woke = false;
+    listener.timed_wait(|e| woke |= e.id == WARM_UP, std::time::Duration::from_secs(1)).unwrap();
+    assert!(woke, "the warm-up did not wake the listener");
+    assert!(sub.receive().unwrap().is_none(), "a warm-up carries no message");
+
+    out.warm_up().unwrap();
+    let mut drain = ListenerDrain::new([&listener]);
+    drain.once();
+    assert!(drain.warm_up_seen());
+
+    out.send(|m: &mut ScanMsg| m.header = Header::new(1, monotonic_ns())).unwrap();
+    let mut drain = ListenerDrain::new([&listener]);
+    drain.once();
+    assert!(!drain.warm_up_seen(), "a message's notification is not a warm-up");
+    assert_eq!(sub.receive().unwrap().unwrap().header.seq, 1);
+}

@@ -34,6 +34,9 @@ pub struct BenchArgs {
     /// Seconds of each pipeline measurement.
     #[arg(long, default_value_t = 10.0)]
     pub seconds: f64,
+    /// The source's warm-up lead at 10 Hz (acquire's --warm-up-us; 0: none), to compare.
+    #[arg(long, default_value_t = 200)]
+    pub warm_up_us: u64,
 }
 
 /// Where the stages of a benchmark pipeline run.
@@ -45,7 +48,7 @@ struct Layout {
 }
 
 /// A pipeline file for the simulator in the office laid out as `layout`.
-fn pipeline_file(layout: &Layout) -> String {
+fn pipeline_file(layout: &Layout, warm_up_us: u64) -> String {
     let [acquire, segment, localize, supervisor] = layout.cores;
     let priority = |p: u8| if layout.realtime { format!("priority = {p}\n") } else { String::new() };
     let wake = if layout.realtime { "wake_latency_us = 0\n" } else { "" };
@@ -54,7 +57,8 @@ fn pipeline_file(layout: &Layout) -> String {
          [[stage]]\nname = \"mapserver\"\nkind = \"mapserver\"\nargs = [\"--map\", \"office\"]\n\n\
          [[stage]]\nname = \"localize\"\nkind = \"localize\"\ncpu = {localize}\n{}\n\
          [[stage]]\nname = \"segment\"\nkind = \"segment\"\ncpu = {segment}\n{}\n\
-         [[stage]]\nname = \"acquire\"\nkind = \"acquire\"\nargs = [\"--map\", \"office\"]\ncpu = {acquire}\n{}\
+         [[stage]]\nname = \"acquire\"\nkind = \"acquire\"\n\
+         args = [\"--map\", \"office\", \"--warm-up-us\", \"{warm_up_us}\"]\ncpu = {acquire}\n{}\
          restart = \"never\"\n",
         priority(40),
         priority(30),
@@ -94,7 +98,7 @@ fn bench_pipeline(a: &BenchArgs) -> Result<()> {
     ];
     for (k, (title, layout, rate, hz, record)) in runs.iter().enumerate() {
         let file = dir.join(format!("p{k}.toml"));
-        std::fs::write(&file, pipeline_file(layout))?;
+        std::fs::write(&file, pipeline_file(layout, a.warm_up_us))?;
         let [ac, sc, lc, pc] = layout.cores;
         println!("== {title} (acquire, segment, localize, consumer on cores {ac}, {sc}, {lc}, {pc})");
         if layout.realtime {
