@@ -114,23 +114,26 @@ impl Summary {
         self.outcomes.iter().filter(|o| o.success()).count() as f64 / self.scans().max(1) as f64
     }
 
-    /// Mean position error of the successes, metres.
-    pub fn mean_error(&self) -> f64 {
+    /// Mean position error of the successes, metres; `None` without a success.
+    pub fn mean_error(&self) -> Option<f64> {
         let e: Vec<f64> = self.outcomes.iter().filter(|o| o.success()).filter_map(|o| o.error.map(|e| e.0)).collect();
-        e.iter().sum::<f64>() / e.len().max(1) as f64
+        (!e.is_empty()).then(|| e.iter().sum::<f64>() / e.len() as f64)
     }
 
     pub fn count(&self, s: Status) -> usize {
         self.outcomes.iter().filter(|o| o.status == s).count()
     }
 
-    /// Of the scans marked ok, the fraction that are right.
-    pub fn ok_precision(&self) -> f64 {
+    /// Of the scans marked ok, the fraction that are right; `None` when none is ok.
+    pub fn ok_precision(&self) -> Option<f64> {
         let ok: Vec<&Outcome> = self.outcomes.iter().filter(|o| o.status == Status::Ok).collect();
-        ok.iter().filter(|o| o.success()).count() as f64 / ok.len().max(1) as f64
+        (!ok.is_empty()).then(|| ok.iter().filter(|o| o.success()).count() as f64 / ok.len() as f64)
     }
 
     pub fn render(&self) -> String {
+        if self.outcomes.is_empty() {
+            return "scans 0: the log holds no laser scan (or none that --every and --offset select)\n".into();
+        }
         let mut t: Vec<f64> = self.outcomes.iter().map(|o| o.micros).collect();
         let (p50, p99) = (quantile(&mut t, 0.5), quantile(&mut t, 0.99));
         let mut s = format!(
@@ -158,13 +161,37 @@ impl Summary {
         }
         s += "\n";
         if self.outcomes.iter().any(|o| o.has_truth) {
+            let error = self.mean_error().map_or("- (no success)".into(), |e| format!("{:.2} cm", 100.0 * e));
+            let precision = self.ok_precision().map_or("- (no scan ok)".into(), |p| format!("{:.1} %", 100.0 * p));
             s += &format!(
-                "success {:.1} % (within {SUCCESS_POSITION} m and {SUCCESS_HEADING_DEG} deg)  mean error of successes {:.2} cm  ok precision {:.1} %\n",
+                "success {:.1} % (within {SUCCESS_POSITION} m and {SUCCESS_HEADING_DEG} deg)  mean error of successes {error}  ok precision {precision}\n",
                 100.0 * self.success_rate(),
-                100.0 * self.mean_error(),
-                100.0 * self.ok_precision()
             );
         }
         s
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// No scan, no success, no `ok`: the summary says so instead of printing NaN or a 0 that
+    /// reads as a measurement.
+    #[test]
+    fn a_summary_with_nothing_to_measure_says_so() {
+        assert!(Summary::default().render().starts_with("scans 0: the log holds no laser scan"));
+        let truth = laser::pose(1.0, 2.0, 0.3);
+        let mut s = Summary::default();
+        s.add(Outcome::of(Status::Failed, None, Some(truth), 10.0));
+        s.add(Outcome::of(Status::Ambiguous, Some(laser::pose(5.0, 2.0, 0.3)), Some(truth), 12.0));
+        let text = s.render();
+        assert!(text.contains("success 0.0 %"), "{text}");
+        assert!(text.contains("mean error of successes - (no success)"), "{text}");
+        assert!(text.contains("ok precision - (no scan ok)"), "{text}");
+        assert!(!text.contains("NaN"), "{text}");
+        s.add(Outcome::of(Status::Ok, Some(laser::pose(1.02, 2.0, 0.3)), Some(truth), 11.0));
+        let text = s.render();
+        assert!(text.contains("mean error of successes 2.00 cm  ok precision 100.0 %"), "{text}");
     }
 }
