@@ -6,13 +6,28 @@ fn prefix(test: &str) -> String {
     format!("gema2test_{}_{}", test, std::process::id())
 }
 
-#[test]
-fn a_scan_goes_through_shared_memory_and_wakes_the_listener() {
-    let p = prefix("scan");
+/// What a stage reading scans holds: the scan topic under the test's prefix, a subscriber and
+/// a listener on it.
+struct ScanReader {
+    prefix: String,
+    node: iceoryx2::prelude::Node<iceoryx2::prelude::ipc::Service>,
+    topic: TopicPorts<ScanMsg>,
+    sub: iceoryx2::port::subscriber::Subscriber<iceoryx2::prelude::ipc::Service, ScanMsg, ()>,
+    listener: iceoryx2::port::listener::Listener<iceoryx2::prelude::ipc::Service>,
+}
+
+fn scan_reader(test: &str) -> ScanReader {
+    let prefix = prefix(test);
     let node = create_node("test").unwrap();
-    let topic = open_topic::<ScanMsg>(&node, &p, Topic::Scan).unwrap();
+    let topic = open_topic::<ScanMsg>(&node, &prefix, Topic::Scan).unwrap();
     let sub = topic.data.subscriber_builder().create().unwrap();
     let listener = topic.event.listener_builder().create().unwrap();
+    ScanReader { prefix, node, topic, sub, listener }
+}
+
+#[test]
+fn a_scan_goes_through_shared_memory_and_wakes_the_listener() {
+    let ScanReader { node: _node, topic, sub, listener, .. } = scan_reader("scan");
     let publisher = topic.data.publisher_builder().create().unwrap();
     let notifier = topic.event.notifier_builder().create().unwrap();
     let delivered = publish(&publisher, &notifier, |m: &mut ScanMsg| {
@@ -116,12 +131,8 @@ fn an_outlet_loses_nothing_to_a_subscriber_that_connects_late() {
 #[test]
 fn a_warm_up_wakes_the_listener_with_no_message() {
     use iceoryx2::prelude::BackpressureStrategy;
-    let p = prefix("warm");
-    let node = create_node("test").unwrap();
-    let topic = open_topic::<ScanMsg>(&node, &p, Topic::Scan).unwrap();
-    let sub = topic.data.subscriber_builder().create().unwrap();
-    let listener = topic.event.listener_builder().create().unwrap();
-    let mut out = Outlet::<ScanMsg>::open(&node, &p, Topic::Scan, BackpressureStrategy::DiscardData).unwrap();
+    let ScanReader { prefix, node, sub, listener, .. } = scan_reader("warm");
+    let mut out = Outlet::<ScanMsg>::open(&node, &prefix, Topic::Scan, BackpressureStrategy::DiscardData).unwrap();
 
     out.warm_up().unwrap();
     let mut woke = false;
