@@ -62,7 +62,6 @@ pub fn run(a: LocalizeArgs) -> Result<()> {
         // (messages::ListenerDrain)
         let mut drain = ListenerDrain::new([&map_wake, &corners_wake]);
         let mut counted = false;
-        let mut took = false;
         for pass in 0..2 {
             if pass == 1 {
                 drain.once();
@@ -101,8 +100,7 @@ pub fn run(a: LocalizeArgs) -> Result<()> {
                     }
                 };
                 let enter = monotonic_ns();
-                drain.once();
-                took = true;
+                drain.took_message();
                 let msg: &CornersMsg = &sample;
                 let seq = msg.scan.header.seq;
                 if !fresh.admit(&msg.scan.header) {
@@ -175,7 +173,7 @@ pub fn run(a: LocalizeArgs) -> Result<()> {
             }
         }
         // woken ahead of a scan: wake the pose's readers too
-        if !took && drain.warm_up_seen() {
+        if drain.warm_up_to_pass_on() {
             if let Err(e) = pose_out.warm_up() {
                 eprintln!("localize: {e}");
             }

@@ -30,7 +30,8 @@ pub const CONNECT_PATIENCE: Duration = Duration::from_secs(2);
 /// p50 after 100 ms asleep (the kernel's wake-up path gone cold in the caches) and 10-25 us
 /// with a warm-up 200 us before (real-time placement, `gema2 bench --pipeline`). A stage that
 /// wakes for a warm-up takes nothing, passes the warm-up on to the next stage
-/// ([`ListenerDrain::warm_up_seen`](crate::ListenerDrain::warm_up_seen), [`Outlet::warm_up`])
+/// ([`ListenerDrain::warm_up_to_pass_on`](crate::ListenerDrain::warm_up_to_pass_on),
+/// [`Outlet::warm_up`])
 /// and waits again. Messages are notified with iceoryx2's default id, 0.
 pub const WARM_UP: EventId = EventId::new(1);
 

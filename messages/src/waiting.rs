@@ -63,11 +63,12 @@ pub struct ListenerDrain<'a, const N: usize> {
     listeners: [&'a Listener<ipc::Service>; N],
     done: bool,
     warm_up: bool,
+    took: bool,
 }
 
 impl<'a, const N: usize> ListenerDrain<'a, N> {
     pub fn new(listeners: [&'a Listener<ipc::Service>; N]) -> Self {
-        ListenerDrain { listeners, done: false, warm_up: false }
+        ListenerDrain { listeners, done: false, warm_up: false, took: false }
     }
 
     /// Drains every listener, the first time it is called in this look.
@@ -80,10 +81,16 @@ impl<'a, const N: usize> ListenerDrain<'a, N> {
         }
     }
 
-    /// Whether the drain took a [`crate::WARM_UP`]: a stage that found no message in this look
-    /// passes it on.
-    pub fn warm_up_seen(&self) -> bool {
-        self.warm_up
+    /// A message was taken in this look: drains (see [`once`](Self::once)) and remembers it.
+    pub fn took_message(&mut self) {
+        self.once();
+        self.took = true;
+    }
+
+    /// Whether the drain took a [`crate::WARM_UP`] in a look that took no message: the stage
+    /// passes it on to the next one (a message would wake that one anyway).
+    pub fn warm_up_to_pass_on(&self) -> bool {
+        self.warm_up && !self.took
     }
 }
 

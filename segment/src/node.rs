@@ -52,7 +52,6 @@ pub fn run(a: SegmentArgs) -> Result<()> {
         // two passes over the queue, the listener drained in between (messages::ListenerDrain)
         let mut drain = ListenerDrain::new([&listener]);
         let mut counted = false;
-        let mut took = false;
         for pass in 0..2 {
             if pass == 1 {
                 drain.once();
@@ -67,8 +66,7 @@ pub fn run(a: SegmentArgs) -> Result<()> {
                     }
                 };
                 let enter = monotonic_ns();
-                drain.once();
-                took = true;
+                drain.took_message();
                 let scan: &ScanMsg = &sample;
                 if !fresh.admit(&scan.header) {
                     continue; // a copy of a scan already segmented
@@ -127,7 +125,7 @@ pub fn run(a: SegmentArgs) -> Result<()> {
             }
         }
         // woken ahead of a scan: wake the localizer too (the lines' only reader records them)
-        if !took && drain.warm_up_seen() {
+        if drain.warm_up_to_pass_on() {
             if let Err(e) = corners_out.warm_up() {
                 eprintln!("segment: {e}");
             }

@@ -35,7 +35,7 @@ pub struct BenchArgs {
     #[arg(long, default_value_t = 10.0)]
     pub seconds: f64,
     /// The source's warm-up lead at 10 Hz (acquire's --warm-up-us; 0: none), to compare.
-    #[arg(long, default_value_t = 200)]
+    #[arg(long, default_value_t = acquire::node::DEFAULT_WARM_UP_US)]
     pub warm_up_us: u64,
 }
 
