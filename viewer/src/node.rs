@@ -118,7 +118,10 @@ impl Subscriptions {
     }
 
     /// Records everything queued, in pipeline order (map, scans, lines, corners, poses), so a
-    /// pose always finds its scan. Errors of the recording itself end the run.
+    /// pose always finds its scan. The stages run meanwhile: a pose taken here can have been
+    /// published after this look drained the corners, its own among them, so before each pose
+    /// the earlier topics are drained again (cheap when empty). Errors of the recording itself
+    /// end the run.
     pub fn drain(&self, recorder: &mut Recorder) -> Result<()> {
         for l in self.listeners() {
             let _ = l.try_wait(|_| {});
@@ -135,11 +138,23 @@ impl Subscriptions {
                 }
             }
         }
+        let upstream = |recorder: &mut Recorder| -> Result<()> {
+            each(&self.scan, |m| recorder.scan(m))?;
+            each(&self.lines, |m| recorder.lines(m))?;
+            each(&self.corners, |m| recorder.corners(m))
+        };
         each(&self.map, |m| recorder.map(m))?;
-        each(&self.scan, |m| recorder.scan(m))?;
-        each(&self.lines, |m| recorder.lines(m))?;
-        each(&self.corners, |m| recorder.corners(m))?;
-        each(&self.pose, |m| recorder.pose(m))
+        upstream(recorder)?;
+        loop {
+            match self.pose.data.receive() {
+                Ok(Some(pose)) => {
+                    upstream(recorder)?;
+                    recorder.pose(&pose).with_context(|| format!("recording {}", self.pose.name))?;
+                }
+                Ok(None) => return Ok(()),
+                Err(e) => return Err(anyhow!("{}: receive: {e:?}", self.pose.name)),
+            }
+        }
     }
 }
 

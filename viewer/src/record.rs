@@ -254,14 +254,9 @@ impl Recorder {
                 format!("scan {}: unusable ({count} readings, layout {geometry:?})", m.header.seq),
             );
         }
-        let mut kept = if self.kept.len() >= KEPT_SCANS {
-            self.kept.pop_front().unwrap_or_else(|| KeptScan { seq: 0, points: Vec::new(), corners: Vec::new() })
-        } else {
-            KeptScan { seq: 0, points: Vec::with_capacity(count), corners: Vec::new() }
-        };
-        kept.seq = m.header.seq;
+        // its corners may have been recorded first: keep them
+        let mut kept = self.take_kept(m.header.seq);
         kept.points.clear();
-        kept.corners.clear();
         for (i, &r) in m.ranges[..count].iter().enumerate() {
             let r = r as f64;
             if geometry.is_valid(r) {
@@ -332,11 +327,32 @@ impl Recorder {
             .map_err(stream_err)?;
         self.scalar(METRICS_NOISE_SCALE, Some(m.noise_scale.max(1.0)).filter(|v| v.is_finite()))?;
         self.output.account(512 + 16 * n as u64);
-        if let Some(k) = self.kept.iter_mut().rev().find(|k| k.seq == h.seq) {
-            k.corners = positions;
-        }
+        // kept for the pose even if the scan is recorded after them: the stages run while a
+        // look reads the topics one after another
+        let mut kept = self.take_kept(h.seq);
+        kept.corners = positions;
+        self.kept.push_back(kept);
         self.counts.corners.recorded += 1;
         Ok(())
+    }
+
+    /// Scan `seq`'s kept entry, taken out of the queue (to be pushed back), or a new empty one
+    /// (the oldest entry's storage once [`KEPT_SCANS`] are kept).
+    fn take_kept(&mut self, seq: u64) -> KeptScan {
+        if let Some(i) = self.kept.iter().rposition(|k| k.seq == seq) {
+            if let Some(k) = self.kept.remove(i) {
+                return k;
+            }
+        }
+        let mut k = if self.kept.len() >= KEPT_SCANS {
+            self.kept.pop_front().unwrap_or_else(|| KeptScan { seq, points: Vec::new(), corners: Vec::new() })
+        } else {
+            KeptScan { seq, points: Vec::new(), corners: Vec::new() }
+        };
+        k.seq = seq;
+        k.points.clear();
+        k.corners.clear();
+        k
     }
 
     /// Ranked poses: every hypothesis with its cost, the chosen pose, the readings placed at it,
