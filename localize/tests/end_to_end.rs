@@ -13,6 +13,11 @@ fn model(map: WallMap) -> Arc<MapModel> {
     Arc::new(MapModel::new(map, &MapCornerConfig::default()))
 }
 
+/// GEMA2 on `map` with the default segmenter and `config`.
+fn gema2(map: &WallMap, config: LocalizerConfig) -> Gema2 {
+    Gema2::new(model(map.clone()), SegmenterConfig::default(), config)
+}
+
 /// A pose computed from a simulated scan's corner (eqs. 5-6) lies close to the truth, and once
 /// refined against the walls it reproduces the scan: its eq. 7 cost is at the noise floor, far
 /// below the cost of a pose a metre away.
@@ -65,7 +70,7 @@ fn most_clean_scans_are_localized_to_centimetres() {
     let thick = mapserver::thick::thicken(&procedural::apartment(), 0.12);
     for (name, seed, floor) in [("apartment", 5u64, 0.93), ("radial", 6, 0.92), ("thick apartment", 7, 0.93)] {
         let map = procedural::by_name(name).unwrap_or_else(|| thick.clone());
-        let mut gema2 = Gema2::new(model(map.clone()), SegmenterConfig::default(), LocalizerConfig::default());
+        let mut gema2 = gema2(&map, LocalizerConfig::default());
         let mut sim = Simulator::new(&map, SensorModel::urg04lx(), Scenario::Clean, seed);
         let (n, mut right, mut wrong_ok, mut error) = (100, 0, 0, 0.0);
         for _ in 0..n {
@@ -94,7 +99,7 @@ fn most_clean_scans_are_localized_to_centimetres() {
 #[test]
 fn a_sensor_noisier_than_its_error_model_is_still_localized() {
     let map = procedural::apartment();
-    let mut gema2 = Gema2::new(model(map.clone()), SegmenterConfig::default(), LocalizerConfig::default());
+    let mut gema2 = gema2(&map, LocalizerConfig::default());
     let sensor = SensorModel { noise_constant: 0.02, noise_proportional: 0.01, ..SensorModel::urg04lx() };
     let mut sim = Simulator::new(&map, sensor, Scenario::Clean, 3);
     let (n, mut right, mut wrong_ok, mut widened) = (60, 0, 0, 0);
@@ -117,7 +122,7 @@ fn a_sensor_noisier_than_its_error_model_is_still_localized() {
 }
 
 fn locate(map: &WallMap, ranges: Vec<f32>, geometry: ScanGeometry) -> Status {
-    let mut gema2 = Gema2::new(model(map.clone()), SegmenterConfig::default(), LocalizerConfig::default());
+    let mut gema2 = gema2(map, LocalizerConfig::default());
     let scan = LaserScan { geometry, ranges, stamp: 0.0, truth: None };
     gema2.process(&scan.view()).1.status
 }
@@ -175,7 +180,7 @@ fn tracking_restricts_matching_to_the_last_pose() {
     let map = procedural::office(2024, 3, 8);
     let mut sim = Simulator::new(&map, SensorModel::urg04lx(), Scenario::Clean, 8);
     let config = LocalizerConfig { track_radius: Some(6.0), ..LocalizerConfig::default() };
-    let mut gema2 = Gema2::new(model(map.clone()), SegmenterConfig::default(), config);
+    let mut gema2 = gema2(&map, config);
     let mut checked = 0;
     for _ in 0..40 {
         let scan = sim.next_scan();
@@ -233,8 +238,8 @@ fn tracking_restricts_the_slide_search_to_walls_near_the_last_pose() {
     // every candidate kept by the screen, so `candidates` counts all the poses made
     let keep_all = LocalizerConfig { prescreened: 1 << 20, ..LocalizerConfig::default() };
     let tracking = LocalizerConfig { track_radius: Some(6.0), ..keep_all };
-    let mut tracked = Gema2::new(model(map.clone()), SegmenterConfig::default(), tracking);
-    let mut global = Gema2::new(model(map.clone()), SegmenterConfig::default(), keep_all);
+    let mut tracked = gema2(&map, tracking);
+    let mut global = gema2(&map, keep_all);
     let checked = each_ok_scan_without_corners(&map, 9, &mut tracked, |scan, cornerless, tracked| {
         let near = tracked.localizer.locate(&scan.view(), cornerless);
         if !near.times.slide_search || near.candidates == 0 {
@@ -257,8 +262,8 @@ fn tracking_restricts_the_slide_search_to_walls_near_the_last_pose() {
 fn tracking_slides_at_the_step_its_nearby_walls_allow() {
     let map = procedural::office_with_walls(3, 5000);
     let tracking = LocalizerConfig { track_radius: Some(6.0), ..LocalizerConfig::default() };
-    let mut tracked = Gema2::new(model(map.clone()), SegmenterConfig::default(), tracking);
-    let mut global = Gema2::new(model(map.clone()), SegmenterConfig::default(), LocalizerConfig::default());
+    let mut tracked = gema2(&map, tracking);
+    let mut global = gema2(&map, LocalizerConfig::default());
     let step = tracking.slide.step;
     let checked = each_ok_scan_without_corners(&map, 12, &mut tracked, |scan, cornerless, tracked| {
         let Some(near) = tracked.localizer.locate(&scan.view(), cornerless).slide_step else {
@@ -281,8 +286,8 @@ fn the_first_look_settles_clean_scans_and_defers_furnished_ones() {
         first_look: localize::FirstLook { corners: 0, ..Default::default() },
         ..LocalizerConfig::default()
     };
-    let mut both = Gema2::new(model(map.clone()), SegmenterConfig::default(), LocalizerConfig::default());
-    let mut full = Gema2::new(model(map.clone()), SegmenterConfig::default(), full_only);
+    let mut both = gema2(&map, LocalizerConfig::default());
+    let mut full = gema2(&map, full_only);
     for (scenario, seed) in [(Scenario::Clean, 31u64), (Scenario::Furniture, 32)] {
         let mut sim = Simulator::new(&map, SensorModel::urg04lx(), scenario, seed);
         let (mut settled, mut agreed, n) = (0, 0, 60);
@@ -323,8 +328,8 @@ fn a_slid_pose_needs_half_its_beams_to_be_ok() {
         ..LocalizerConfig::default()
     };
     let strict_cfg = LocalizerConfig::default();
-    let mut strict = Gema2::new(model(map.clone()), SegmenterConfig::default(), strict_cfg);
-    let mut lenient = Gema2::new(model(map.clone()), SegmenterConfig::default(), lenient_cfg);
+    let mut strict = gema2(&map, strict_cfg);
+    let mut lenient = gema2(&map, lenient_cfg);
     let mut sim = Simulator::new(&map, SensorModel::urg04lx(), Scenario::Furniture, 33);
     let mut demoted = 0;
     for _ in 0..120 {
