@@ -1,0 +1,168 @@
+//! The map's free space split into connected regions, so the simulator puts the robot where a
+//! robot can be: in the building's main space, never inside a closed outline such as a rack, a
+//! pillar or a box drawn as four walls (from inside one, every rack of the same size looks
+//! alike, and no real scan is taken there).
+//!
+//! Cells of a grid are passable when they lie at least one cell from every wall; 4-neighbour
+//! passable cells are connected. Two cells on either side of a wall are then at least two cells
+//! apart, so no region leaks through a wall, while any gap wider than two cells (a door) joins
+//! the rooms it opens onto.
+
+use mapserver::DistanceField;
+use nalgebra::Point2;
+
+/// Largest number of cells before the grid is coarsened.
+const MAX_CELLS: f64 = 4.0e6;
+
+/// Finest cell size, metres.
+const FINEST_CELL: f64 = 0.1;
+
+/// Connected regions of the free space, labelled on a grid.
+#[derive(Clone, Debug)]
+pub struct FreeSpace {
+    origin: Point2<f64>,
+    cell: f64,
+    cols: usize,
+    rows: usize,
+    /// Region of each cell, 0 where the cell is not passable.
+    labels: Vec<u32>,
+    regions: u32,
+}
+
+impl FreeSpace {
+    /// Labels the free space of `field` within `bounds` (the map's bounding box; the grid extends
+    /// two cells beyond it, so the space outside a closed building is one region).
+    pub fn new(field: &DistanceField, bounds: (Point2<f64>, Point2<f64>)) -> Self {
+        let (lo, hi) = bounds;
+        let (w, h) = (hi.x - lo.x, hi.y - lo.y);
+        // twice the field's resolution: a cell read through the field is off by at most
+        // 0.71 field cells, which must not let two cells on either side of a wall pass
+        let cell = FINEST_CELL.max(2.0 * field.resolution()).max(((w + 0.4) * (h + 0.4) / MAX_CELLS).sqrt());
+        let origin = Point2::new(lo.x - 2.0 * cell, lo.y - 2.0 * cell);
+        let cols = (w / cell).ceil() as usize + 4;
+        let rows = (h / cell).ceil() as usize + 4;
+        let centre =
+            |c: usize, r: usize| Point2::new(origin.x + (c as f64 + 0.5) * cell, origin.y + (r as f64 + 0.5) * cell);
+        let passable: Vec<bool> =
+            (0..rows * cols).map(|i| field.distance(centre(i % cols, i / cols)) >= cell).collect();
+        let mut labels = vec![0u32; rows * cols];
+        let mut regions = 0;
+        let mut stack = Vec::new();
+        for start in 0..rows * cols {
+            if !passable[start] || labels[start] != 0 {
+                continue;
+            }
+            regions += 1;
+            labels[start] = regions;
+            stack.push(start);
+            while let Some(i) = stack.pop() {
+                let (c, r) = (i % cols, i / cols);
+                let neighbours = [
+                    (c > 0).then(|| i - 1),
+                    (c + 1 < cols).then(|| i + 1),
+                    (r > 0).then(|| i - cols),
+                    (r + 1 < rows).then(|| i + cols),
+                ];
+                for n in neighbours.into_iter().flatten() {
+                    if passable[n] && labels[n] == 0 {
+                        labels[n] = regions;
+                        stack.push(n);
+                    }
+                }
+            }
+        }
+        FreeSpace { origin, cell, cols, rows, labels, regions }
+    }
+
+    /// The region holding `q`, or `None` where `q` is off the grid or too near a wall.
+    pub fn region(&self, q: Point2<f64>) -> Option<u32> {
+        let c = ((q.x - self.origin.x) / self.cell).floor();
+        let r = ((q.y - self.origin.y) / self.cell).floor();
+        if !(c >= 0.0 && r >= 0.0 && (c as usize) < self.cols && (r as usize) < self.rows) {
+            return None;
+        }
+        Some(self.labels[r as usize * self.cols + c as usize]).filter(|&l| l != 0)
+    }
+
+    /// How many regions the free space has (the outside of a closed building counts as one).
+    pub fn regions(&self) -> u32 {
+        self.regions
+    }
+
+    /// Cell centres on a lattice of about `count` points over the grid, for sampling.
+    pub fn lattice(&self, count: usize) -> impl Iterator<Item = Point2<f64>> + '_ {
+        let stride = ((self.cols * self.rows) as f64 / count.max(1) as f64).sqrt().ceil().max(1.0) as usize;
+        (0..self.rows).step_by(stride).flat_map(move |r| {
+            (0..self.cols).step_by(stride).map(move |c| {
+                Point2::new(self.origin.x + (c as f64 + 0.5) * self.cell, self.origin.y + (r as f64 + 0.5) * self.cell)
+            })
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use mapserver::Wall;
+
+    fn rectangle(x0: f64, y0: f64, x1: f64, y1: f64) -> Vec<Wall> {
+        vec![Wall::new(x0, y0, x1, y0), Wall::new(x1, y0, x1, y1), Wall::new(x1, y1, x0, y1), Wall::new(x0, y1, x0, y0)]
+    }
+
+    fn free_space(walls: &[Wall]) -> FreeSpace {
+        let field = DistanceField::new(walls, 0.05, 1.0);
+        FreeSpace::new(&field, mapserver::map::bounds_of(walls))
+    }
+
+    #[test]
+    fn a_closed_box_in_a_hall_is_a_region_of_its_own() {
+        let mut walls = rectangle(0.0, 0.0, 10.0, 6.0);
+        walls.extend(rectangle(3.0, 2.0, 7.0, 3.0));
+        let space = free_space(&walls);
+        let hall = space.region(Point2::new(1.0, 1.0)).unwrap();
+        let rack = space.region(Point2::new(5.0, 2.5)).unwrap();
+        let outside = space.region(Point2::new(-0.15, -0.15)).unwrap();
+        assert_ne!(hall, rack);
+        assert_ne!(hall, outside);
+        assert_ne!(rack, outside);
+        assert_eq!(space.region(Point2::new(9.0, 5.0)), Some(hall));
+        assert_eq!(space.regions(), 3);
+        // on a wall: no region
+        assert_eq!(space.region(Point2::new(5.0, 2.0)), None);
+    }
+
+    #[test]
+    fn a_door_joins_two_rooms_and_a_wall_does_not() {
+        let p = |x, y| Point2::new(x, y);
+        let mut walls = rectangle(0.0, 0.0, 10.0, 4.0);
+        // a partition at x = 5 with a 0.8 m door
+        walls.push(Wall::new(5.0, 0.0, 5.0, 1.6));
+        walls.push(Wall::new(5.0, 2.4, 5.0, 4.0));
+        let space = free_space(&walls);
+        assert_eq!(space.region(p(2.0, 2.0)), space.region(p(8.0, 2.0)));
+        assert!(space.region(p(2.0, 2.0)).is_some());
+
+        let mut walls = rectangle(0.0, 0.0, 10.0, 4.0);
+        walls.push(Wall::new(5.0, 0.0, 5.0, 4.0));
+        let space = free_space(&walls);
+        assert_ne!(space.region(p(2.0, 2.0)), space.region(p(8.0, 2.0)));
+    }
+
+    #[test]
+    fn a_slanted_wall_does_not_leak() {
+        let p = |x, y| Point2::new(x, y);
+        let mut walls = rectangle(0.0, 0.0, 10.0, 10.0);
+        walls.push(Wall::new(0.0, 0.0, 10.0, 10.0));
+        let space = free_space(&walls);
+        assert_ne!(space.region(p(7.0, 3.0)), space.region(p(3.0, 7.0)));
+    }
+
+    #[test]
+    fn the_lattice_covers_the_grid() {
+        let space = free_space(&rectangle(0.0, 0.0, 10.0, 6.0));
+        let points: Vec<_> = space.lattice(1000).collect();
+        assert!((500..=2000).contains(&points.len()), "{}", points.len());
+        assert!(points.iter().any(|q| q.x < 1.0 && q.y < 1.0));
+        assert!(points.iter().any(|q| q.x > 9.0 && q.y > 5.0));
+    }
+}
