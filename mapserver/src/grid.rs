@@ -17,10 +17,15 @@ pub struct WallGrid {
 
 impl WallGrid {
     /// Indexes `walls` in cells of side `cell`; a cell lists every wall closer than `margin` to
-    /// any point of the cell.
+    /// any point of the cell. The grid covers the walls' bounding box and `margin` beyond.
     pub fn new(walls: &[Wall], cell: f64, margin: f64) -> Self {
+        Self::covering(walls, cell, margin, margin + cell)
+    }
+
+    /// [`new`](Self::new) with a grid that covers the walls' bounding box and only `pad`
+    /// beyond: lists of a long reach for points that lie among the walls.
+    pub fn covering(walls: &[Wall], cell: f64, margin: f64, pad: f64) -> Self {
         let (lo, hi) = crate::map::bounds_of(walls);
-        let pad = margin + cell;
         let origin = Point2::new(lo.x - pad, lo.y - pad);
         let cols = (((hi.x - lo.x) + 2.0 * pad) / cell).ceil().max(1.0) as usize;
         let rows = (((hi.y - lo.y) + 2.0 * pad) / cell).ceil().max(1.0) as usize;
@@ -104,29 +109,34 @@ impl WallGrid {
         self.cols * self.rows
     }
 
-    /// The same grid with each cell's list replaced by what `keep` writes for it, given the
-    /// cell's corners and its current list.
-    pub fn filtered(&self, mut keep: impl FnMut(&[Point2<f64>; 4], &[u32], &mut Vec<u32>)) -> WallGrid {
-        let mut starts = Vec::with_capacity(self.starts.len());
-        let mut items = Vec::new();
-        let mut kept = Vec::new();
-        for r in 0..self.rows {
-            for c in 0..self.cols {
-                let (x, y) = (self.origin.x + c as f64 * self.cell, self.origin.y + r as f64 * self.cell);
-                let corners = [
-                    Point2::new(x, y),
-                    Point2::new(x + self.cell, y),
-                    Point2::new(x + self.cell, y + self.cell),
-                    Point2::new(x, y + self.cell),
-                ];
-                kept.clear();
-                keep(&corners, self.walls_in(c, r), &mut kept);
-                starts.push(items.len() as u32);
-                items.extend_from_slice(&kept);
-            }
-        }
-        starts.push(items.len() as u32);
-        WallGrid { starts, items, ..*self }
+    /// Index of cell (c, r) among the grid's `cell_count()` cells.
+    #[inline]
+    pub fn cell_index(&self, c: usize, r: usize) -> usize {
+        r * self.cols + c
+    }
+
+    pub fn cols(&self) -> usize {
+        self.cols
+    }
+
+    pub fn rows(&self) -> usize {
+        self.rows
+    }
+
+    /// Centre of cell (c, r).
+    pub fn cell_centre(&self, c: usize, r: usize) -> Point2<f64> {
+        Point2::new(self.origin.x + (c as f64 + 0.5) * self.cell, self.origin.y + (r as f64 + 0.5) * self.cell)
+    }
+
+    /// Corners of cell (c, r), counter-clockwise from its lowest x and y.
+    pub fn cell_corners(&self, c: usize, r: usize) -> [Point2<f64>; 4] {
+        let (x, y) = (self.origin.x + c as f64 * self.cell, self.origin.y + r as f64 * self.cell);
+        [
+            Point2::new(x, y),
+            Point2::new(x + self.cell, y),
+            Point2::new(x + self.cell, y + self.cell),
+            Point2::new(x, y + self.cell),
+        ]
     }
 
     /// Total length of the cells' lists.

@@ -15,12 +15,64 @@ use std::sync::OnceLock;
 pub struct RayCaster {
     walls: Vec<Wall>,
     grid: WallGrid,
-    /// Built on the first cast: for each cell, every wall within the sensor's reach of it (the
-    /// reach of that first cast) that another wall does not hide from the whole cell, so a cast
-    /// reads one short list instead of gathering and de-duplicating the walls of the
-    /// hundred-odd cells around the sensor. `None` when the lists would be too large (a
-    /// long-range sensor in a large map).
-    reach: OnceLock<Option<(f64, WallGrid)>>,
+    /// Set up on the first cast: for each cell, every wall within the sensor's reach of it (the
+    /// reach of that first cast), and, built on the first cast from the cell, those another
+    /// wall does not hide from the whole cell, so a cast reads one short list instead of
+    /// gathering and de-duplicating the walls of the hundred-odd cells around the sensor.
+    /// `None` when the lists would be too large (a long-range sensor in a large map).
+    reach: OnceLock<Option<ReachLists>>,
+}
+
+/// The per-cell lists of walls a cast may meet, filtered when set up if that is cheap, else each
+/// on first use: a cell costs its walls squared, and at a long reach every cell holds the whole
+/// map. Filtering the cells of a 200-wall map at 82 m reach held up the first scan by 0.1 s
+/// (after the quick tests of [`potentially_visible`]; 0.6-0.8 s before), while that scan's casts
+/// touch a few dozen cells. Filtered lazily, the office's cells (5.6 m reach) would instead
+/// slow each of the first few hundred scans of a benchmark by 20-40 us.
+#[derive(Clone, Debug)]
+struct ReachLists {
+    range: f64,
+    /// Every wall within `range` of each cell.
+    within: WallGrid,
+    /// The walls of `within` not hidden from the cell, by cell index.
+    visible: Vec<OnceLock<Box<[u32]>>>,
+}
+
+impl ReachLists {
+    fn new(walls: &[Wall], range: f64) -> Self {
+        Self::filtering_eagerly_up_to(walls, range, EAGER_PAIRS)
+    }
+
+    fn filtering_eagerly_up_to(walls: &[Wall], range: f64, eager_pairs: f64) -> Self {
+        let within = WallGrid::covering(walls, CELL, range, CELL);
+        let visible = (0..within.cell_count()).map(|_| OnceLock::new()).collect();
+        let lists = ReachLists { range, within, visible };
+        let pairs: f64 = (0..lists.within.cell_count())
+            .map(|k| {
+                let n = lists.within.walls_in(k % lists.within.cols(), k / lists.within.cols()).len() as f64;
+                n * n
+            })
+            .sum();
+        if pairs <= eager_pairs {
+            for r in 0..lists.within.rows() {
+                for c in 0..lists.within.cols() {
+                    lists.at(walls, lists.within.cell_centre(c, r));
+                }
+            }
+        }
+        lists
+    }
+
+    /// The walls a cast from `p` may meet, when `p` lies on the grid.
+    fn at(&self, walls: &[Wall], p: Point2<f64>) -> Option<&[u32]> {
+        let (c, r) = self.within.cell_of(p)?;
+        let list = self.visible[self.within.cell_index(c, r)].get_or_init(|| {
+            let mut kept = Vec::new();
+            potentially_visible(walls, &self.within.cell_corners(c, r), self.within.walls_in(c, r), &mut kept);
+            kept.into_boxed_slice()
+        });
+        Some(list)
+    }
 }
 
 /// Per-caller scratch space: the direction of every beam of the current layout and wall
@@ -60,6 +112,10 @@ impl RayScratch {
 /// Cell side of the caster's wall grids, metres.
 const CELL: f64 = 1.0;
 
+/// Most wall pairs (summed over cells) for which every cell's list is filtered when the lists
+/// are set up: about 10-20 ms.
+const EAGER_PAIRS: f64 = 1.0e7;
+
 /// Largest number of wall entries the per-cell reach lists may hold (4 bytes each).
 const MAX_REACH_ENTRIES: f64 = 8.0e6;
 
@@ -72,25 +128,26 @@ impl RayCaster {
     /// and point.
     fn walls_in_reach(&self, p: Point2<f64>, range: f64) -> Option<&[u32]> {
         let lists = self.reach.get_or_init(|| {
-            // each wall is listed in about (its extent + 2 range)^2 / CELL^2 cells
+            // the lists cover the map's bounding box (poses outside it use the plain grid); each
+            // wall is listed in the cells within reach of it
+            let (lo, hi) = crate::map::bounds_of(&self.walls);
+            let (width, height) = (hi.x - lo.x + 2.0 * CELL, hi.y - lo.y + 2.0 * CELL);
             let entries: f64 = self
                 .walls
                 .iter()
                 .map(|w| {
                     let (dx, dy) = ((w.b.x - w.a.x).abs(), (w.b.y - w.a.y).abs());
-                    (dx + 2.0 * range + 2.0 * CELL) * (dy + 2.0 * range + 2.0 * CELL) / (CELL * CELL)
+                    (dx + 2.0 * range + 2.0 * CELL).min(width) * (dy + 2.0 * range + 2.0 * CELL).min(height)
+                        / (CELL * CELL)
                 })
                 .sum();
-            (range.is_finite() && entries <= MAX_REACH_ENTRIES).then(|| {
-                let reach = WallGrid::new(&self.walls, CELL, range);
-                (range, reach.filtered(|corners, list, kept| potentially_visible(&self.walls, corners, list, kept)))
-            })
+            (range.is_finite() && entries <= MAX_REACH_ENTRIES).then(|| ReachLists::new(&self.walls, range))
         });
-        let (reach, grid) = lists.as_ref()?;
-        if range > *reach {
+        let lists = lists.as_ref()?;
+        if range > lists.range {
             return None;
         }
-        grid.cell_of(p).map(|(c, r)| grid.walls_in(c, r))
+        lists.at(&self.walls, p)
     }
 
     pub fn walls(&self) -> &[Wall] {
@@ -181,19 +238,62 @@ impl RayCaster {
 /// nearer than one within reach is within reach, so the hiding wall is in `list` too (or is
 /// hidden in turn by one nearer still). Dropping hidden walls therefore changes no cast; in an
 /// office it leaves about a third of the walls within reach, and each cast costs per wall.
+///
+/// Two tests that [`hides`] implies, both seen from the cell's centre, pass over most pairs
+/// before its eight segment crossings: the hiding wall is nearer (the line of sight to the
+/// hidden wall's nearest point crosses it first), and its angular interval holds the hidden
+/// wall's. A long-range sensor has the whole map within reach of every cell, so a cell costs
+/// its walls squared: they halved it.
 fn potentially_visible(walls: &[Wall], corners: &[Point2<f64>; 4], list: &[u32], kept: &mut Vec<u32>) {
     let centre = Point2::from((corners[0].coords + corners[2].coords) / 2.0);
     // nearest first: the walls that hide others are mostly the near ones
-    let mut by_distance: Vec<(f64, u32)> = list.iter().map(|&k| (walls[k as usize].closest(centre).0, k)).collect();
+    let mut by_distance: Vec<(f64, u32, Arc)> =
+        list.iter().map(|&k| (walls[k as usize].closest(centre).0, k, Arc::of(&walls[k as usize], centre))).collect();
     by_distance.sort_by(|a, b| a.0.total_cmp(&b.0));
-    for &(_, k) in &by_distance {
+    for &(distance, k, arc) in &by_distance {
         let w = &walls[k as usize];
-        let hidden = by_distance.iter().any(|&(_, o)| o != k && hides(&walls[o as usize], w, corners));
+        let hidden = by_distance
+            .iter()
+            .take_while(|&&(d, _, _)| d <= distance)
+            .any(|&(_, o, o_arc)| o != k && o_arc.holds(&arc) && hides(&walls[o as usize], w, corners));
         if !hidden {
             kept.push(k);
         }
     }
     kept.sort_unstable();
+}
+
+/// The directions in which a wall is seen from a point: the cone counter-clockwise from
+/// `start` to `end` (the wall's ends relative to the point), less than half a turn wide.
+#[derive(Clone, Copy, Debug)]
+struct Arc {
+    start: Vector2<f64>,
+    end: Vector2<f64>,
+}
+
+impl Arc {
+    fn of(w: &Wall, from: Point2<f64>) -> Arc {
+        let (a, b) = (w.a - from, w.b - from);
+        if a.perp(&b) >= 0.0 {
+            Arc { start: a, end: b }
+        } else {
+            Arc { start: b, end: a }
+        }
+    }
+
+    /// Whether direction `v` lies in the cone, with a margin that leaves borderline directions
+    /// in (the exact test decides them).
+    #[inline]
+    fn contains(&self, v: Vector2<f64>) -> bool {
+        let margin = 1e-9 * (self.start.norm_squared() + self.end.norm_squared() + v.norm_squared());
+        self.start.perp(&v) >= -margin && v.perp(&self.end) >= -margin
+    }
+
+    /// Whether `other` lies within this cone: both its ends do, and the cone is convex.
+    #[inline]
+    fn holds(&self, other: &Arc) -> bool {
+        self.contains(other.start) && self.contains(other.end)
+    }
 }
 
 /// Whether every line of sight from the cell with corners `corners` to wall `w` crosses wall
@@ -468,6 +568,67 @@ mod tests {
         fn fast_atan2_is_close(y in -10.0f64..10.0, x in -10.0f64..10.0) {
             prop_assert!((fast_atan2(y, x) - y.atan2(x)).abs() < 2e-5);
         }
+    }
+
+    /// A cell's list filtered on first use is the one filtered when the lists are set up.
+    #[test]
+    fn lazy_and_eager_lists_agree() {
+        let seed: Vec<(f64, f64, f64, f64)> = (0..80)
+            .map(|k| {
+                let k = k as f64;
+                ((k * 7.3) % 16.0 - 8.0, (k * 3.1) % 16.0 - 8.0, k * 0.7, 0.5 + (k * 1.3) % 4.0)
+            })
+            .collect();
+        let walls = random_walls(&seed);
+        let eager = ReachLists::filtering_eagerly_up_to(&walls, 30.0, f64::INFINITY);
+        let lazy = ReachLists::filtering_eagerly_up_to(&walls, 30.0, 0.0);
+        assert!(eager.visible.iter().all(|l| l.get().is_some()));
+        assert!(lazy.visible.iter().all(|l| l.get().is_none()));
+        let mut hidden = 0;
+        for r in 0..eager.within.rows() {
+            for c in 0..eager.within.cols() {
+                let p = eager.within.cell_centre(c, r);
+                let (a, b) = (eager.at(&walls, p).unwrap(), lazy.at(&walls, p).unwrap());
+                assert_eq!(a, b);
+                hidden += eager.within.walls_in(c, r).len() - a.len();
+            }
+        }
+        assert!(hidden > 0, "some walls are hidden somewhere");
+    }
+
+    /// The visibility lists with the distance and arc tests are those of testing every pair.
+    #[test]
+    fn the_quick_tests_change_no_visibility_list() {
+        let mut runner = proptest::test_runner::TestRunner::new(ProptestConfig::with_cases(300));
+        let strategy = (
+            proptest::collection::vec((-8.0f64..8.0, -8.0f64..8.0, -3.2f64..3.2, 0.05f64..6.0), 1..60),
+            -6.0f64..6.0,
+            -6.0f64..6.0,
+            0.1f64..2.0,
+        );
+        runner
+            .run(&strategy, |(seed, x, y, cell)| {
+                let walls = random_walls(&seed);
+                let corners = [
+                    Point2::new(x, y),
+                    Point2::new(x + cell, y),
+                    Point2::new(x + cell, y + cell),
+                    Point2::new(x, y + cell),
+                ];
+                let list: Vec<u32> = (0..walls.len() as u32).collect();
+                let mut quick = Vec::new();
+                potentially_visible(&walls, &corners, &list, &mut quick);
+                let every_pair: Vec<u32> = list
+                    .iter()
+                    .copied()
+                    .filter(|&k| {
+                        !list.iter().any(|&o| o != k && hides(&walls[o as usize], &walls[k as usize], &corners))
+                    })
+                    .collect();
+                prop_assert_eq!(quick, every_pair);
+                Ok(())
+            })
+            .unwrap();
     }
 
     /// From inside a room, a wall behind the room's wall is dropped from the cell's list, and
