@@ -41,10 +41,8 @@ impl FreeSpace {
         let origin = Point2::new(lo.x - 2.0 * cell, lo.y - 2.0 * cell);
         let cols = (w / cell).ceil() as usize + 4;
         let rows = (h / cell).ceil() as usize + 4;
-        let centre =
-            |c: usize, r: usize| Point2::new(origin.x + (c as f64 + 0.5) * cell, origin.y + (r as f64 + 0.5) * cell);
         let passable: Vec<bool> =
-            (0..rows * cols).map(|i| field.distance(centre(i % cols, i / cols)) >= cell).collect();
+            (0..rows * cols).map(|i| field.distance(cell_centre(origin, cell, i % cols, i / cols)) >= cell).collect();
         let mut labels = vec![0u32; rows * cols];
         let mut regions = 0;
         let mut stack = Vec::new();
@@ -92,20 +90,24 @@ impl FreeSpace {
     /// Cell centres on a lattice of about `count` points over the grid, for sampling.
     pub fn lattice(&self, count: usize) -> impl Iterator<Item = Point2<f64>> + '_ {
         let stride = ((self.cols * self.rows) as f64 / count.max(1) as f64).sqrt().ceil().max(1.0) as usize;
-        (0..self.rows).step_by(stride).flat_map(move |r| {
-            (0..self.cols).step_by(stride).map(move |c| {
-                Point2::new(self.origin.x + (c as f64 + 0.5) * self.cell, self.origin.y + (r as f64 + 0.5) * self.cell)
-            })
-        })
+        (0..self.rows)
+            .step_by(stride)
+            .flat_map(move |r| (0..self.cols).step_by(stride).map(move |c| cell_centre(self.origin, self.cell, c, r)))
     }
 }
 
+/// Centre of cell (c, r) of a grid with its first cell's corner at `origin`.
+fn cell_centre(origin: Point2<f64>, cell: f64, c: usize, r: usize) -> Point2<f64> {
+    Point2::new(origin.x + (c as f64 + 0.5) * cell, origin.y + (r as f64 + 0.5) * cell)
+}
+
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use mapserver::Wall;
 
-    fn rectangle(x0: f64, y0: f64, x1: f64, y1: f64) -> Vec<Wall> {
+    /// The four walls of an axis-aligned rectangle.
+    pub(crate) fn rectangle(x0: f64, y0: f64, x1: f64, y1: f64) -> Vec<Wall> {
         vec![Wall::new(x0, y0, x1, y0), Wall::new(x1, y0, x1, y1), Wall::new(x1, y1, x0, y1), Wall::new(x0, y1, x0, y0)]
     }
 

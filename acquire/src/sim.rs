@@ -411,12 +411,10 @@ mod tests {
 
     #[test]
     fn poses_are_never_inside_a_closed_outline() {
-        let rectangle = |x0: f64, y0: f64, x1: f64, y1: f64| {
-            [Wall::new(x0, y0, x1, y0), Wall::new(x1, y0, x1, y1), Wall::new(x1, y1, x0, y1), Wall::new(x0, y1, x0, y0)]
-        };
+        use crate::free_space::tests::rectangle;
         // a hall with a closed 4 x 4 m block: before poses kept to the main region, about a
         // quarter of them fell inside the block
-        let mut walls = rectangle(0.0, 0.0, 10.0, 6.0).to_vec();
+        let mut walls = rectangle(0.0, 0.0, 10.0, 6.0);
         walls.extend(rectangle(3.0, 1.0, 7.0, 5.0));
         let map = WallMap::new(walls);
         let mut sim = Simulator::new(&map, SensorModel::urg04lx(), Scenario::Clean, 4);

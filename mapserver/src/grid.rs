@@ -49,7 +49,7 @@ impl WallGrid {
             );
             for r in r0..=r1 {
                 for c in c0..=c1 {
-                    let centre = Point2::new(origin.x + (c as f64 + 0.5) * cell, origin.y + (r as f64 + 0.5) * cell);
+                    let centre = centre_of(origin, cell, c, r);
                     if w.closest(centre).0 <= margin + half_diag {
                         per_cell[r * cols + c].push(k as u32);
                     }
@@ -125,7 +125,7 @@ impl WallGrid {
 
     /// Centre of cell (c, r).
     pub fn cell_centre(&self, c: usize, r: usize) -> Point2<f64> {
-        Point2::new(self.origin.x + (c as f64 + 0.5) * self.cell, self.origin.y + (r as f64 + 0.5) * self.cell)
+        centre_of(self.origin, self.cell, c, r)
     }
 
     /// Corners of cell (c, r), counter-clockwise from its lowest x and y.
@@ -143,4 +143,10 @@ impl WallGrid {
     pub fn entries(&self) -> usize {
         self.items.len()
     }
+}
+
+/// Centre of cell (c, r) of a grid of cells of side `cell` whose first cell starts at `origin`.
+#[inline]
+fn centre_of(origin: Point2<f64>, cell: f64, c: usize, r: usize) -> Point2<f64> {
+    Point2::new(origin.x + (c as f64 + 0.5) * cell, origin.y + (r as f64 + 0.5) * cell)
 }
