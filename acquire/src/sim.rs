@@ -138,9 +138,10 @@ impl Simulator {
     }
 
     /// The region holding most of the lattice points that are clear and enclosed: the
-    /// building's main space.
+    /// building's main space. 600 points find it (a rack or a closet holds a few % of a map at
+    /// most), and each costs a 16-ray cast: on a 5000-wall map they take about 0.1 s.
     fn main_region(&mut self) -> Option<u32> {
-        let points: Vec<_> = self.free_space.lattice(4000).collect();
+        let points: Vec<_> = self.free_space.lattice(600).collect();
         let mut votes = vec![0usize; self.free_space.regions() as usize + 1];
         for q in points {
             if self.field.distance(q) >= self.clearance && self.enclosed(q) {
@@ -181,7 +182,7 @@ impl Simulator {
         for _ in 0..100_000 {
             let q = Point2::new(self.rng.range(lo.x, hi.x), self.rng.range(lo.y, hi.y));
             if self.field.distance(q) >= self.clearance
-                && self.free_space.region(q) == self.main_region
+                && self.main_region.is_none_or(|main| self.free_space.region(q) == Some(main))
                 && self.enclosed(q)
             {
                 return pose(q.x, q.y, self.rng.range(-std::f64::consts::PI, std::f64::consts::PI));
