@@ -51,7 +51,8 @@ pub struct LocateArgs {
     /// refine_iterations, first_corners (0: no first look), first_prescreened, first_screened,
     /// first_refined, first_inliers, first_through, coarse_beams, coarse_sigma, sparse_beams,
     /// sparse_kept, arm_slack, map_sigma (a floor on the map's accuracy), cost_stride,
-    /// front_cap, through_cap, ambiguity, cornerless_tie, min_inliers, max_through, merge_angle (degrees),
+    /// front_cap, through_cap, ambiguity, cornerless_tie, min_inliers, max_through, max_through_ok,
+    /// merge_angle (degrees),
     /// min_samples, averaging (readings per sample, section 4.1), noise_tolerance (0: never
     /// widen e(d) to a noisier scan's measured noise), error_constant,
     /// error_proportional, slide_lines, slide_min_length, slide_step, slide_slack,
@@ -130,6 +131,7 @@ pub fn configs(a: &LocateArgs) -> Result<(SegmenterConfig, LocalizerConfig, MapC
             "cornerless_tie" => loc.cornerless_tie = v,
             "min_inliers" => loc.min_inliers = v,
             "max_through" => loc.max_through = v,
+            "max_through_ok" => loc.max_through_ok = v,
             "merge_angle" => seg.filter.merge_angle = v.to_radians(),
             "min_samples" => seg.filter.min_samples = v as u32,
             "averaging" => seg.averaging = v as usize,
