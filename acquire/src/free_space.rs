@@ -133,30 +133,30 @@ pub(crate) mod tests {
         assert_eq!(space.region(Point2::new(5.0, 2.0)), None);
     }
 
+    /// Whether `a` and `b` lie in different regions of the free space of `walls`.
+    fn apart(walls: &[Wall], a: (f64, f64), b: (f64, f64)) -> bool {
+        let space = free_space(walls);
+        let (ra, rb) = (space.region(Point2::new(a.0, a.1)), space.region(Point2::new(b.0, b.1)));
+        assert!(ra.is_some() && rb.is_some(), "both points are clear of walls");
+        ra != rb
+    }
+
     #[test]
     fn a_door_joins_two_rooms_and_a_wall_does_not() {
-        let p = |x, y| Point2::new(x, y);
-        let mut walls = rectangle(0.0, 0.0, 10.0, 4.0);
-        // a partition at x = 5 with a 0.8 m door
-        walls.push(Wall::new(5.0, 0.0, 5.0, 1.6));
-        walls.push(Wall::new(5.0, 2.4, 5.0, 4.0));
-        let space = free_space(&walls);
-        assert_eq!(space.region(p(2.0, 2.0)), space.region(p(8.0, 2.0)));
-        assert!(space.region(p(2.0, 2.0)).is_some());
-
-        let mut walls = rectangle(0.0, 0.0, 10.0, 4.0);
-        walls.push(Wall::new(5.0, 0.0, 5.0, 4.0));
-        let space = free_space(&walls);
-        assert_ne!(space.region(p(2.0, 2.0)), space.region(p(8.0, 2.0)));
+        // a partition at x = 5 with a 0.8 m door, then without one
+        let mut with_door = rectangle(0.0, 0.0, 10.0, 4.0);
+        with_door.extend([Wall::new(5.0, 0.0, 5.0, 1.6), Wall::new(5.0, 2.4, 5.0, 4.0)]);
+        assert!(!apart(&with_door, (2.0, 2.0), (8.0, 2.0)));
+        let mut closed = rectangle(0.0, 0.0, 10.0, 4.0);
+        closed.push(Wall::new(5.0, 0.0, 5.0, 4.0));
+        assert!(apart(&closed, (2.0, 2.0), (8.0, 2.0)));
     }
 
     #[test]
     fn a_slanted_wall_does_not_leak() {
-        let p = |x, y| Point2::new(x, y);
         let mut walls = rectangle(0.0, 0.0, 10.0, 10.0);
         walls.push(Wall::new(0.0, 0.0, 10.0, 10.0));
-        let space = free_space(&walls);
-        assert_ne!(space.region(p(7.0, 3.0)), space.region(p(3.0, 7.0)));
+        assert!(apart(&walls, (7.0, 3.0), (3.0, 7.0)));
     }
 
     #[test]
