@@ -48,17 +48,11 @@ impl ReachLists {
         let within = WallGrid::covering(walls, CELL, range, CELL);
         let visible = (0..within.cell_count()).map(|_| OnceLock::new()).collect();
         let lists = ReachLists { range, within, visible };
-        let pairs: f64 = (0..lists.within.cell_count())
-            .map(|k| {
-                let n = lists.within.walls_in(k % lists.within.cols(), k / lists.within.cols()).len() as f64;
-                n * n
-            })
-            .sum();
+        let cells = || (0..lists.within.rows()).flat_map(|r| (0..lists.within.cols()).map(move |c| (c, r)));
+        let pairs: f64 = cells().map(|(c, r)| (lists.within.walls_in(c, r).len() as f64).powi(2)).sum();
         if pairs <= eager_pairs {
-            for r in 0..lists.within.rows() {
-                for c in 0..lists.within.cols() {
-                    lists.at(walls, lists.within.cell_centre(c, r));
-                }
+            for (c, r) in cells() {
+                lists.visible_in(walls, c, r);
             }
         }
         lists
@@ -67,12 +61,16 @@ impl ReachLists {
     /// The walls a cast from `p` may meet, when `p` lies on the grid.
     fn at(&self, walls: &[Wall], p: Point2<f64>) -> Option<&[u32]> {
         let (c, r) = self.within.cell_of(p)?;
-        let list = self.visible[self.within.cell_index(c, r)].get_or_init(|| {
+        Some(self.visible_in(walls, c, r))
+    }
+
+    /// The walls of cell (c, r) not hidden from it, filtered on the first call.
+    fn visible_in(&self, walls: &[Wall], c: usize, r: usize) -> &[u32] {
+        self.visible[self.within.cell_index(c, r)].get_or_init(|| {
             let mut kept = Vec::new();
             potentially_visible(walls, &self.within.cell_corners(c, r), self.within.walls_in(c, r), &mut kept);
             kept.into_boxed_slice()
-        });
-        Some(list)
+        })
     }
 }
 
