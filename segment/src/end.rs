@@ -12,6 +12,13 @@
 //! A line's end is a wall end when, within a few beams past it, the sensor sees beyond the end
 //! (a range clearly farther, or no return at all) before it sees anything nearer: a nearer
 //! reading is an occluder, a reading at about the same range is the next wall of a corner.
+//!
+//! The line must pass the limits of a corner's arm ([`CornerConfig::min_arm_length`] and
+//! [`CornerConfig::max_direction_sigma`]), since it is both arms. An earlier, separate 0.6 m
+//! minimum left out the faces of pillars and short rack ends; on the simulated logs (300 scans
+//! each, seed 1) the corner's 0.25 m took the clean warehouse from 96.7 to 97.0 % success, its
+//! people log from 94.3 to 94.7 % and its furnished one from 63.3 to 67.3 %, and lost no scan
+//! on the other maps (the furnished office drawn with thick walls lost 1).
 
 use crate::corner::{Arm, Corner, CornerConfig};
 use crate::line::Line;
@@ -29,8 +36,6 @@ pub struct EndConfig {
     /// How much farther than the line's end a reading past it must be to see beyond the end,
     /// metres (mixed pixels fall in between and are skipped).
     pub jump: f64,
-    /// Shortest line whose ends count, metres: a short line's direction is poor.
-    pub min_length: f64,
     /// A "no return" past the end shows the wall ends only if the end lies this far inside the
     /// sensor's range, metres.
     pub range_margin: f64,
@@ -43,7 +48,7 @@ pub struct EndConfig {
 
 impl Default for EndConfig {
     fn default() -> Self {
-        EndConfig { enabled: true, jump: 0.3, min_length: 0.6, range_margin: 0.3, look: 3, continuation: 0.15 }
+        EndConfig { enabled: true, jump: 0.3, range_margin: 0.3, look: 3, continuation: 0.15 }
     }
 }
 
@@ -75,7 +80,8 @@ pub fn extract_wall_ends(
     }
     let first_new = out.len();
     for (index, line) in lines.iter().enumerate() {
-        if line.length() < cfg.min_length || line.direction_sigma > corner.max_direction_sigma {
+        // a wall end is a corner whose two arms are this line: it takes a corner arm's limits
+        if line.length() < corner.min_arm_length || line.direction_sigma > corner.max_direction_sigma {
             continue;
         }
         let (Some(first), Some(last)) =
@@ -189,6 +195,20 @@ mod tests {
             assert!((e.arms[0].direction.x - into).abs() < 1e-3, "{e:?}");
             assert_eq!(e.arms[0], e.arms[1]);
         }
+    }
+
+    #[test]
+    fn a_face_as_short_as_a_corners_arm_has_wall_ends() {
+        // a 0.4 m pillar face with nothing behind it: long enough for a corner's arm
+        let (g, ranges) = wall_scan(2.0, 1.0, 1.4);
+        assert_eq!(ends(g, &ranges).len(), 2);
+        // the arm limit is the corner's: raised above the face's length, the ends go too
+        let mut config = SegmenterConfig::default();
+        config.corner.min_arm_length = 0.5;
+        let mut seg = LineVisibilitySegmenter::new(config);
+        let out = seg.segment(&ScanView { geometry: g, ranges: &ranges });
+        assert_eq!(out.lines.len(), 1, "{:?}", out.lines);
+        assert!(out.corners.iter().all(|c| c.inner_angle != TAU), "{:?}", out.corners);
     }
 
     #[test]
