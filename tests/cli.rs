@@ -57,6 +57,14 @@ fn sim_then_locate_writes_the_design_csv_and_reports_accuracy() {
         .map(|l| l.split(',').next().unwrap().to_owned())
         .collect();
     assert_eq!(scans, (0..10).map(|k| (1 + 3 * k).to_string()).collect::<Vec<_>>());
+    // --dump-scan makes its folder and writes that scan's segmentation and map as JSON
+    let dump = dir.path().join("dumps").join("apartment");
+    let out = gema2(&["locate", "--map", "apartment", "--log", log_s, "--dump-scan", "2", dump.to_str().unwrap()]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let json = std::fs::read_to_string(dump.join("scan2.json")).expect("scan 2 dumped");
+    for key in ["\"points\"", "\"lines\"", "\"corners\"", "\"walls\""] {
+        assert!(json.contains(key), "{key} missing");
+    }
 }
 
 #[test]

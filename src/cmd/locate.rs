@@ -59,7 +59,8 @@ pub struct LocateArgs {
     /// slide_screened, slide_max_poses, slide_sigma_deg, slide_min_inliers_ok.
     #[arg(long = "set", value_name = "KEY=VALUE")]
     pub set: Vec<String>,
-    /// Write scan N's samples, lines, corners and (true-pose) map as JSON to this folder.
+    /// Write scan N's samples, lines, corners and (true-pose) map as JSON to this folder
+    /// (created if missing).
     #[arg(long, num_args = 2, value_names = ["N", "DIR"])]
     pub dump_scan: Vec<String>,
 }
@@ -177,7 +178,9 @@ pub fn run(a: LocateArgs) -> Result<()> {
         let (seg, loc) = gema2.process(&scan.view());
         let micros = start.elapsed().as_secs_f64() * 1e6;
         if a.dump_scan.len() == 2 && a.dump_scan[0].parse::<usize>().ok() == Some(index) {
-            let path = PathBuf::from(&a.dump_scan[1]).join(format!("scan{index}.json"));
+            let dir = PathBuf::from(&a.dump_scan[1]);
+            std::fs::create_dir_all(&dir).with_context(|| format!("creating {}", dir.display()))?;
+            let path = dir.join(format!("scan{index}.json"));
             std::fs::write(&path, crate::diagnose::scan_json(scan, seg, &model))
                 .with_context(|| format!("writing {}", path.display()))?;
         }
