@@ -179,9 +179,14 @@ mod tests {
     }
 
     fn ends(g: ScanGeometry, ranges: &[f32]) -> Vec<Corner> {
-        let mut seg = LineVisibilitySegmenter::new(SegmenterConfig::default());
+        lines_and_ends(SegmenterConfig::default(), g, ranges).1
+    }
+
+    /// The number of lines `config` finds in the scan, and their wall ends.
+    fn lines_and_ends(config: SegmenterConfig, g: ScanGeometry, ranges: &[f32]) -> (usize, Vec<Corner>) {
+        let mut seg = LineVisibilitySegmenter::new(config);
         let out = seg.segment(&ScanView { geometry: g, ranges });
-        out.corners.iter().filter(|c| c.inner_angle == TAU).copied().collect()
+        (out.lines.len(), out.corners.iter().filter(|c| c.inner_angle == TAU).copied().collect())
     }
 
     #[test]
@@ -205,10 +210,9 @@ mod tests {
         // the arm limit is the corner's: raised above the face's length, the ends go too
         let mut config = SegmenterConfig::default();
         config.corner.min_arm_length = 0.5;
-        let mut seg = LineVisibilitySegmenter::new(config);
-        let out = seg.segment(&ScanView { geometry: g, ranges: &ranges });
-        assert_eq!(out.lines.len(), 1, "{:?}", out.lines);
-        assert!(out.corners.iter().all(|c| c.inner_angle != TAU), "{:?}", out.corners);
+        let (lines, found) = lines_and_ends(config, g, &ranges);
+        assert_eq!(lines, 1);
+        assert!(found.is_empty(), "{found:?}");
     }
 
     #[test]
