@@ -120,7 +120,8 @@ pub fn extract_corners(lines: &[Line], cfg: &CornerConfig, out: &mut Vec<Corner>
     out.sort_by(|a, b| b.quality.total_cmp(&a.quality));
 }
 
-fn usable(l: &Line, cfg: &CornerConfig) -> bool {
+/// Whether `l` passes a corner arm's limits: long enough, and its direction well enough known.
+pub(crate) fn usable(l: &Line, cfg: &CornerConfig) -> bool {
     l.direction_sigma <= cfg.max_direction_sigma && l.length() >= cfg.min_arm_length
 }
 

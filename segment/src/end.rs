@@ -20,7 +20,7 @@
 //! people log from 94.3 to 94.7 % and its furnished one from 63.3 to 67.3 %, and lost no scan
 //! on the other maps (the furnished office drawn with thick walls lost 1).
 
-use crate::corner::{Arm, Corner, CornerConfig};
+use crate::corner::{usable, Arm, Corner, CornerConfig};
 use crate::line::Line;
 use crate::sample::Sample;
 use crate::visibility::hit;
@@ -81,7 +81,7 @@ pub fn extract_wall_ends(
     let first_new = out.len();
     for (index, line) in lines.iter().enumerate() {
         // a wall end is a corner whose two arms are this line: it takes a corner arm's limits
-        if line.length() < corner.min_arm_length || line.direction_sigma > corner.max_direction_sigma {
+        if !usable(line, corner) {
             continue;
         }
         let (Some(first), Some(last)) =
