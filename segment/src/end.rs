@@ -141,6 +141,9 @@ fn past(scan: &ScanView<'_>, line: &Line, range: f64, beam: usize, forward: bool
             // about the same range: a mixed pixel, or the next wall of a corner
             Reading::Valid(_) | Reading::Unknown => {}
             Reading::NoReturn => {
+                if continues_past_lost_returns(scan, line, i, forward, cfg) {
+                    return Past::Hidden;
+                }
                 // the wall may go on out of range: only if its extension would have been seen
                 // well inside the range does a missing return show that it ends
                 let a = scan.geometry.angle(i);
@@ -152,6 +155,27 @@ fn past(scan: &ScanView<'_>, line: &Line, range: f64, beam: usize, forward: bool
         }
     }
     Past::Hidden
+}
+
+/// Most missing returns in a row that can be returns lost on a wall that goes on.
+const LOST_RETURNS: usize = 2;
+
+/// Whether the first reading after the missing returns from beam `i` on (at most
+/// [`LOST_RETURNS`] of them) lies on `line`'s extension: the wall went on and its returns were
+/// lost, as a sensor that reports a lost return as "no return" (a SICK LMS) shows them.
+fn continues_past_lost_returns(scan: &ScanView<'_>, line: &Line, i: usize, forward: bool, cfg: &EndConfig) -> bool {
+    (1..=LOST_RETURNS)
+        .map(|step| if forward { i.wrapping_add(step) } else { i.wrapping_sub(step) })
+        .take_while(|&j| j < scan.len())
+        .map(|j| (j, scan.reading(j)))
+        .find(|(_, r)| *r != Reading::NoReturn)
+        .is_some_and(|(j, r)| match r {
+            Reading::Valid(d) => {
+                let a = scan.geometry.angle(j);
+                line.distance_to(nalgebra::Point2::new(d * a.cos(), d * a.sin())) < cfg.continuation
+            }
+            _ => false,
+        })
 }
 
 #[cfg(test)]
@@ -244,6 +268,26 @@ mod tests {
         let (g, ranges) = wall_scan(0.6, 0.5, 9.0);
         let found = ends(g, &ranges);
         assert!(found.iter().all(|c| c.position.x < 1.0), "{found:?}");
+    }
+
+    #[test]
+    fn returns_lost_on_a_wall_that_goes_on_are_no_wall_end() {
+        // a sensor that reports a lost return as its maximum range (a SICK LMS): one or two such
+        // beams three beams short of the end of the wall y = 2, x in [0.5, 3] (beams 124-166)
+        // leave too few samples past them for a line, so the long line ends at the lost returns
+        for lost in [1, 2] {
+            let (g, mut ranges) = wall_scan(2.0, 0.5, 3.0);
+            ranges[127..127 + lost].fill(10.0);
+            let found = ends(g, &ranges);
+            // the wall goes on past them: only its end at x = 0.5 is seen
+            assert_eq!(found.len(), 1, "{lost} lost: {found:?}");
+            assert!((found[0].position.x - 0.5).abs() < 0.1, "{lost} lost: {found:?}");
+        }
+        // farther than the line's extension, the next reading shows the wall did end there
+        let (g, mut ranges) = wall_scan(2.0, 0.5, 3.0);
+        ranges[127] = 10.0;
+        ranges[124..127].fill(4.0);
+        assert_eq!(ends(g, &ranges).len(), 2);
     }
 
     #[test]
