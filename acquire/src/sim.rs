@@ -55,8 +55,12 @@ pub struct SensorModel {
     /// Range noise standard deviation: `noise_constant + noise_proportional * range`.
     pub noise_constant: f64,
     pub noise_proportional: f64,
-    /// Probability that a reading is lost (reported as 0, an error code).
+    /// Probability that a reading is lost: reported as 0 (an error code, as the URG-04LX
+    /// does), or as the maximum range when `dropout_reads_max`.
     pub dropout: f64,
+    /// Lost readings read as the maximum range, as a SICK LMS reports them (81.91 m in the
+    /// CARMEN logs), indistinguishable from a beam that met nothing in range.
+    pub dropout_reads_max: bool,
     /// Probability that a beam at a depth jump returns a mix of both surfaces.
     pub mixed_pixel: f64,
     /// Depth difference between neighbouring beams that counts as a jump, metres.
@@ -72,6 +76,7 @@ impl SensorModel {
             noise_constant: 0.01,
             noise_proportional: 0.005,
             dropout: 0.005,
+            dropout_reads_max: false,
             mixed_pixel: 0.5,
             jump: 0.15,
         }
@@ -243,7 +248,11 @@ impl Simulator {
             let reading = if !d.is_finite() || d >= g.range_max {
                 g.range_max
             } else if self.rng.chance(s.dropout) {
-                0.0
+                if s.dropout_reads_max {
+                    g.range_max
+                } else {
+                    0.0
+                }
             } else {
                 let noisy = d + self.rng.normal() * (s.noise_constant + s.noise_proportional * d);
                 if noisy >= g.range_max {

@@ -34,6 +34,12 @@ pub struct SimArgs {
     pub noise: f64,
     #[arg(long, default_value_t = 0.005)]
     pub noise_proportional: f64,
+    /// Probability that a reading is lost.
+    #[arg(long, default_value_t = 0.005)]
+    pub dropout: f64,
+    /// Lost readings read as the maximum range (a SICK LMS) instead of 0 (a URG's error code).
+    #[arg(long)]
+    pub dropout_as_max_range: bool,
     #[arg(long)]
     pub out: PathBuf,
 }
@@ -54,6 +60,7 @@ impl SimArgs {
                 && self.noise_proportional >= 0.0,
             "--noise and --noise-proportional must be finite and not negative"
         );
+        anyhow::ensure!((0.0..=1.0).contains(&self.dropout), "--dropout must be a probability, not {}", self.dropout);
         let mut s = match self.fov {
             None if self.beams == 682 => SensorModel::urg04lx(),
             None => SensorModel::urg04lx_with_beams(self.beams),
@@ -69,6 +76,8 @@ impl SimArgs {
         s.geometry.range_max = self.range_max;
         s.noise_constant = self.noise;
         s.noise_proportional = self.noise_proportional;
+        s.dropout = self.dropout;
+        s.dropout_reads_max = self.dropout_as_max_range;
         Ok(s)
     }
 }
@@ -80,7 +89,7 @@ pub fn run(a: SimArgs) -> Result<()> {
     let mut w = BufWriter::new(file);
     writeln!(
         w,
-        "# gema2 sim --map {} --scenario {} --scans {} --seed {} --beams {}{} --range-max {} --noise {} --noise-proportional {}",
+        "# gema2 sim --map {} --scenario {} --scans {} --seed {} --beams {}{} --range-max {} --noise {} --noise-proportional {} --dropout {}{}",
         a.map,
         a.scenario,
         a.scans,
@@ -89,7 +98,9 @@ pub fn run(a: SimArgs) -> Result<()> {
         a.fov.map(|f| format!(" --fov {f}")).unwrap_or_default(),
         a.range_max,
         a.noise,
-        a.noise_proportional
+        a.noise_proportional,
+        a.dropout,
+        if a.dropout_as_max_range { " --dropout-as-max-range" } else { "" }
     )?;
     for _ in 0..a.scans {
         write_robotlaser1(&mut w, &sim.next_scan())?;
