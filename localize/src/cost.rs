@@ -8,6 +8,8 @@
 //! reading *longer* than the map predicts means seeing through a mapped wall and costs up to
 //! `through_cap`. A beam with no return where the map predicts a wall in range costs
 //! `through_cap` too; unknown readings (NaN, error codes) carry no information and are skipped.
+//! So are missing returns in a scan that shows its sensor reporting lost returns as "no
+//! return" ([`surface_dropouts`]).
 //!
 //! `through_cap` weighs a wrong pose's beams through walls against the right pose's beams
 //! through walls the map has but the world no longer does (a door drawn closed, a wall built
@@ -40,6 +42,10 @@ pub struct CostConfig {
     pub front_cap: f64,
     /// Cap of a residual behind the map's wall (or a missing return).
     pub through_cap: f64,
+    /// Skip missing returns, as unknown readings: set for a scan whose sensor loses returns
+    /// on surfaces it sees ([`surface_dropouts`]), where "no return" does not say that nothing
+    /// is there.
+    pub skip_no_returns: bool,
     /// Every how many beams to evaluate (the paper's equispaced subset); 1 = all.
     pub stride: usize,
     /// Smallest residual standard deviation, metres: raised when costing poses that are not
@@ -49,7 +55,14 @@ pub struct CostConfig {
 
 impl Default for CostConfig {
     fn default() -> Self {
-        CostConfig { kind: CostKind::OneSided, front_cap: 4.0, through_cap: 12.0, stride: 1, sigma_floor: 0.0 }
+        CostConfig {
+            kind: CostKind::OneSided,
+            front_cap: 4.0,
+            through_cap: 12.0,
+            skip_no_returns: false,
+            stride: 1,
+            sigma_floor: 0.0,
+        }
     }
 }
 
@@ -85,6 +98,7 @@ pub fn cost(
         let in_range = d_map < g.range_max;
         let c = match (scan.reading(k * stride), cfg.kind) {
             (Reading::Unknown, _) => continue,
+            (Reading::NoReturn, _) if cfg.skip_no_returns => continue,
             (Reading::Valid(d), CostKind::Paper) => {
                 if !in_range {
                     continue;
@@ -130,4 +144,134 @@ pub fn cost(
     }
     let n = beams as f64;
     Cost { value: sum / n, inliers: inliers as f64 / n, through: through as f64 / n, beams }
+}
+
+/// Runs of one or two missing returns between two valid readings that agree with each other
+/// within their errors, well inside the sensor's range (70 % of it): returns lost on a surface
+/// seen on both sides. A sensor that reports "no return" only where nothing is in range never
+/// gives one; a SICK LMS, which reads 81.91 m for a lost return, gives them on dark or distant
+/// walls. Linear in the scan's length.
+pub fn surface_dropouts(scan: &ScanView<'_>, error: &ErrorModel) -> usize {
+    let inside = 0.7 * scan.geometry.range_max;
+    let mut count = 0;
+    // the valid reading right before the current position, if any
+    let mut before: Option<f64> = None;
+    let mut k = 0;
+    while k < scan.len() {
+        match scan.reading(k) {
+            Reading::Valid(d) => {
+                before = Some(d);
+                k += 1;
+            }
+            Reading::Unknown => {
+                before = None;
+                k += 1;
+            }
+            Reading::NoReturn => {
+                let start = k;
+                while k < scan.len() && scan.reading(k) == Reading::NoReturn {
+                    k += 1;
+                }
+                if let (Some(a), Some(Reading::Valid(b))) = (before, (k < scan.len()).then(|| scan.reading(k))) {
+                    if k - start <= MAX_SURFACE_DROPOUT
+                        && a < inside
+                        && b < inside
+                        && (a - b).abs() <= error.at(a) + error.at(b)
+                    {
+                        count += 1;
+                    }
+                }
+                before = None;
+            }
+        }
+    }
+    count
+}
+
+/// Most missing returns in a row that [`surface_dropouts`] counts as lost on one surface.
+pub const MAX_SURFACE_DROPOUT: usize = 2;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use laser::{pose, ScanGeometry};
+    use mapserver::Wall;
+
+    /// A 181-beam, 180-degree scan with 10 m of range.
+    fn geometry() -> ScanGeometry {
+        ScanGeometry::centred(181, 180f64.to_radians(), 10.0)
+    }
+
+    fn dropouts(ranges: &[f32]) -> usize {
+        surface_dropouts(&ScanView { geometry: geometry(), ranges }, &ErrorModel::default())
+    }
+
+    #[test]
+    fn a_lost_return_between_two_readings_of_one_surface_is_a_surface_dropout() {
+        let mut r = vec![3.0f32; 181];
+        r[50] = 10.0;
+        r[100] = 10.0;
+        r[101] = 10.0;
+        assert_eq!(dropouts(&r), 2);
+    }
+
+    #[test]
+    fn an_opening_a_range_jump_the_range_edge_or_an_error_code_is_no_surface_dropout() {
+        // three in a row: an opening as much as a lost return
+        let mut r = vec![3.0f32; 181];
+        r[50..53].fill(10.0);
+        assert_eq!(dropouts(&r), 0);
+        // the two sides at different ranges: seen past an edge
+        let mut r = vec![3.0f32; 181];
+        r[50] = 10.0;
+        r[51..].fill(4.0);
+        assert_eq!(dropouts(&r), 0);
+        // a wall near the end of the range: noise alone takes readings past it
+        let mut r = vec![9.5f32; 181];
+        r[50] = 10.0;
+        assert_eq!(dropouts(&r), 0);
+        // an error code beside it: nothing is known on that side
+        let mut r = vec![3.0f32; 181];
+        r[50] = 10.0;
+        r[51] = 0.0;
+        assert_eq!(dropouts(&r), 0);
+        // a scan that starts or ends with missing returns
+        let mut r = vec![3.0f32; 181];
+        r[0] = 10.0;
+        r[180] = 10.0;
+        assert_eq!(dropouts(&r), 0);
+    }
+
+    /// A wall 3 m ahead across the whole scan, seen from the origin, with `lost` beams reading
+    /// no return: the true pose's cost with and without skipping missing returns.
+    fn wall_cost(lost: &[usize], skip: bool) -> Cost {
+        let g = geometry();
+        let wall = Wall::new(3.0, -100.0, 3.0, 100.0);
+        let caster = RayCaster::new(&[wall]);
+        let mut ranges: Vec<f32> = (0..181).map(|i| (3.0 / g.angle(i).cos()).min(9.0) as f32).collect();
+        for &i in lost {
+            ranges[i] = 10.0;
+        }
+        let scan = ScanView { geometry: g, ranges: &ranges };
+        let cfg = CostConfig { skip_no_returns: skip, ..CostConfig::default() };
+        let (mut scratch, mut expected) = (RayScratch::default(), Vec::new());
+        cost(&scan, &pose(0.0, 0.0, 0.0), &caster, &ErrorModel::default(), &cfg, &mut scratch, &mut expected)
+    }
+
+    #[test]
+    fn a_missing_return_where_the_map_has_a_wall_sees_through_it_unless_skipped() {
+        let lost = [80, 90, 100];
+        let all = wall_cost(&[], false);
+        let counted = wall_cost(&lost, false);
+        let skipped = wall_cost(&lost, true);
+        assert!(all.through == 0.0 && all.value < 1.0, "{all:?}");
+        // each lost beam costs the through-wall cap and counts as seeing through
+        assert_eq!(counted.beams, all.beams);
+        assert!((counted.through - 3.0 / f64::from(counted.beams)).abs() < 1e-12, "{counted:?}");
+        assert!(counted.value > all.value + 3.0 * 11.0 / f64::from(all.beams), "{counted:?} vs {all:?}");
+        // skipped, they are as an error code: not costed at all
+        assert_eq!(skipped.beams, all.beams - 3);
+        assert_eq!(skipped.through, 0.0);
+        assert!((skipped.value - all.value).abs() < 0.05, "{skipped:?} vs {all:?}");
+    }
 }

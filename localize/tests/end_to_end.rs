@@ -121,6 +121,44 @@ fn a_sensor_noisier_than_its_error_model_is_still_localized() {
     assert!(widened >= n * 9 / 10, "e(d) widened on {widened}/{n} scans");
 }
 
+/// A SICK-like sensor (181 beams over 180 degrees, 30 m) that reads its maximum range for 5 %
+/// of the returns it loses, as the CARMEN logs' SICK does: the scans show lost returns between
+/// readings of one wall, so their missing returns are skipped, and the right poses are not
+/// taken for seeing through walls. Costed as through-wall beams (`surface_dropouts` 0), the
+/// lost returns show in the right poses' through-wall fraction.
+#[test]
+fn returns_lost_as_maximum_range_are_not_seen_through_walls() {
+    let map = procedural::apartment();
+    let sensor = SensorModel {
+        geometry: ScanGeometry::centred(181, 180f64.to_radians(), 30.0),
+        beams: 181,
+        dropout: 0.05,
+        dropout_reads_max: true,
+        ..SensorModel::urg04lx()
+    };
+    let run = |surface_dropouts: usize| {
+        let mut gema2 = gema2(&map, LocalizerConfig { surface_dropouts, ..LocalizerConfig::default() });
+        let mut sim = Simulator::new(&map, sensor, Scenario::Clean, 8);
+        let (n, mut right, mut through) = (40, 0, 0.0);
+        for _ in 0..n {
+            let scan = sim.next_scan();
+            let truth = scan.truth.unwrap();
+            let (_, loc) = gema2.process(&scan.view());
+            if let Some(h) = loc.best().filter(|h| same_pose(&h.pose, &truth, 0.3, 5f64.to_radians())) {
+                right += 1;
+                through += h.cost.through;
+            }
+        }
+        (right as f64 / n as f64, through / right.max(1) as f64)
+    };
+    let (right, through) = run(1);
+    assert!(right >= 0.9, "{right} right");
+    // what remains: scans whose lost returns all lie beside an edge or an error code
+    assert!(through < 0.02, "right poses see through {through} of their beams");
+    let (_, counted) = run(0);
+    assert!(counted > 3.0 * through && counted > 0.04, "counted as through-wall beams: {counted} (skipped: {through})");
+}
+
 fn locate(map: &WallMap, ranges: Vec<f32>, geometry: ScanGeometry) -> Status {
     let mut gema2 = gema2(map, LocalizerConfig::default());
     let scan = LaserScan { geometry, ranges, stamp: 0.0, truth: None };
