@@ -87,6 +87,16 @@ pub fn dump(seg: &Segmentation, loc: &Localization, truth: &Pose, model: &locali
         loose,
         seg.lines.len()
     );
+    for (k, h) in loc.hypotheses.iter().take(6).enumerate() {
+        eprintln!(
+            "  h{k}: cost {:.3} inliers {:.3} through {:.3} beams {} {}",
+            h.cost.value,
+            h.cost.inliers,
+            h.cost.through,
+            h.cost.beams,
+            if near(&h.pose, SUCCESS_POSITION, SUCCESS_HEADING_DEG) { "right" } else { "wrong" }
+        );
+    }
     for (k, c) in seg.corners.iter().take(10).enumerate() {
         let p = truth * c.position;
         let nearest = model
