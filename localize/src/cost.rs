@@ -49,8 +49,20 @@ pub struct CostConfig {
     /// Every how many beams to evaluate (the paper's equispaced subset); 1 = all.
     pub stride: usize,
     /// Smallest residual standard deviation, metres: raised when costing poses that are not
-    /// yet refined, so a few centimetres of misalignment do not read as a wrong pose.
+    /// yet refined, so a few centimetres of misalignment do not read as a wrong pose, and to the
+    /// map's stated accuracy.
     pub sigma_floor: f64,
+    /// The floor is a distance across the wall (a wall drawn off its place, a pose a little
+    /// off); along a beam that meets the wall at incidence alpha it is floor / cos(alpha), at
+    /// most this many times the floor. The cost uses that; agreement and seeing through walls
+    /// (`inliers`, `through`) are still judged across the wall. 1 turns it off. On the CARMEN
+    /// maps (floor 0.1 m) beams grazing a wall drawn a few centimetres off its place read as
+    /// seeing through it at the right pose: with 3, aces went from 56.8 to 61.4 % success (ok
+    /// precision 88.5 -> 90.0 %), freiburg-101 from 76.7 to 77.4 %, csail from 62.6 to 61.6 %;
+    /// judging agreement along the beam too gave 61.4 / 62.1 / 79.5 % but 8 more wrong `ok`
+    /// answers. The simulated logs' maps state no error, so only their coarse cost (floor
+    /// 0.08 m) changes: over 39 logs, 14 more successes and as many wrong `ok` (78).
+    pub grazing_cap: f64,
 }
 
 impl Default for CostConfig {
@@ -62,6 +74,7 @@ impl Default for CostConfig {
             skip_no_returns: false,
             stride: 1,
             sigma_floor: 0.0,
+            grazing_cap: 3.0,
         }
     }
 }
@@ -93,8 +106,17 @@ pub fn cost(
     let stride = cfg.stride.max(1);
     caster.cast(pose, &g, scan.len(), stride, scratch, expected);
     let (mut sum, mut inliers, mut through, mut beams) = (0.0, 0u32, 0u32, 0u32);
+    let step = g.angle_increment.abs() * stride as f64;
     for (k, &d_map) in expected.iter().enumerate() {
-        let sigma = |d: f64| (error.at(d) / 3.0).max(cfg.sigma_floor);
+        // the sensor's sigma at this range, the floor across the wall (agreement and seeing
+        // through are judged against it), and the floor along this beam (what the cost uses)
+        let sensor = error.at(d_map) / 3.0;
+        let across = sensor.max(cfg.sigma_floor);
+        let along = if cfg.sigma_floor > sensor && cfg.grazing_cap > 1.0 && d_map.is_finite() {
+            sensor.max(cfg.sigma_floor * incidence_secant(expected, k, step).min(cfg.grazing_cap))
+        } else {
+            across
+        };
         let in_range = d_map < g.range_max;
         let c = match (scan.reading(k * stride), cfg.kind) {
             (Reading::Unknown, _) => continue,
@@ -103,7 +125,7 @@ pub fn cost(
                 if !in_range {
                     continue;
                 }
-                if ((d - d_map) / sigma(d_map)).abs() <= 3.0 {
+                if ((d - d_map) / across).abs() <= 3.0 {
                     inliers += 1;
                 }
                 (d - d_map).powi(2)
@@ -113,10 +135,11 @@ pub fn cost(
                 if !in_range {
                     cfg.front_cap
                 } else {
-                    let z = (d - d_map) / sigma(d_map);
-                    if z.abs() <= 3.0 {
+                    let z = (d - d_map) / along;
+                    let z_across = (d - d_map) / across;
+                    if z_across.abs() <= 3.0 {
                         inliers += 1;
-                    } else if z > 0.0 {
+                    } else if z_across > 0.0 {
                         through += 1;
                     }
                     if z > 0.0 {
@@ -127,7 +150,7 @@ pub fn cost(
                 }
             }
             (Reading::NoReturn, CostKind::OneSided) => {
-                if in_range && d_map < g.range_max - 3.0 * sigma(d_map) {
+                if in_range && d_map < g.range_max - 3.0 * across {
                     through += 1;
                     cfg.through_cap
                 } else {
@@ -144,6 +167,17 @@ pub fn cost(
     }
     let n = beams as f64;
     Cost { value: sum / n, inliers: inliers as f64 / n, through: through as f64 / n, beams }
+}
+
+/// 1 / cos of the incidence of beam `k` on the wall it meets, from how fast the expected range
+/// changes between neighbouring beams (`step` radians apart): dr / dphi = r tan(alpha). The
+/// smaller change of either side is used, so a jump from one wall to another does not count.
+fn incidence_secant(expected: &[f64], k: usize, step: f64) -> f64 {
+    let d = expected[k];
+    let before = k.checked_sub(1).map_or(f64::INFINITY, |j| (d - expected[j]).abs());
+    let after = expected.get(k + 1).map_or(f64::INFINITY, |&e| (e - d).abs());
+    let tan = before.min(after) / (step * d);
+    (1.0 + tan * tan).sqrt()
 }
 
 /// Runs of one or two missing returns between two valid readings that agree with each other
@@ -256,6 +290,42 @@ mod tests {
         let cfg = CostConfig { skip_no_returns: skip, ..CostConfig::default() };
         let (mut scratch, mut expected) = (RayScratch::default(), Vec::new());
         cost(&scan, &pose(0.0, 0.0, 0.0), &caster, &ErrorModel::default(), &cfg, &mut scratch, &mut expected)
+    }
+
+    #[test]
+    fn the_incidence_comes_from_the_expected_ranges_of_neighbouring_beams() {
+        // the wall x = 2 seen at 0.5-degree steps: r = 2 / cos(phi), incidence phi
+        let step = 0.5f64.to_radians();
+        let expected: Vec<f64> = (0..100).map(|i| 2.0 / (i as f64 * step).cos()).collect();
+        for k in [1, 40, 98] {
+            let phi = k as f64 * step;
+            assert!((incidence_secant(&expected, k, step) - 1.0 / phi.cos()).abs() < 0.02, "beam {k}");
+        }
+        // a jump to another wall on one side: the other side gives the incidence
+        let mut jump = expected.clone();
+        jump[41..].iter_mut().for_each(|r| *r += 3.0);
+        assert!((incidence_secant(&jump, 40, step) - 1.0 / (40.0 * step).cos()).abs() < 0.02);
+    }
+
+    #[test]
+    fn beams_grazing_a_wall_drawn_off_its_place_cost_less_but_still_count_as_through() {
+        // the wall y = 1 drawn 15 cm short of where the sensor sees it (y = 1.15), in a map
+        // that states 10 cm of accuracy: beams at a few degrees from it read tens of
+        // centimetres past the drawn wall
+        let g = geometry();
+        let caster = RayCaster::new(&[Wall::new(0.0, 1.0, 20.0, 1.0)]);
+        let ranges: Vec<f32> =
+            (0..181).map(|i| g.angle(i).sin()).map(|s| if s > 0.06 { (1.15 / s) as f32 } else { 0.0 }).collect();
+        let scan = ScanView { geometry: g, ranges: &ranges };
+        let at = |grazing_cap: f64| {
+            let cfg = CostConfig { sigma_floor: 0.1, grazing_cap, ..CostConfig::default() };
+            let (mut scratch, mut expected) = (RayScratch::default(), Vec::new());
+            cost(&scan, &pose(0.0, 0.0, 0.0), &caster, &ErrorModel::default(), &cfg, &mut scratch, &mut expected)
+        };
+        let (plain, along) = (at(1.0), at(3.0));
+        assert!(plain.through > 0.05, "{plain:?}");
+        assert!(along.value < 0.8 * plain.value, "{along:?} vs {plain:?}");
+        assert_eq!((along.inliers, along.through), (plain.inliers, plain.through));
     }
 
     #[test]

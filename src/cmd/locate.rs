@@ -51,7 +51,8 @@ pub struct LocateArgs {
     /// refine_iterations, first_corners (0: no first look), first_prescreened, first_screened,
     /// first_refined, first_inliers, first_through, coarse_beams, coarse_sigma, sparse_beams,
     /// sparse_kept, arm_slack, map_sigma (a floor on the map's accuracy), cost_stride,
-    /// front_cap, through_cap, surface_dropouts (0: never skip missing returns),
+    /// front_cap, through_cap, grazing_cap (1: off), surface_dropouts (0: never skip missing
+    /// returns),
     /// ambiguity, cornerless_tie, min_inliers, max_through, max_through_ok,
     /// merge_angle (degrees),
     /// min_samples, averaging (readings per sample, section 4.1), noise_tolerance (0: never
@@ -129,6 +130,7 @@ pub fn configs(a: &LocateArgs) -> Result<(SegmenterConfig, LocalizerConfig, MapC
             "front_cap" => loc.cost.front_cap = v,
             "cost_stride" => loc.cost.stride = v as usize,
             "through_cap" => loc.cost.through_cap = v,
+            "grazing_cap" => loc.cost.grazing_cap = v,
             "surface_dropouts" => loc.surface_dropouts = v as usize,
             "ambiguity" => loc.ambiguity_margin = v,
             "cornerless_tie" => loc.cornerless_tie = v,
