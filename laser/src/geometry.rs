@@ -5,6 +5,11 @@ use serde::{Deserialize, Serialize};
 /// Readings at or below this range are error codes or noise, never points (DESIGN.md).
 pub const MIN_VALID_RANGE: f64 = 0.02;
 
+/// Most "no return" readings in a row that can be returns lost on a surface the sensor sees on
+/// both sides (a SICK LMS reports a lost return as its maximum range); more in a row are as
+/// likely an opening.
+pub const MAX_LOST_RETURNS: usize = 2;
+
 /// The beam layout of a scan: beam `i` points at `angle_min + i * angle_increment` in the
 /// sensor frame. This generalises eq. 1's `phi_i = f * (i/n - 1/2)` to sensors whose field of
 /// view is not centred or whose beams do not span `f` exactly.

@@ -12,7 +12,7 @@ mod geometry;
 mod pose;
 pub mod rng;
 
-pub use geometry::{Reading, ScanGeometry, MIN_VALID_RANGE};
+pub use geometry::{Reading, ScanGeometry, MAX_LOST_RETURNS, MIN_VALID_RANGE};
 pub use pose::{angle_diff, pose, pose_theta, wrap_angle, Pose};
 
 /// A scan that owns its ranges, with the ground-truth sensor pose when the source knows it

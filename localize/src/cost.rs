@@ -179,9 +179,9 @@ fn incidence_secant_sq(expected: &[f64], k: usize, step: f64) -> f64 {
     1.0 + (change * change) / (step * step * d * d)
 }
 
-/// Runs of one or two missing returns between two valid readings that agree with each other
-/// within their errors, well inside the sensor's range (70 % of it): returns lost on a surface
-/// seen on both sides. A sensor that reports "no return" only where nothing is in range never
+/// Runs of at most [`laser::MAX_LOST_RETURNS`] missing returns between two valid readings that
+/// agree with each other within their errors, well inside the sensor's range (70 % of it):
+/// returns lost on a surface seen on both sides. A sensor that reports "no return" only where nothing is in range never
 /// gives one; a SICK LMS, which reads 81.91 m for a lost return, gives them on dark or distant
 /// walls. Linear in the scan's length.
 pub fn surface_dropouts(scan: &ScanView<'_>, error: &ErrorModel) -> usize {
@@ -206,7 +206,7 @@ pub fn surface_dropouts(scan: &ScanView<'_>, error: &ErrorModel) -> usize {
                     k += 1;
                 }
                 if let (Some(a), Some(Reading::Valid(b))) = (before, (k < scan.len()).then(|| scan.reading(k))) {
-                    if k - start <= MAX_SURFACE_DROPOUT
+                    if k - start <= laser::MAX_LOST_RETURNS
                         && a < inside
                         && b < inside
                         && (a - b).abs() <= error.at(a) + error.at(b)
@@ -220,9 +220,6 @@ pub fn surface_dropouts(scan: &ScanView<'_>, error: &ErrorModel) -> usize {
     }
     count
 }
-
-/// Most missing returns in a row that [`surface_dropouts`] counts as lost on one surface.
-pub const MAX_SURFACE_DROPOUT: usize = 2;
 
 #[cfg(test)]
 mod tests {
@@ -285,10 +282,14 @@ mod tests {
         for &i in lost {
             ranges[i] = 10.0;
         }
-        let scan = ScanView { geometry: g, ranges: &ranges };
-        let cfg = CostConfig { skip_no_returns: skip, ..CostConfig::default() };
+        cost_at_origin(&ranges, &caster, &CostConfig { skip_no_returns: skip, ..CostConfig::default() })
+    }
+
+    /// The cost of a pose at the origin for `ranges` read with [`geometry`].
+    fn cost_at_origin(ranges: &[f32], caster: &RayCaster, cfg: &CostConfig) -> Cost {
+        let scan = ScanView { geometry: geometry(), ranges };
         let (mut scratch, mut expected) = (RayScratch::default(), Vec::new());
-        cost(&scan, &pose(0.0, 0.0, 0.0), &caster, &ErrorModel::default(), &cfg, &mut scratch, &mut expected)
+        cost(&scan, &pose(0.0, 0.0, 0.0), caster, &ErrorModel::default(), cfg, &mut scratch, &mut expected)
     }
 
     #[test]
@@ -315,11 +316,8 @@ mod tests {
         let caster = RayCaster::new(&[Wall::new(0.0, 1.0, 20.0, 1.0)]);
         let ranges: Vec<f32> =
             (0..181).map(|i| g.angle(i).sin()).map(|s| if s > 0.06 { (1.15 / s) as f32 } else { 0.0 }).collect();
-        let scan = ScanView { geometry: g, ranges: &ranges };
         let at = |grazing_cap: f64| {
-            let cfg = CostConfig { sigma_floor: 0.1, grazing_cap, ..CostConfig::default() };
-            let (mut scratch, mut expected) = (RayScratch::default(), Vec::new());
-            cost(&scan, &pose(0.0, 0.0, 0.0), &caster, &ErrorModel::default(), &cfg, &mut scratch, &mut expected)
+            cost_at_origin(&ranges, &caster, &CostConfig { sigma_floor: 0.1, grazing_cap, ..CostConfig::default() })
         };
         let (plain, along) = (at(1.0), at(3.0));
         assert!(plain.through > 0.05, "{plain:?}");

@@ -157,14 +157,12 @@ fn past(scan: &ScanView<'_>, line: &Line, range: f64, beam: usize, forward: bool
     Past::Hidden
 }
 
-/// Most missing returns in a row that can be returns lost on a wall that goes on.
-const LOST_RETURNS: usize = 2;
-
 /// Whether the first reading after the missing returns from beam `i` on (at most
-/// [`LOST_RETURNS`] of them) lies on `line`'s extension: the wall went on and its returns were
-/// lost, as a sensor that reports a lost return as "no return" (a SICK LMS) shows them.
+/// [`laser::MAX_LOST_RETURNS`] of them) lies on `line`'s extension: the wall went on and its
+/// returns were lost, as a sensor that reports a lost return as "no return" (a SICK LMS) shows
+/// them.
 fn continues_past_lost_returns(scan: &ScanView<'_>, line: &Line, i: usize, forward: bool, cfg: &EndConfig) -> bool {
-    (1..=LOST_RETURNS)
+    (1..=laser::MAX_LOST_RETURNS)
         .map(|step| if forward { i.wrapping_add(step) } else { i.wrapping_sub(step) })
         .take_while(|&j| j < scan.len())
         .map(|j| (j, scan.reading(j)))
