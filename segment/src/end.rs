@@ -133,9 +133,7 @@ fn past(scan: &ScanView<'_>, line: &Line, range: f64, beam: usize, forward: bool
         }
         match scan.reading(i) {
             Reading::Valid(d) if d > range + cfg.jump => {
-                let a = scan.geometry.angle(i);
-                let q = nalgebra::Point2::new(d * a.cos(), d * a.sin());
-                return if line.distance_to(q) < cfg.continuation { Past::Hidden } else { Past::Beyond };
+                return if on_extension(scan, line, i, d, cfg) { Past::Hidden } else { Past::Beyond };
             }
             Reading::Valid(d) if d < range - cfg.jump => return Past::Hidden,
             // about the same range: a mixed pixel, or the next wall of a corner
@@ -167,13 +165,14 @@ fn continues_past_lost_returns(scan: &ScanView<'_>, line: &Line, i: usize, forwa
         .take_while(|&j| j < scan.len())
         .map(|j| (j, scan.reading(j)))
         .find(|(_, r)| *r != Reading::NoReturn)
-        .is_some_and(|(j, r)| match r {
-            Reading::Valid(d) => {
-                let a = scan.geometry.angle(j);
-                line.distance_to(nalgebra::Point2::new(d * a.cos(), d * a.sin())) < cfg.continuation
-            }
-            _ => false,
-        })
+        .is_some_and(|(j, r)| matches!(r, Reading::Valid(d) if on_extension(scan, line, j, d, cfg)))
+}
+
+/// Whether beam `i`'s reading `d` lies within [`EndConfig::continuation`] of `line`'s
+/// extension: the same wall, not something beyond its end.
+fn on_extension(scan: &ScanView<'_>, line: &Line, i: usize, d: f64, cfg: &EndConfig) -> bool {
+    let a = scan.geometry.angle(i);
+    line.distance_to(nalgebra::Point2::new(d * a.cos(), d * a.sin())) < cfg.continuation
 }
 
 #[cfg(test)]
