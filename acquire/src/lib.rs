@@ -2,7 +2,6 @@
 //! comes in its own module).
 
 pub mod carmen;
-pub mod free_space;
 pub mod node;
 pub mod scip;
 pub mod sim;

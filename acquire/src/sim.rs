@@ -6,10 +6,9 @@
 //! and in the connected region of the free space that holds most of it (see [`FreeSpace`]), so
 //! the robot is never inside a rack, a pillar or any other closed outline.
 
-use crate::free_space::FreeSpace;
 use laser::rng::Rng;
 use laser::{pose, LaserScan, Pose, ScanGeometry};
-use mapserver::{DistanceField, RayCaster, RayScratch, Wall, WallMap};
+use mapserver::{DistanceField, FreeSpace, RayCaster, RayScratch, Wall, WallMap};
 use nalgebra::{Point2, Vector2};
 use std::f64::consts::TAU;
 use std::str::FromStr;
@@ -421,11 +420,10 @@ mod tests {
 
     #[test]
     fn poses_are_never_inside_a_closed_outline() {
-        use crate::free_space::tests::rectangle;
         // a hall with a closed 4 x 4 m block: before poses kept to the main region, about a
         // quarter of them fell inside the block
-        let mut walls = rectangle(0.0, 0.0, 10.0, 6.0);
-        walls.extend(rectangle(3.0, 1.0, 7.0, 5.0));
+        let mut walls = Wall::rectangle(0.0, 0.0, 10.0, 6.0).to_vec();
+        walls.extend(Wall::rectangle(3.0, 1.0, 7.0, 5.0));
         let map = WallMap::new(walls);
         let mut sim = Simulator::new(&map, SensorModel::urg04lx(), Scenario::Clean, 4);
         for _ in 0..300 {

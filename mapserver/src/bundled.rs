@@ -48,6 +48,21 @@ mod tests {
         assert!(e.contains("no/such/map.json: cannot read the map"), "{e}");
     }
 
+    /// Every bundled map is a building closed off from the space around it, where the
+    /// localizer then answers with no pose ([`crate::Outside`]).
+    #[test]
+    fn bundled_maps_close_their_outline() {
+        for (name, _) in BUNDLED {
+            let map = bundled(name).unwrap().unwrap();
+            let field = crate::DistanceField::new(&map.walls, 0.05, 0.5);
+            let (lo, hi) = map.bounds();
+            let outside = crate::FreeSpace::new(&field, (lo, hi)).outside();
+            let outside = outside.unwrap_or_else(|| panic!("{name} has an open outline"));
+            assert!(outside.contains(lo - nalgebra::Vector2::new(0.5, 0.5)), "{name}");
+            assert!(outside.contains(hi + nalgebra::Vector2::new(0.5, 0.5)), "{name}");
+        }
+    }
+
     #[test]
     fn bundled_maps_are_what_the_generators_make() {
         for (name, _) in BUNDLED {

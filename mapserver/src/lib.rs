@@ -5,6 +5,7 @@
 pub mod bundled;
 pub mod corners;
 pub mod field;
+pub mod free_space;
 pub mod grid;
 pub mod map;
 pub mod node;
@@ -16,5 +17,6 @@ pub mod wire;
 pub use bundled::{bundled, load_map, BUNDLED};
 pub use corners::{CornerIndex, MapArm, MapCorner, MapCornerConfig};
 pub use field::DistanceField;
+pub use free_space::{FreeSpace, Outside};
 pub use map::{MapError, Wall, WallMap};
 pub use raycast::{RayCaster, RayScratch};

@@ -22,6 +22,11 @@ impl Wall {
         Wall { a: Point2::new(x1, y1), b: Point2::new(x2, y2) }
     }
 
+    /// The four walls of the axis-aligned rectangle with corners (x0, y0) and (x1, y1).
+    pub fn rectangle(x0: f64, y0: f64, x1: f64, y1: f64) -> [Wall; 4] {
+        [Wall::new(x0, y0, x1, y0), Wall::new(x1, y0, x1, y1), Wall::new(x1, y1, x0, y1), Wall::new(x0, y1, x0, y0)]
+    }
+
     pub fn length(&self) -> f64 {
         (self.b - self.a).norm()
     }

@@ -1,14 +1,15 @@
 //! The map's free space split into connected regions, so the simulator puts the robot where a
 //! robot can be: in the building's main space, never inside a closed outline such as a rack, a
 //! pillar or a box drawn as four walls (from inside one, every rack of the same size looks
-//! alike, and no real scan is taken there).
+//! alike, and no real scan is taken there). And the space around a building whose walls close
+//! it off ([`Outside`]), where the localizer makes no hypothesis.
 //!
 //! Cells of a grid are passable when they lie at least one cell from every wall; 4-neighbour
 //! passable cells are connected. Two cells on either side of a wall are then at least two cells
 //! apart, so no region leaks through a wall, while any gap wider than two cells (a door) joins
 //! the rooms it opens onto.
 
-use mapserver::DistanceField;
+use crate::DistanceField;
 use nalgebra::Point2;
 
 /// Largest number of cells before the grid is coarsened.
@@ -27,6 +28,8 @@ pub struct FreeSpace {
     /// Region of each cell, 0 where the cell is not passable.
     labels: Vec<u32>,
     regions: u32,
+    /// Cells of each region, by label (index 0 unused).
+    sizes: Vec<usize>,
 }
 
 impl FreeSpace {
@@ -45,6 +48,7 @@ impl FreeSpace {
             (0..rows * cols).map(|i| field.distance(cell_centre(origin, cell, i % cols, i / cols)) >= cell).collect();
         let mut labels = vec![0u32; rows * cols];
         let mut regions = 0;
+        let mut sizes = vec![0];
         let mut stack = Vec::new();
         for start in 0..rows * cols {
             if !passable[start] || labels[start] != 0 {
@@ -52,8 +56,10 @@ impl FreeSpace {
             }
             regions += 1;
             labels[start] = regions;
+            sizes.push(0);
             stack.push(start);
             while let Some(i) = stack.pop() {
+                sizes[regions as usize] += 1;
                 let (c, r) = (i % cols, i / cols);
                 let neighbours = [
                     (c > 0).then(|| i - 1),
@@ -69,7 +75,7 @@ impl FreeSpace {
                 }
             }
         }
-        FreeSpace { origin, cell, cols, rows, labels, regions }
+        FreeSpace { origin, cell, cols, rows, labels, regions, sizes }
     }
 
     /// The region holding `q`, or `None` where `q` is off the grid or too near a wall.
@@ -87,6 +93,25 @@ impl FreeSpace {
         self.regions
     }
 
+    /// The space around the map, when its walls close a larger space off from it; see
+    /// [`Outside`].
+    pub fn outside(&self) -> Option<Outside> {
+        // the grid's first cell lies beyond the bounds by 1.5 cells each way, so it is passable
+        // and in the region around the map
+        let around = self.labels.first().copied().filter(|&l| l != 0)?;
+        let largest = self.sizes.iter().skip(1).max().copied().unwrap_or(0);
+        if self.sizes[around as usize] >= largest {
+            return None;
+        }
+        let mut cells = vec![0u64; self.labels.len().div_ceil(64)];
+        for (i, &l) in self.labels.iter().enumerate() {
+            if l == around {
+                cells[i / 64] |= 1 << (i % 64);
+            }
+        }
+        Some(Outside { origin: self.origin, cell: self.cell, cols: self.cols, rows: self.rows, cells })
+    }
+
     /// Cell centres on a lattice of about `count` points over the grid, for sampling.
     pub fn lattice(&self, count: usize) -> impl Iterator<Item = Point2<f64>> + '_ {
         let stride = ((self.cols * self.rows) as f64 / count.max(1) as f64).sqrt().ceil().max(1.0) as usize;
@@ -96,24 +121,56 @@ impl FreeSpace {
     }
 }
 
+/// The space around a building whose walls close it off: the free space connected to what lies
+/// beyond the map's bounds, when another region (the building) is larger. A robot localizing
+/// in the building is not out there, and the map says nothing of what it would see there: from
+/// outside, every beam away from the building reads "no return" as the map predicts, so a
+/// wrong pose outside can explain a scan as well as the right one inside (AMCL likewise spreads
+/// its particles over known free cells only). A map whose outline is open (a gap wider than two
+/// cells, an unclosed side) joins its inside to the outside and has no `Outside`: nothing is
+/// ruled out. One bit a cell.
+#[derive(Clone, Debug)]
+pub struct Outside {
+    origin: Point2<f64>,
+    cell: f64,
+    cols: usize,
+    rows: usize,
+    /// Bit i: cell i lies in the space around the map.
+    cells: Vec<u64>,
+}
+
+impl Outside {
+    /// Whether `q` lies outside the building: beyond the grid, or in a cell of the space around
+    /// it. Points within a cell of a wall are never outside.
+    pub fn contains(&self, q: Point2<f64>) -> bool {
+        let c = ((q.x - self.origin.x) / self.cell).floor();
+        let r = ((q.y - self.origin.y) / self.cell).floor();
+        if !(c >= 0.0 && r >= 0.0 && (c as usize) < self.cols && (r as usize) < self.rows) {
+            // NaN coordinates are no position at all, not a position outside
+            return !(q.x.is_nan() || q.y.is_nan());
+        }
+        let i = r as usize * self.cols + c as usize;
+        self.cells[i / 64] & (1 << (i % 64)) != 0
+    }
+}
+
 /// Centre of cell (c, r) of a grid with its first cell's corner at `origin`.
 fn cell_centre(origin: Point2<f64>, cell: f64, c: usize, r: usize) -> Point2<f64> {
     Point2::new(origin.x + (c as f64 + 0.5) * cell, origin.y + (r as f64 + 0.5) * cell)
 }
 
 #[cfg(test)]
-pub(crate) mod tests {
+mod tests {
     use super::*;
-    use mapserver::Wall;
+    use crate::Wall;
 
-    /// The four walls of an axis-aligned rectangle.
-    pub(crate) fn rectangle(x0: f64, y0: f64, x1: f64, y1: f64) -> Vec<Wall> {
-        vec![Wall::new(x0, y0, x1, y0), Wall::new(x1, y0, x1, y1), Wall::new(x1, y1, x0, y1), Wall::new(x0, y1, x0, y0)]
+    fn rectangle(x0: f64, y0: f64, x1: f64, y1: f64) -> Vec<Wall> {
+        Wall::rectangle(x0, y0, x1, y1).to_vec()
     }
 
     fn free_space(walls: &[Wall]) -> FreeSpace {
         let field = DistanceField::new(walls, 0.05, 1.0);
-        FreeSpace::new(&field, mapserver::map::bounds_of(walls))
+        FreeSpace::new(&field, crate::map::bounds_of(walls))
     }
 
     #[test]
@@ -157,6 +214,47 @@ pub(crate) mod tests {
         let mut walls = rectangle(0.0, 0.0, 10.0, 10.0);
         walls.push(Wall::new(0.0, 0.0, 10.0, 10.0));
         assert!(apart(&walls, (7.0, 3.0), (3.0, 7.0)));
+    }
+
+    fn outside(walls: &[Wall]) -> Option<Outside> {
+        free_space(walls).outside()
+    }
+
+    #[test]
+    fn the_space_around_a_closed_building_is_outside_and_its_rooms_and_racks_are_not() {
+        let mut walls = rectangle(0.0, 0.0, 10.0, 6.0);
+        walls.extend(rectangle(3.0, 2.0, 7.0, 3.0));
+        walls.push(Wall::new(5.0, 3.0, 5.0, 6.0));
+        let out = outside(&walls).expect("a closed outline has an outside");
+        for (x, y) in [(-0.15, 3.0), (11.0, 3.0), (-50.0, 80.0), (5.0, -0.15), (5.0, 1e9)] {
+            assert!(out.contains(Point2::new(x, y)), "({x}, {y}) is outside");
+        }
+        // the hall, a closed room, a rack's inside, a point on the outline
+        for (x, y) in [(1.0, 1.0), (9.5, 5.5), (6.0, 5.0), (5.0, 2.5), (0.0, 3.0), (10.02, 3.0)] {
+            assert!(!out.contains(Point2::new(x, y)), "({x}, {y}) is not outside");
+        }
+        assert!(!out.contains(Point2::new(f64::NAN, 1.0)));
+    }
+
+    #[test]
+    fn an_open_outline_rules_nothing_out() {
+        // a hall with a 1 m gap in one side: its inside is the outside
+        let walls = vec![
+            Wall::new(0.0, 0.0, 10.0, 0.0),
+            Wall::new(10.0, 0.0, 10.0, 6.0),
+            Wall::new(10.0, 6.0, 0.0, 6.0),
+            Wall::new(0.0, 6.0, 0.0, 3.5),
+            Wall::new(0.0, 2.5, 0.0, 0.0),
+        ];
+        assert!(outside(&walls).is_none());
+        // one wall, or walls that enclose nothing larger than the space around them
+        assert!(outside(&[Wall::new(0.0, 0.0, 10.0, 0.0)]).is_none());
+        assert!(outside(&rectangle(0.0, 0.0, 0.3, 0.3)).is_none());
+        // a narrow crack (under two cells) does not open it
+        let mut cracked = walls.clone();
+        cracked[3] = Wall::new(0.0, 6.0, 0.0, 3.05);
+        cracked[4] = Wall::new(0.0, 2.95, 0.0, 0.0);
+        assert!(outside(&cracked).is_some());
     }
 
     #[test]
