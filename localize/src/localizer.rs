@@ -23,7 +23,7 @@ use crate::model::{MapModel, FIELD_CAP};
 use crate::refine::{refine, RefineConfig};
 use crate::slide::{slide_lines, slide_poses, slide_step, SlideConfig, SlideLine, FROM_SLIDE};
 use laser::{angle_diff, pose_theta, Pose, ScanView};
-use mapserver::{DistanceField, RayScratch, Wall};
+use mapserver::{DistanceField, Outside, RayScratch, Wall};
 use nalgebra::Point2;
 use segment::{ErrorModel, Segmentation};
 use std::collections::BinaryHeap;
@@ -115,6 +115,15 @@ pub struct LocalizerConfig {
     /// instead gave 75.3 and 62.1 %; only runs between two readings that agree with the map,
     /// 69.9 and 58.6 %.
     pub surface_dropouts: usize,
+    /// Never answer with a pose outside a building whose walls close it off
+    /// ([`mapserver::Outside`]). Beyond the outline the map predicts "no return" in every
+    /// direction away from it, which a scan's open side matches as well as the building does:
+    /// wrong poses out there beat the right one when furniture hides the walls the scan would
+    /// need (39 of the furnished warehouse's 96 wrong answers, 9 of the furnished radial map's
+    /// 19). Such poses are still searched and costed: one that explains the scan about as well
+    /// as the answer makes the answer `ambiguous`, since the scan then does not single it out.
+    /// A map with an open outline has no outside and loses nothing.
+    pub inside_only: bool,
     /// Largest number of hypotheses reported.
     pub max_hypotheses: usize,
     /// Keep every candidate pose of a scan in [`Localization::all_candidates`] (diagnostics).
@@ -160,6 +169,7 @@ impl Default for LocalizerConfig {
             max_through: 0.2,
             max_through_ok: 0.05,
             surface_dropouts: 1,
+            inside_only: true,
             max_hypotheses: 32,
             record_candidates: false,
             first_look: FirstLook::default(),
@@ -438,6 +448,10 @@ impl Localizer {
                 self.out.status = Status::Failed;
             }
         }
+        self.report();
+        if self.out.hypotheses.is_empty() {
+            self.out.status = Status::Failed;
+        }
         self.prior = match (self.config.track_radius, self.out.status, self.out.hypotheses.first()) {
             (Some(_), Status::Ok, Some(h)) => Some(Point2::from(h.pose.translation.vector)),
             _ => None,
@@ -629,15 +643,21 @@ impl Localizer {
                 kept += 1;
             }
         }
-        hyps.truncate(kept.min(cfg.max_hypotheses));
-        let Some(best) = hyps.first() else {
+        hyps.truncate(kept);
+        // poses outside the building are never the answer, but one that explains the scan as
+        // well as the answer says the scan does not single the answer out: they stay in the
+        // list, behind the answer, until the scan's last search is ranked
+        let outside = self.model.outside.as_ref().filter(|_| cfg.inside_only);
+        let Some(at) = hyps.iter().position(|h| !is_outside(outside, h)) else {
             self.out.status = Status::Failed;
             return;
         };
+        hyps[..=at].rotate_right(1);
+        let best = hyps[0];
         self.out.status = if best.cost.inliers < cfg.min_inliers || best.cost.through > cfg.max_through {
             Status::Failed
         } else if best.cost.through > cfg.max_through_ok
-            || hyps[1..].iter().any(|h| {
+            || hyps.iter().any(|h| {
                 !same_pose(&h.pose, &best.pose, cfg.distinct_position, cfg.distinct_heading)
                     && h.cost.value - best.cost.value < cfg.ambiguity_margin
             })
@@ -647,6 +667,19 @@ impl Localizer {
             Status::Ok
         };
     }
+
+    /// Drops the hypotheses outside the building (see [`Self::rank`]) and all but the
+    /// reported number of the others.
+    fn report(&mut self) {
+        let outside = self.model.outside.as_ref().filter(|_| self.config.inside_only);
+        self.out.hypotheses.retain(|h| !is_outside(outside, h));
+        self.out.hypotheses.truncate(self.config.max_hypotheses);
+    }
+}
+
+/// Whether `h` lies in the space around a closed building.
+fn is_outside(outside: Option<&Outside>, h: &Hypothesis) -> bool {
+    outside.is_some_and(|o| o.contains(Point2::from(h.pose.translation.vector)))
 }
 
 /// Where a search's candidate poses come from.
@@ -824,6 +857,57 @@ mod tests {
         assert_eq!(status_with(config.max_through_ok + 0.01), Status::Ambiguous);
         assert_eq!(status_with(config.max_through), Status::Ambiguous);
         assert_eq!(status_with(config.max_through + 0.01), Status::Failed);
+    }
+
+    /// A pose outside a closed building is never the answer, and is never reported; one that
+    /// explains the scan about as well as the answer makes the answer `ambiguous`. With
+    /// `inside_only` off it is an answer like any other.
+    #[test]
+    fn poses_outside_a_closed_building_are_witnesses_never_answers() {
+        let map = mapserver::WallMap::new(mapserver::Wall::rectangle(0.0, 0.0, 20.0, 10.0).to_vec());
+        let model = Arc::new(MapModel::new(map, &mapserver::MapCornerConfig::default()));
+        let at = |x: f64, y: f64, value: f64| Hypothesis {
+            pose: Pose::new(nalgebra::Vector2::new(x, y), 0.3),
+            cost: Cost { value, inliers: 0.8, through: 0.0, beams: 680 },
+            scan_corner: 0,
+            map_corner: 0,
+        };
+        let run = |config: LocalizerConfig, hyps: Vec<Hypothesis>| {
+            let mut localizer = Localizer::new(Arc::clone(&model), config);
+            localizer.out.hypotheses = hyps;
+            localizer.rank();
+            let first = localizer.out.hypotheses[0].pose;
+            localizer.report();
+            (localizer.out.status, first, localizer.out.hypotheses.clone())
+        };
+        let inside = at(5.0, 5.0, 0.9);
+        let far_inside = at(15.0, 5.0, 2.0);
+        // an outside pose cheaper than the answer, and one 0.1 m beyond the outline
+        for outside in [at(-3.0, 5.0, 0.5), at(10.0, 10.15, 0.5)] {
+            let (status, first, reported) = run(LocalizerConfig::default(), vec![outside, inside, far_inside]);
+            assert_eq!(first, inside.pose);
+            assert_eq!(status, Status::Ambiguous);
+            assert_eq!(reported, vec![inside, far_inside]);
+            // far costlier than the answer: no doubt about it
+            let (status, _, reported) = run(
+                LocalizerConfig::default(),
+                vec![inside, far_inside, Hypothesis { cost: Cost { value: 3.0, ..outside.cost }, ..outside }],
+            );
+            assert_eq!(status, Status::Ok);
+            assert_eq!(reported, vec![inside, far_inside]);
+            let off = LocalizerConfig { inside_only: false, ..LocalizerConfig::default() };
+            // the outside pose answers, clear of the inside one by more than the margin
+            let (status, first, reported) = run(off, vec![outside, inside, far_inside]);
+            assert_eq!((status, first), (Status::Ok, outside.pose));
+            assert_eq!(reported.len(), 3);
+        }
+        // only outside poses: no answer
+        let mut localizer = Localizer::new(Arc::clone(&model), LocalizerConfig::default());
+        localizer.out.hypotheses = vec![at(-3.0, 5.0, 0.5)];
+        localizer.rank();
+        localizer.report();
+        assert_eq!(localizer.out.status, Status::Failed);
+        assert!(localizer.out.hypotheses.is_empty());
     }
 
     proptest! {

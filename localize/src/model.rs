@@ -1,6 +1,6 @@
 //! Everything the localizer pre-computes from a wall map, once.
 
-use mapserver::{CornerIndex, DistanceField, MapCornerConfig, RayCaster, Wall, WallMap};
+use mapserver::{CornerIndex, DistanceField, FreeSpace, MapCornerConfig, Outside, RayCaster, Wall, WallMap};
 use nalgebra::{Point2, Vector2};
 
 /// Distance field resolution, metres.
@@ -17,6 +17,9 @@ pub struct MapModel {
     pub field: DistanceField,
     /// Each wall as refinement reads it, in one place.
     pub frames: Vec<WallFrame>,
+    /// The space around the building, where no hypothesis is made; `None` when the map's
+    /// outline is open.
+    pub outside: Option<Outside>,
 }
 
 /// A wall's start, direction, squared length and unit normal: what point-to-wall distances
@@ -40,10 +43,12 @@ impl WallFrame {
 
 impl MapModel {
     pub fn new(map: WallMap, corners: &MapCornerConfig) -> Self {
+        let field = DistanceField::new(&map.walls, FIELD_RESOLUTION, FIELD_CAP);
         MapModel {
             corners: CornerIndex::of_map(&map, corners),
             caster: RayCaster::new(&map.walls),
-            field: DistanceField::new(&map.walls, FIELD_RESOLUTION, FIELD_CAP),
+            outside: FreeSpace::new(&field, map.bounds()).outside(),
+            field,
             frames: map.walls.iter().map(WallFrame::of).collect(),
             map,
         }

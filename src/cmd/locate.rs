@@ -52,7 +52,7 @@ pub struct LocateArgs {
     /// first_refined, first_inliers, first_through, coarse_beams, coarse_sigma, sparse_beams,
     /// sparse_kept, arm_slack, map_sigma (a floor on the map's accuracy), cost_stride,
     /// front_cap, through_cap, grazing_cap (1: off), surface_dropouts (0: never skip missing
-    /// returns),
+    /// returns), inside_only (0: also make hypotheses outside a closed outline),
     /// ambiguity, cornerless_tie, min_inliers, max_through, max_through_ok,
     /// merge_angle (degrees),
     /// min_samples, averaging (readings per sample, section 4.1), noise_tolerance (0: never
@@ -132,6 +132,7 @@ pub fn configs(a: &LocateArgs) -> Result<(SegmenterConfig, LocalizerConfig, MapC
             "through_cap" => loc.cost.through_cap = v,
             "grazing_cap" => loc.cost.grazing_cap = v,
             "surface_dropouts" => loc.surface_dropouts = v as usize,
+            "inside_only" => loc.inside_only = v != 0.0,
             "ambiguity" => loc.ambiguity_margin = v,
             "cornerless_tie" => loc.cornerless_tie = v,
             "min_inliers" => loc.min_inliers = v,
