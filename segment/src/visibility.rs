@@ -227,9 +227,9 @@ impl LineVisibility {
         }
         // a most restrictive candidate dropped from its chain was followed only by dropped
         // ones, so the search resumes at the new sample, the first candidate after it
-        let kept = push_chain(&mut self.chain_near, s.near_point(), true);
+        let kept = push_chain(&mut self.chain_near, s.near_point(), true, self.turn);
         self.restrictive_max = self.restrictive_max.min(kept);
-        let kept = push_chain(&mut self.chain_far, s.far_point(), false);
+        let kept = push_chain(&mut self.chain_far, s.far_point(), false, self.turn);
         self.restrictive_min = self.restrictive_min.min(kept);
         self.len += 1;
     }
@@ -265,20 +265,21 @@ impl LineVisibility {
 /// Appends the newest sample's bound point `c` (its near bound when `near`) to a candidate
 /// chain, first dropping the candidates that can no longer constrain: a near bound on the
 /// sensor's side of the chord from its predecessor to the new one (a far bound on the far
-/// side). Returns the position of the new candidate (the number of candidates kept before it).
-fn push_chain(chain: &mut Vec<Point2<f64>>, c: Point2<f64>, near: bool) -> usize {
+/// side). `turn` is the beams' turning direction. Returns the position of the new candidate
+/// (the number of candidates kept before it).
+///
+/// The sensor lies on the side of the chord from `a` to `c` that `turn` gives (cross(a, c) has
+/// its sign): the samples of one line span less than half a turn, since a straight line seen
+/// from a point does, and bound points lie ahead of the sensor.
+#[inline]
+fn push_chain(chain: &mut Vec<Point2<f64>>, c: Point2<f64>, near: bool, turn: f64) -> usize {
     let mut kept = chain.len();
+    // b with the sensor (near) or against it (far), or on the chord: never restrictive
+    let sensor_side = if near { turn } else { -turn };
     // (a, b) = the last two kept candidates: each dropped b makes its predecessor the next b
     for pair in chain.windows(2).rev() {
         let (a, b) = (pair[0], pair[1]);
-        let chord = c - a;
-        let side_b = cross(&chord, &(b - a));
-        // cross(c - a, origin - a) = cross(a, c)
-        let side_origin = cross(&a.coords, &c.coords);
-        // b with the sensor (near) or against it (far), or on the chord: never restrictive
-        let product = side_b * side_origin;
-        let dominated = if near { product >= 0.0 } else { product <= 0.0 };
-        if !dominated {
+        if cross(&(c - a), &(b - a)) * sensor_side < 0.0 {
             break;
         }
         kept -= 1;
