@@ -109,7 +109,7 @@ impl FreeSpace {
                 cells[i / 64] |= 1 << (i % 64);
             }
         }
-        Some(Outside { origin: self.origin, cell: self.cell, cols: self.cols, rows: self.rows, cells })
+        Some(Outside::from_bits(self.origin, self.cell, self.cols, self.rows, cells))
     }
 
     /// Cell centres on a lattice of about `count` points over the grid, for sampling.
@@ -140,6 +140,12 @@ pub struct Outside {
 }
 
 impl Outside {
+    /// From a grid's bits, bit i of word i / 64 set where cell i is outside.
+    pub(crate) fn from_bits(origin: Point2<f64>, cell: f64, cols: usize, rows: usize, cells: Vec<u64>) -> Self {
+        debug_assert_eq!(cells.len(), (cols * rows).div_ceil(64));
+        Outside { origin, cell, cols, rows, cells }
+    }
+
     /// Whether `q` lies outside the building: beyond the grid, or in a cell of the space around
     /// it. Points within a cell of a wall are never outside.
     pub fn contains(&self, q: Point2<f64>) -> bool {

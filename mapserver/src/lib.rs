@@ -11,6 +11,7 @@ pub mod map;
 pub mod node;
 pub mod procedural;
 pub mod raycast;
+pub mod seen;
 pub mod thick;
 pub mod wire;
 
@@ -20,3 +21,4 @@ pub use field::DistanceField;
 pub use free_space::{FreeSpace, Outside};
 pub use map::{MapError, Wall, WallMap};
 pub use raycast::{RayCaster, RayScratch};
+pub use seen::SeenFree;

@@ -7,6 +7,8 @@ use serde_json::Value;
 use std::path::{Path, PathBuf};
 use thiserror::Error;
 
+use crate::SeenFree;
+
 /// Walls shorter than this are rejected as degenerate, metres.
 pub const MIN_WALL_LENGTH: f64 = 1e-3;
 
@@ -64,6 +66,9 @@ pub struct WallMap {
     /// an exact plan, about 0.1 for a map built from scans. The cost function never expects
     /// the sensor to agree with the map better than this.
     pub sigma: f64,
+    /// Where the survey that built the map saw free space (the optional `"seen_free"` key);
+    /// see [`SeenFree`].
+    pub seen_free: Option<SeenFree>,
 }
 
 /// Why a map was rejected.
@@ -83,7 +88,7 @@ pub enum MapError {
 
 impl WallMap {
     pub fn new(walls: Vec<Wall>) -> Self {
-        WallMap { walls, sigma: 0.0 }
+        WallMap { walls, sigma: 0.0, seen_free: None }
     }
 
     /// Loads and validates a JSON map file.
@@ -122,6 +127,13 @@ impl WallMap {
                 }
             },
         };
+        let seen_free = match doc.get("seen_free") {
+            None => None,
+            Some(v) => Some(
+                SeenFree::from_json(v)
+                    .map_err(|e| MapError::Shape { path: path.clone(), message: format!("\"seen_free\": {e}") })?,
+            ),
+        };
         let mut walls = Vec::with_capacity(list.len());
         for (index, item) in list.iter().enumerate() {
             let bad = |message: String| MapError::Wall { path: path.clone(), index, message };
@@ -141,7 +153,7 @@ impl WallMap {
             }
             walls.push(wall);
         }
-        Ok(WallMap { walls, sigma })
+        Ok(WallMap { walls, sigma, seen_free })
     }
 
     /// The map as JSON (DESIGN.md's format), with a name.
@@ -149,6 +161,9 @@ impl WallMap {
         let mut s = format!("{{\n  \"name\": {},\n", Value::String(name.into()));
         if self.sigma > 0.0 {
             s += &format!("  \"sigma\": {},\n", self.sigma);
+        }
+        if let Some(seen) = &self.seen_free {
+            s += &format!("  \"seen_free\": {},\n", seen.to_json());
         }
         s += "  \"walls\": [\n";
         for (k, w) in self.walls.iter().enumerate() {
@@ -179,6 +194,11 @@ mod tests {
         assert_eq!(m.walls[1].b, Point2::new(1.0, 1.5));
         let again = parse(&m.to_json("x")).unwrap();
         assert_eq!(again, m);
+        // with the seen free space of a survey
+        let mut seen = SeenFree::covering(Point2::new(0.0, 0.0), Point2::new(1.0, 1.5), 0.1).unwrap();
+        seen.mark_ray(Point2::new(0.5, 1.0), Point2::new(0.5, 0.2));
+        let surveyed = WallMap { seen_free: Some(seen), ..m };
+        assert_eq!(parse(&surveyed.to_json("x")).unwrap(), surveyed);
     }
 
     #[test]
@@ -191,6 +211,10 @@ mod tests {
             (r#"{"wall": []}"#, "m.json: no \"walls\""),
             (r#"{"walls": 3}"#, "m.json: \"walls\" is not a list"),
             (r#"{"sigma": -1, "walls": [[0,0,1,0]]}"#, "m.json: \"sigma\" must be"),
+            (
+                r#"{"seen_free": {"origin": [0, 0], "cell": 0.5, "cols": 2, "rows": 2, "runs": [1, 2]}, "walls": [[0,0,1,0]]}"#,
+                "m.json: \"seen_free\": the runs cover 3 of the 4 cells",
+            ),
             ("{\"walls\": [\n[0,0,1,0],\n]}", "m.json: not valid JSON at line 3"),
         ];
         for (text, want) in cases {

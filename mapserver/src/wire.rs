@@ -1,8 +1,8 @@
 //! The map on the wire: [`MapMsg`] written from a [`WallMap`] and read back, checked, by every
 //! process that subscribes to it.
 
-use crate::{Wall, WallMap};
-use messages::{MapMsg, MAX_WALLS};
+use crate::{SeenFree, Wall, WallMap};
+use messages::{MapMsg, MAX_SEEN_WORDS, MAX_WALLS};
 
 /// Writes `map` into a (zeroed) map message as `version`. Walls beyond [`MAX_WALLS`] are an
 /// error, never cut silently.
@@ -15,6 +15,19 @@ pub fn map_to_msg(map: &WallMap, version: u32, m: &mut MapMsg) -> Result<(), Str
     m.sigma = map.sigma;
     for (slot, w) in m.walls.iter_mut().zip(&map.walls) {
         *slot = [w.a.x, w.a.y, w.b.x, w.b.y];
+    }
+    (m.seen_cols, m.seen_rows) = (0, 0);
+    if let Some(seen) = &map.seen_free {
+        // coarser until it fits: a coarser raster rules out less, never more
+        let mut seen = std::borrow::Cow::Borrowed(seen);
+        while seen.bits().len() > MAX_SEEN_WORDS {
+            seen = std::borrow::Cow::Owned(seen.coarsened());
+        }
+        let (cols, rows) = seen.size();
+        m.seen_origin = [seen.origin().x, seen.origin().y];
+        m.seen_cell = seen.cell();
+        (m.seen_cols, m.seen_rows) = (cols as u32, rows as u32);
+        m.seen_bits[..seen.bits().len()].copy_from_slice(seen.bits());
     }
     Ok(())
 }
@@ -32,7 +45,24 @@ pub fn map_from_msg(m: &MapMsg) -> Result<WallMap, String> {
         .position(|w| !(w.a.coords.iter().chain(w.b.coords.iter()).all(|v| v.is_finite()) && w.length() > 0.0))
     {
         Some(k) => Err(format!("map version {}: wall {k} is degenerate", m.version)),
-        None => Ok(WallMap { walls, sigma: if m.sigma.is_finite() { m.sigma.max(0.0) } else { 0.0 } }),
+        None => {
+            let (cols, rows) = (m.seen_cols as usize, m.seen_rows as usize);
+            let seen_free = if cols * rows == 0 {
+                None
+            } else {
+                let words = (cols * rows).div_ceil(64);
+                let bits = m
+                    .seen_bits
+                    .get(..words)
+                    .ok_or(format!("map version {}: {cols} x {rows} seen cells do not fit", m.version))?;
+                let origin = nalgebra::Point2::new(m.seen_origin[0], m.seen_origin[1]);
+                Some(
+                    SeenFree::from_bits(origin, m.seen_cell, cols, rows, bits)
+                        .ok_or(format!("map version {}: the seen free space is malformed", m.version))?,
+                )
+            };
+            Ok(WallMap { walls, sigma: if m.sigma.is_finite() { m.sigma.max(0.0) } else { 0.0 }, seen_free })
+        }
     }
 }
 
@@ -59,5 +89,33 @@ mod tests {
         assert!(map_from_msg(&m).is_err());
         m.count = (MAX_WALLS + 1) as u32;
         assert!(map_from_msg(&m).is_err());
+    }
+
+    /// A survey's seen free space crosses as it is, or coarser when it does not fit; a
+    /// malformed one is refused.
+    #[test]
+    fn the_seen_free_space_crosses_and_is_coarsened_to_fit() {
+        let mut map = crate::procedural::by_name("apartment").expect("bundled procedural map");
+        let (lo, hi) = map.bounds();
+        let mut seen = SeenFree::covering(lo, hi, 0.2).unwrap();
+        seen.mark_ray(lo + nalgebra::Vector2::new(1.0, 1.0), hi - nalgebra::Vector2::new(1.0, 1.0));
+        map.seen_free = Some(seen);
+        let mut m = boxed_msg();
+        map_to_msg(&map, 1, &mut m).unwrap();
+        assert_eq!(map_from_msg(&m).unwrap(), map);
+        // 4000 x 1000 cells: 62500 words, published at four times the cell (3907 words)
+        let mut big = SeenFree::covering(lo, lo + nalgebra::Vector2::new(400.0, 100.0), 0.1).unwrap();
+        let q = lo + nalgebra::Vector2::new(250.0, 50.0);
+        big.mark_ray(q, q);
+        map.seen_free = Some(big);
+        map_to_msg(&map, 2, &mut m).unwrap();
+        let back = map_from_msg(&m).unwrap().seen_free.unwrap();
+        assert_eq!(back.cell(), 0.4);
+        assert!(back.contains(q) && !back.contains(lo));
+        m.seen_cols = u32::MAX;
+        assert!(map_from_msg(&m).unwrap_err().contains("seen"));
+        m.seen_cols = 10;
+        m.seen_cell = f64::NAN;
+        assert!(map_from_msg(&m).unwrap_err().contains("seen free space is malformed"));
     }
 }

@@ -12,6 +12,9 @@ pub const MAX_CORNERS: usize = 512;
 pub const MAX_HYPOTHESES: usize = 32;
 /// Most walls in a published map.
 pub const MAX_WALLS: usize = 16384;
+/// Words of a published map's seen free space (one bit a cell: 524288 cells, 145 m square at
+/// 0.2 m; a larger raster is published coarser).
+pub const MAX_SEEN_WORDS: usize = 8192;
 /// Bytes of an implementation name (UTF-8, NUL padded).
 pub const NAME_LEN: usize = 32;
 
@@ -222,6 +225,14 @@ pub struct MapMsg {
     pub count: u32,
     /// The map's accuracy, metres (see `mapserver::WallMap::sigma`).
     pub sigma: f64,
+    /// Where the map's survey saw free space (see `mapserver::SeenFree`): `seen_cols` x
+    /// `seen_rows` cells of `seen_cell` metres from `seen_origin`, row by row, one bit each in
+    /// `seen_bits`. No cells: the map has none.
+    pub seen_origin: [f64; 2],
+    pub seen_cell: f64,
+    pub seen_cols: u32,
+    pub seen_rows: u32,
+    pub seen_bits: [u64; MAX_SEEN_WORDS],
     /// Walls as x1, y1, x2, y2 (metres).
     pub walls: [[f64; 4]; MAX_WALLS],
 }
