@@ -130,3 +130,34 @@ fn sim_simulates_another_field_of_view_and_reach() {
         assert!(!out.status.success() && text(&out.stderr).contains(flag), "{flag} {value}: {}", text(&out.stderr));
     }
 }
+
+/// `map build` keeps the free space its scans saw beside the walls: every pose it was built
+/// from lies in it, the space beyond the building's walls does not, and `locate` reads it.
+#[test]
+fn a_built_map_keeps_the_free_space_its_scans_saw() {
+    let dir = tempfile::tempdir().unwrap();
+    let log = dir.path().join("survey.log");
+    let built = dir.path().join("built.json");
+    let log_s = log.to_str().unwrap();
+    let out = gema2(&["sim", "--map", "apartment", "--scans", "60", "--seed", "3", "--out", log_s]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let out = gema2(&["map", "build", "--log", log_s, "--every", "1", "--out", built.to_str().unwrap()]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let map = mapserver::WallMap::load(&built).expect("the built map loads");
+    let seen = map.seen_free.as_ref().expect("a built map says where its scans saw free space");
+    let reader = acquire::CarmenReader::open(&log, acquire::FlaserLayout::default()).unwrap();
+    for item in reader {
+        let truth = item.unwrap().scan.truth.expect("simulated logs hold the truth");
+        assert!(seen.contains(nalgebra::Point2::from(truth.translation.vector)), "{truth:?}");
+    }
+    let (lo, hi) = mapserver::bundled("apartment").unwrap().unwrap().bounds();
+    for q in [lo - nalgebra::Vector2::new(0.5, 0.5), hi + nalgebra::Vector2::new(0.5, 0.5)] {
+        assert!(!seen.contains(q), "{q} lies beyond the building's walls");
+    }
+    let out = gema2(&["locate", "--map", built.to_str().unwrap(), "--log", log_s]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    assert!(text(&out.stderr).contains("success"), "{}", text(&out.stderr));
+    let out = gema2(&["map", "build", "--log", log_s, "--seen-cell", "0", "--out", built.to_str().unwrap()]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    assert!(mapserver::WallMap::load(&built).unwrap().seen_free.is_none());
+}

@@ -7,7 +7,8 @@
 use acquire::{CarmenReader, FlaserLayout};
 use anyhow::{bail, Context, Result};
 use clap::Args;
-use mapserver::{Wall, WallMap};
+use laser::Reading;
+use mapserver::{SeenFree, Wall, WallMap};
 use nalgebra::{Point2, Vector2};
 use segment::{LineVisibilitySegmenter, Segmenter, SegmenterConfig};
 use std::f64::consts::PI;
@@ -33,6 +34,10 @@ pub struct BuildArgs {
     /// The map's accuracy written into it, metres: the cost function expects no better.
     #[arg(long, default_value_t = 0.1)]
     pub sigma: f64,
+    /// Cell of the free space the scans saw, written into the map (`"seen_free"`), metres; 0
+    /// writes none. The localizer answers with no pose where no beam has been.
+    #[arg(long, default_value_t = 0.2)]
+    pub seen_cell: f64,
     #[arg(long)]
     pub out: PathBuf,
 }
@@ -46,9 +51,14 @@ struct Observed {
 }
 
 pub fn run(a: BuildArgs) -> Result<()> {
+    if !(a.seen_cell.is_finite() && a.seen_cell >= 0.0) {
+        bail!("--seen-cell must be a non-negative number of metres, not {}", a.seen_cell);
+    }
     let reader = CarmenReader::open(&a.log, FlaserLayout::default())?;
     let mut seg = LineVisibilitySegmenter::new(SegmenterConfig::default());
     let mut seen = Vec::new();
+    // each valid beam, from the sensor to a little short of what it hit
+    let mut rays: Vec<(Point2<f64>, Point2<f64>)> = Vec::new();
     let mut scans = 0;
     for (k, item) in reader.enumerate() {
         let item = item?;
@@ -59,7 +69,18 @@ pub fn run(a: BuildArgs) -> Result<()> {
             bail!("{}: scan {k} has no pose: a map needs a corrected log", a.log.display())
         };
         scans += 1;
-        for l in &seg.segment(&item.scan.view()).lines {
+        let view = item.scan.view();
+        let short = 2.0 * a.sigma.max(0.05);
+        for i in 0..view.len() {
+            if let Reading::Valid(d) = view.reading(i) {
+                if d > short {
+                    let angle = view.geometry.angle(i);
+                    let end = Point2::new(angle.cos(), angle.sin()) * (d - short);
+                    rays.push((truth * Point2::origin(), truth * end));
+                }
+            }
+        }
+        for l in &seg.segment(&view).lines {
             if l.start.coords.norm().max(l.end.coords.norm()) > a.max_range || l.length() < 0.3 {
                 continue;
             }
@@ -73,10 +94,30 @@ pub fn run(a: BuildArgs) -> Result<()> {
         bail!("{}: no wall was seen twice", a.log.display());
     }
     // a map from scans is good to about a decimetre (pose corrections, merging)
-    let map = WallMap { walls, sigma: a.sigma };
+    let seen_free = (a.seen_cell > 0.0).then(|| seen_free(&walls, &rays, a.seen_cell)).flatten();
+    let map = WallMap { walls, sigma: a.sigma, seen_free };
     std::fs::write(&a.out, map.to_json("built")).with_context(|| format!("writing {}", a.out.display()))?;
     eprintln!("{}: {} walls from {} lines of {scans} scans", a.out.display(), map.walls.len(), seen.len());
+    match &map.seen_free {
+        Some(s) => eprintln!("  free space seen on {} cells of {} m", s.seen_cells(), s.cell()),
+        None if a.seen_cell > 0.0 => {
+            eprintln!("  no free space kept: the raster would exceed {} cells", mapserver::seen::MAX_CELLS)
+        }
+        None => {}
+    }
     Ok(())
+}
+
+/// The cells `rays` crossed, on a raster over the walls' bounds and a metre around them; `None`
+/// when that raster would be too large.
+fn seen_free(walls: &[Wall], rays: &[(Point2<f64>, Point2<f64>)], cell: f64) -> Option<SeenFree> {
+    let (lo, hi) = mapserver::map::bounds_of(walls);
+    let margin = Vector2::new(1.0, 1.0);
+    let mut seen = SeenFree::covering(lo - margin, hi + margin, cell)?;
+    for &(from, to) in rays {
+        seen.mark_ray(from, to);
+    }
+    Some(seen)
 }
 
 /// Clusters lines by direction (within 2 degrees) and then offset (within 6 cm), and merges

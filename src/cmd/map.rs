@@ -81,6 +81,19 @@ pub fn run(c: MapCommand) -> Result<()> {
                 hi.x - lo.x,
                 hi.y - lo.y
             );
+            if m.sigma > 0.0 {
+                println!("  accuracy (sigma) {} m", m.sigma);
+            }
+            if let Some(seen) = &m.seen_free {
+                let (cols, rows) = seen.size();
+                println!(
+                    "  free space seen by its survey: {} of {cols} x {rows} cells of {} m",
+                    seen.seen_cells(),
+                    seen.cell()
+                );
+            }
+            let closed = localize::model::MapModel::new(m, &MapCornerConfig::default()).outside.is_some();
+            println!("  outline {}", if closed { "closed: no answer outside it" } else { "open" });
             Ok(())
         }
     }
