@@ -17,9 +17,11 @@ pub struct MapModel {
     pub field: DistanceField,
     /// Each wall as refinement reads it, in one place.
     pub frames: Vec<WallFrame>,
-    /// The space around the building, where no hypothesis is made; `None` when the map's
-    /// outline is open.
+    /// The space around the building; `None` when the map's outline is open.
     pub outside: Option<Outside>,
+    /// Where the map's survey saw no free space (more than a cell from any it saw); `None`
+    /// when the map does not say.
+    pub unseen: Option<Outside>,
 }
 
 /// A wall's start, direction, squared length and unit normal: what point-to-wall distances
@@ -42,12 +44,19 @@ impl WallFrame {
 }
 
 impl MapModel {
+    /// Whether the robot cannot be at `q`: outside a closed outline, or where the map's
+    /// survey saw no free space. Such poses are never an answer.
+    pub fn off_limits(&self, q: Point2<f64>) -> bool {
+        self.outside.as_ref().is_some_and(|o| o.contains(q)) || self.unseen.as_ref().is_some_and(|o| o.contains(q))
+    }
+
     pub fn new(map: WallMap, corners: &MapCornerConfig) -> Self {
         let field = DistanceField::new(&map.walls, FIELD_RESOLUTION, FIELD_CAP);
         MapModel {
             corners: CornerIndex::of_map(&map, corners),
             caster: RayCaster::new(&map.walls),
             outside: FreeSpace::new(&field, map.bounds()).outside(),
+            unseen: map.seen_free.as_ref().map(|seen| seen.unseen(1)),
             field,
             frames: map.walls.iter().map(WallFrame::of).collect(),
             map,
