@@ -452,9 +452,6 @@ impl Localizer {
             }
         }
         self.report();
-        if self.out.hypotheses.is_empty() {
-            self.out.status = Status::Failed;
-        }
         self.prior = match (self.config.track_radius, self.out.status, self.out.hypotheses.first()) {
             (Some(_), Status::Ok, Some(h)) => Some(Point2::from(h.pose.translation.vector)),
             _ => None,

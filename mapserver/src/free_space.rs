@@ -9,6 +9,7 @@
 //! apart, so no region leaks through a wall, while any gap wider than two cells (a door) joins
 //! the rooms it opens onto.
 
+use crate::bitgrid::{BitGrid, Grid};
 use crate::DistanceField;
 use nalgebra::Point2;
 
@@ -21,10 +22,7 @@ const FINEST_CELL: f64 = 0.1;
 /// Connected regions of the free space, labelled on a grid.
 #[derive(Clone, Debug)]
 pub struct FreeSpace {
-    origin: Point2<f64>,
-    cell: f64,
-    cols: usize,
-    rows: usize,
+    grid: Grid,
     /// Region of each cell, 0 where the cell is not passable.
     labels: Vec<u32>,
     regions: u32,
@@ -75,17 +73,12 @@ impl FreeSpace {
                 }
             }
         }
-        FreeSpace { origin, cell, cols, rows, labels, regions, sizes }
+        FreeSpace { grid: Grid { origin, cell, cols, rows }, labels, regions, sizes }
     }
 
     /// The region holding `q`, or `None` where `q` is off the grid or too near a wall.
     pub fn region(&self, q: Point2<f64>) -> Option<u32> {
-        let c = ((q.x - self.origin.x) / self.cell).floor();
-        let r = ((q.y - self.origin.y) / self.cell).floor();
-        if !(c >= 0.0 && r >= 0.0 && (c as usize) < self.cols && (r as usize) < self.rows) {
-            return None;
-        }
-        Some(self.labels[r as usize * self.cols + c as usize]).filter(|&l| l != 0)
+        Some(self.labels[self.grid.index(q)?]).filter(|&l| l != 0)
     }
 
     /// How many regions the free space has (the outside of a closed building counts as one).
@@ -103,21 +96,22 @@ impl FreeSpace {
         if self.sizes[around as usize] >= largest {
             return None;
         }
-        let mut cells = vec![0u64; self.labels.len().div_ceil(64)];
+        let mut raster = BitGrid::clear(self.grid);
         for (i, &l) in self.labels.iter().enumerate() {
             if l == around {
-                cells[i / 64] |= 1 << (i % 64);
+                raster.set(i);
             }
         }
-        Some(Outside::from_bits(self.origin, self.cell, self.cols, self.rows, cells))
+        Some(Outside::from_raster(raster))
     }
 
     /// Cell centres on a lattice of about `count` points over the grid, for sampling.
     pub fn lattice(&self, count: usize) -> impl Iterator<Item = Point2<f64>> + '_ {
-        let stride = ((self.cols * self.rows) as f64 / count.max(1) as f64).sqrt().ceil().max(1.0) as usize;
-        (0..self.rows)
+        let Grid { origin, cell, cols, rows } = self.grid;
+        let stride = ((cols * rows) as f64 / count.max(1) as f64).sqrt().ceil().max(1.0) as usize;
+        (0..rows)
             .step_by(stride)
-            .flat_map(move |r| (0..self.cols).step_by(stride).map(move |c| cell_centre(self.origin, self.cell, c, r)))
+            .flat_map(move |r| (0..cols).step_by(stride).map(move |c| cell_centre(origin, cell, c, r)))
     }
 }
 
@@ -131,32 +125,21 @@ impl FreeSpace {
 /// ruled out. One bit a cell.
 #[derive(Clone, Debug)]
 pub struct Outside {
-    origin: Point2<f64>,
-    cell: f64,
-    cols: usize,
-    rows: usize,
-    /// Bit i: cell i lies in the space around the map.
-    cells: Vec<u64>,
+    /// Set where a cell lies in the space around the map.
+    raster: BitGrid,
 }
 
 impl Outside {
-    /// From a grid's bits, bit i of word i / 64 set where cell i is outside.
-    pub(crate) fn from_bits(origin: Point2<f64>, cell: f64, cols: usize, rows: usize, cells: Vec<u64>) -> Self {
-        debug_assert_eq!(cells.len(), (cols * rows).div_ceil(64));
-        Outside { origin, cell, cols, rows, cells }
+    /// Outside where `raster` is set, and everywhere off it.
+    pub(crate) fn from_raster(raster: BitGrid) -> Self {
+        Outside { raster }
     }
 
     /// Whether `q` lies outside the building: beyond the grid, or in a cell of the space around
     /// it. Points within a cell of a wall are never outside.
     pub fn contains(&self, q: Point2<f64>) -> bool {
-        let c = ((q.x - self.origin.x) / self.cell).floor();
-        let r = ((q.y - self.origin.y) / self.cell).floor();
-        if !(c >= 0.0 && r >= 0.0 && (c as usize) < self.cols && (r as usize) < self.rows) {
-            // NaN coordinates are no position at all, not a position outside
-            return !(q.x.is_nan() || q.y.is_nan());
-        }
-        let i = r as usize * self.cols + c as usize;
-        self.cells[i / 64] & (1 << (i % 64)) != 0
+        // NaN coordinates are no position at all, not a position outside
+        self.raster.at(q).unwrap_or(!(q.x.is_nan() || q.y.is_nan()))
     }
 }
 

@@ -2,6 +2,7 @@
 //! spatial structures the localizer needs: ray casting for eq. 7's expected ranges and a
 //! truncated distance field that also names each point's nearest wall.
 
+mod bitgrid;
 pub mod bundled;
 pub mod corners;
 pub mod field;

@@ -10,6 +10,7 @@
 //! n, "rows": m, "runs": [r0, r1, ...]}`, the cells row by row from `origin` (the first row's
 //! first cell's corner) as run lengths, alternately not seen and seen, starting with not seen.
 
+use crate::bitgrid::{BitGrid, Grid};
 use crate::free_space::Outside;
 use nalgebra::Point2;
 use serde_json::{json, Value};
@@ -20,11 +21,7 @@ pub const MAX_CELLS: usize = 1 << 26;
 /// Cells seen free, one bit each.
 #[derive(Clone, Debug, PartialEq)]
 pub struct SeenFree {
-    origin: Point2<f64>,
-    cell: f64,
-    cols: usize,
-    rows: usize,
-    bits: Vec<u64>,
+    raster: BitGrid,
 }
 
 impl SeenFree {
@@ -44,31 +41,31 @@ impl SeenFree {
     }
 
     fn empty(origin: Point2<f64>, cell: f64, cols: usize, rows: usize) -> Option<Self> {
-        let cells = cols.checked_mul(rows).filter(|&n| n > 0 && n <= MAX_CELLS)?;
-        Some(SeenFree { origin, cell, cols, rows, bits: vec![0; cells.div_ceil(64)] })
+        cols.checked_mul(rows).filter(|&n| n > 0 && n <= MAX_CELLS)?;
+        Some(SeenFree { raster: BitGrid::clear(Grid { origin, cell, cols, rows }) })
     }
 
     pub fn origin(&self) -> Point2<f64> {
-        self.origin
+        self.raster.grid.origin
     }
 
     pub fn cell(&self) -> f64 {
-        self.cell
+        self.raster.grid.cell
     }
 
     /// Columns and rows.
     pub fn size(&self) -> (usize, usize) {
-        (self.cols, self.rows)
+        (self.raster.grid.cols, self.raster.grid.rows)
     }
 
     /// How many cells were seen.
     pub fn seen_cells(&self) -> usize {
-        self.bits.iter().map(|w| w.count_ones() as usize).sum()
+        self.raster.bits.iter().map(|w| w.count_ones() as usize).sum()
     }
 
     /// The raster's bits, row by row, bit i of word i / 64 for cell i.
     pub fn bits(&self) -> &[u64] {
-        &self.bits
+        &self.raster.bits
     }
 
     /// A raster from its parts, as [`bits`](Self::bits) gives them; `None` when they do not
@@ -77,77 +74,52 @@ impl SeenFree {
         if !(origin.x.is_finite() && origin.y.is_finite() && cell.is_finite() && cell > 0.0) {
             return None;
         }
-        let mut raster = Self::empty(origin, cell, cols, rows)?;
-        if bits.len() != raster.bits.len() {
+        let mut seen = Self::empty(origin, cell, cols, rows)?;
+        if bits.len() != seen.raster.bits.len() {
             return None;
         }
-        raster.bits.copy_from_slice(bits);
-        raster.clear_padding();
-        Some(raster)
-    }
-
-    /// Clears the bits past the last cell.
-    fn clear_padding(&mut self) {
-        let cells = self.cols * self.rows;
-        if !cells.is_multiple_of(64) {
-            if let Some(last) = self.bits.last_mut() {
-                *last &= (1u64 << (cells % 64)) - 1;
-            }
-        }
-    }
-
-    fn index(&self, q: Point2<f64>) -> Option<usize> {
-        let c = ((q.x - self.origin.x) / self.cell).floor();
-        let r = ((q.y - self.origin.y) / self.cell).floor();
-        (c >= 0.0 && r >= 0.0 && (c as usize) < self.cols && (r as usize) < self.rows)
-            .then(|| r as usize * self.cols + c as usize)
-    }
-
-    fn get(&self, i: usize) -> bool {
-        self.bits[i / 64] & (1 << (i % 64)) != 0
-    }
-
-    fn set(&mut self, i: usize) {
-        self.bits[i / 64] |= 1 << (i % 64);
+        seen.raster.bits.copy_from_slice(bits);
+        seen.raster.clear_padding();
+        Some(seen)
     }
 
     /// Whether a beam of the survey crossed the cell of `q`.
     pub fn contains(&self, q: Point2<f64>) -> bool {
-        self.index(q).is_some_and(|i| self.get(i))
+        self.raster.at(q).unwrap_or(false)
     }
 
     /// Marks the cells a beam from `from` to `to` crosses (sampled every half cell, both ends
     /// included); cells off the raster are skipped.
     pub fn mark_ray(&mut self, from: Point2<f64>, to: Point2<f64>) {
         let d = to - from;
-        let steps = (d.norm() / (0.5 * self.cell)).ceil();
+        let steps = (d.norm() / (0.5 * self.cell())).ceil();
         if !steps.is_finite() {
             return;
         }
         let steps = steps as usize;
         for k in 0..=steps {
             let t = if steps == 0 { 0.0 } else { k as f64 / steps as f64 };
-            if let Some(i) = self.index(from + d * t) {
-                self.set(i);
+            if let Some(i) = self.raster.grid.index(from + d * t) {
+                self.raster.set(i);
             }
         }
     }
 
     /// The raster with every cell within `cells` cells (8-connected) of a seen one seen.
     pub fn dilated(&self, cells: usize) -> SeenFree {
+        let (cols, rows) = self.size();
         let mut out = self.clone();
         for _ in 0..cells {
-            let before = out.clone();
-            for r in 0..self.rows {
-                for c in 0..self.cols {
-                    if before.get(r * self.cols + c) {
+            let before = out.raster.clone();
+            for r in 0..rows {
+                for c in 0..cols {
+                    if before.get(r * cols + c) {
                         continue;
                     }
-                    let near = (r.saturating_sub(1)..=(r + 1).min(self.rows - 1)).any(|rr| {
-                        (c.saturating_sub(1)..=(c + 1).min(self.cols - 1)).any(|cc| before.get(rr * self.cols + cc))
-                    });
+                    let near = (r.saturating_sub(1)..=(r + 1).min(rows - 1))
+                        .any(|rr| (c.saturating_sub(1)..=(c + 1).min(cols - 1)).any(|cc| before.get(rr * cols + cc)));
                     if near {
-                        out.set(r * self.cols + c);
+                        out.raster.set(r * cols + c);
                     }
                 }
             }
@@ -158,52 +130,44 @@ impl SeenFree {
     /// The raster at twice the cell size, a cell seen when any of its four was: fits a
     /// message of bounded size, and rules out no point the finer one allowed.
     pub fn coarsened(&self) -> SeenFree {
-        let (cols, rows) = (self.cols.div_ceil(2), self.rows.div_ceil(2));
-        let mut out = SeenFree {
-            origin: self.origin,
-            cell: 2.0 * self.cell,
-            cols,
-            rows,
-            bits: vec![0; (cols * rows).div_ceil(64)],
-        };
-        for r in 0..self.rows {
-            for c in 0..self.cols {
-                if self.get(r * self.cols + c) {
-                    out.set((r / 2) * cols + c / 2);
+        let (cols, rows) = self.size();
+        let grid =
+            Grid { origin: self.origin(), cell: 2.0 * self.cell(), cols: cols.div_ceil(2), rows: rows.div_ceil(2) };
+        let mut raster = BitGrid::clear(grid);
+        for r in 0..rows {
+            for c in 0..cols {
+                if self.raster.get(r * cols + c) {
+                    raster.set((r / 2) * grid.cols + c / 2);
                 }
             }
         }
-        out
+        SeenFree { raster }
     }
 
     /// Where the robot is not: every point farther than `slack` cells from a seen cell,
     /// including everything off the raster.
     pub fn unseen(&self, slack: usize) -> Outside {
-        let mut unseen = self.dilated(slack);
-        for w in unseen.bits.iter_mut() {
-            *w = !*w;
-        }
-        unseen.clear_padding();
-        Outside::from_bits(self.origin, self.cell, self.cols, self.rows, unseen.bits)
+        Outside::from_raster(self.dilated(slack).raster.inverted())
     }
 
     /// The `"seen_free"` value of a map file.
     pub fn to_json(&self) -> Value {
         let mut runs = Vec::new();
         let (mut current, mut run) = (false, 0u64);
-        for i in 0..self.cols * self.rows {
-            if self.get(i) != current {
+        for i in 0..self.raster.grid.cells() {
+            if self.raster.get(i) != current {
                 runs.push(run);
                 (current, run) = (!current, 0);
             }
             run += 1;
         }
         runs.push(run);
+        let (cols, rows) = self.size();
         json!({
-            "origin": [self.origin.x, self.origin.y],
-            "cell": self.cell,
-            "cols": self.cols,
-            "rows": self.rows,
+            "origin": [self.origin().x, self.origin().y],
+            "cell": self.cell(),
+            "cols": cols,
+            "rows": rows,
             "runs": runs,
         })
     }
@@ -223,27 +187,27 @@ impl SeenFree {
         if !(origin.x.is_finite() && origin.y.is_finite() && cell.is_finite() && cell > 0.0) {
             return Err(format!("origin {origin} and cell {cell} must be finite, the cell positive"));
         }
-        let mut raster = Self::empty(origin, cell, cols, rows)
+        let mut seen = Self::empty(origin, cell, cols, rows)
             .ok_or(format!("{cols} x {rows} cells: between 1 and {MAX_CELLS} are allowed"))?;
         let runs = v.get("runs").and_then(Value::as_array).ok_or("\"runs\" must be a list of run lengths")?;
-        let (mut at, mut seen) = (0usize, false);
+        let (mut at, mut seen_run) = (0usize, false);
         for (k, run) in runs.iter().enumerate() {
             let n = run.as_u64().ok_or(format!("run {k} is not a whole number: {run}"))? as usize;
             let end = at
                 .checked_add(n)
                 .filter(|&e| e <= cols * rows)
                 .ok_or(format!("run {k} goes past the {} cells", cols * rows))?;
-            if seen {
+            if seen_run {
                 for i in at..end {
-                    raster.set(i);
+                    seen.raster.set(i);
                 }
             }
-            (at, seen) = (end, !seen);
+            (at, seen_run) = (end, !seen_run);
         }
         if at != cols * rows {
             return Err(format!("the runs cover {at} of the {} cells", cols * rows));
         }
-        Ok(raster)
+        Ok(seen)
     }
 }
 

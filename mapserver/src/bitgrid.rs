@@ -1,0 +1,80 @@
+//! A grid of square cells over a rectangle of the map, and a raster of one bit a cell on it:
+//! what [`crate::Outside`] and [`crate::SeenFree`] keep, and how [`crate::FreeSpace`] finds a
+//! point's cell.
+
+use nalgebra::Point2;
+
+/// `cols` x `rows` cells of `cell` metres, the first cell's corner at `origin`, numbered row by
+/// row.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct Grid {
+    pub origin: Point2<f64>,
+    pub cell: f64,
+    pub cols: usize,
+    pub rows: usize,
+}
+
+impl Grid {
+    /// The number of the cell holding `q`, `None` off the grid (or for NaN coordinates).
+    #[inline]
+    pub fn index(&self, q: Point2<f64>) -> Option<usize> {
+        let c = ((q.x - self.origin.x) / self.cell).floor();
+        let r = ((q.y - self.origin.y) / self.cell).floor();
+        (c >= 0.0 && r >= 0.0 && (c as usize) < self.cols && (r as usize) < self.rows)
+            .then(|| r as usize * self.cols + c as usize)
+    }
+
+    pub fn cells(&self) -> usize {
+        self.cols * self.rows
+    }
+}
+
+/// One bit per cell of a [`Grid`]: bit i of word i / 64 for cell i; the bits past the last
+/// cell stay clear.
+#[derive(Clone, Debug, PartialEq)]
+pub(crate) struct BitGrid {
+    pub grid: Grid,
+    pub bits: Vec<u64>,
+}
+
+impl BitGrid {
+    /// Every bit clear.
+    pub fn clear(grid: Grid) -> Self {
+        BitGrid { grid, bits: vec![0; grid.cells().div_ceil(64)] }
+    }
+
+    #[inline]
+    pub fn get(&self, i: usize) -> bool {
+        self.bits[i / 64] & (1 << (i % 64)) != 0
+    }
+
+    #[inline]
+    pub fn set(&mut self, i: usize) {
+        self.bits[i / 64] |= 1 << (i % 64);
+    }
+
+    /// The bit of the cell holding `q`; `None` off the grid.
+    #[inline]
+    pub fn at(&self, q: Point2<f64>) -> Option<bool> {
+        self.grid.index(q).map(|i| self.get(i))
+    }
+
+    /// Every bit flipped (the padding stays clear).
+    pub fn inverted(mut self) -> Self {
+        for w in self.bits.iter_mut() {
+            *w = !*w;
+        }
+        self.clear_padding();
+        self
+    }
+
+    /// Clears the bits past the last cell.
+    pub fn clear_padding(&mut self) {
+        let cells = self.grid.cells();
+        if !cells.is_multiple_of(64) {
+            if let Some(last) = self.bits.last_mut() {
+                *last &= (1u64 << (cells % 64)) - 1;
+            }
+        }
+    }
+}
