@@ -21,7 +21,7 @@ pub fn classify(
         return match loc.status {
             Status::Ok => "right, ok",
             Status::Ambiguous => "right, ambiguous",
-            Status::Failed => "right, but failed (too few inliers)",
+            Status::Failed => "right, but failed (too few beams agree, too many see through, or a tie along its wall)",
         };
     }
     if seg.corners.is_empty() {

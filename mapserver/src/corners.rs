@@ -315,7 +315,7 @@ impl CornerIndex {
     /// end where the survey stopped seeing them, not where the walls do. On maps built from the
     /// CARMEN logs, wall ends there made 28 % (aces) to 53 % (freiburg-101) of `ok` poses wrong.
     pub fn of_map(map: &crate::WallMap, cfg: &MapCornerConfig) -> Self {
-        let cfg = MapCornerConfig { wall_ends: cfg.wall_ends && map.sigma < APPROXIMATE_MAP, ..*cfg };
+        let cfg = MapCornerConfig { wall_ends: cfg.wall_ends && !map.is_approximate(), ..*cfg };
         Self::build(&map.walls, &cfg)
     }
 

@@ -91,6 +91,12 @@ impl WallMap {
         WallMap { walls, sigma: 0.0, seen_free: None }
     }
 
+    /// Whether the map declares itself approximate: a `sigma` of [`crate::corners::APPROXIMATE_MAP`]
+    /// or more, as maps built from scans do.
+    pub fn is_approximate(&self) -> bool {
+        self.sigma >= crate::corners::APPROXIMATE_MAP
+    }
+
     /// Loads and validates a JSON map file.
     pub fn load(path: &Path) -> Result<Self, MapError> {
         let text = std::fs::read_to_string(path).map_err(|source| MapError::Io { path: path.to_owned(), source })?;

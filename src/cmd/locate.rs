@@ -53,7 +53,8 @@ pub struct LocateArgs {
     /// sparse_kept, arm_slack, map_sigma (a floor on the map's accuracy), cost_stride,
     /// front_cap, through_cap, grazing_cap (1: off), surface_dropouts (0: never skip missing
     /// returns), inside_only (0: also make hypotheses outside a closed outline),
-    /// ambiguity, cornerless_tie, min_inliers, max_through, max_through_ok,
+    /// ambiguity, cornerless_tie, min_inliers, max_through, max_through_approximate (for maps
+    /// with a sigma of 5 cm or more), max_through_ok,
     /// merge_angle (degrees),
     /// min_samples, averaging (readings per sample, section 4.1), noise_tolerance (0: never
     /// widen e(d) to a noisier scan's measured noise), error_constant,
@@ -137,6 +138,7 @@ pub fn configs(a: &LocateArgs) -> Result<(SegmenterConfig, LocalizerConfig, MapC
             "cornerless_tie" => loc.cornerless_tie = v,
             "min_inliers" => loc.min_inliers = v,
             "max_through" => loc.max_through = v,
+            "max_through_approximate" => loc.max_through_approximate = v,
             "max_through_ok" => loc.max_through_ok = v,
             "merge_angle" => seg.filter.merge_angle = v.to_radians(),
             "min_samples" => seg.filter.min_samples = v as u32,
