@@ -47,10 +47,12 @@ pub fn map_from_msg(m: &MapMsg) -> Result<WallMap, String> {
         Some(k) => Err(format!("map version {}: wall {k} is degenerate", m.version)),
         None => {
             let (cols, rows) = (m.seen_cols as usize, m.seen_rows as usize);
-            let seen_free = if cols * rows == 0 {
+            let cells =
+                cols.checked_mul(rows).ok_or(format!("map version {}: {cols} x {rows} seen cells", m.version))?;
+            let seen_free = if cells == 0 {
                 None
             } else {
-                let words = (cols * rows).div_ceil(64);
+                let words = cells.div_ceil(64);
                 let bits = m
                     .seen_bits
                     .get(..words)

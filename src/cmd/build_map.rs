@@ -7,7 +7,7 @@
 use acquire::{CarmenReader, FlaserLayout};
 use anyhow::{bail, Context, Result};
 use clap::Args;
-use laser::Reading;
+use laser::{LaserScan, Pose, Reading};
 use mapserver::{SeenFree, Wall, WallMap};
 use nalgebra::{Point2, Vector2};
 use segment::{LineVisibilitySegmenter, Segmenter, SegmenterConfig};
@@ -54,33 +54,13 @@ pub fn run(a: BuildArgs) -> Result<()> {
     if !(a.seen_cell.is_finite() && a.seen_cell >= 0.0) {
         bail!("--seen-cell must be a non-negative number of metres, not {}", a.seen_cell);
     }
-    let reader = CarmenReader::open(&a.log, FlaserLayout::default())?;
     let mut seg = LineVisibilitySegmenter::new(SegmenterConfig::default());
     let mut seen = Vec::new();
-    // each valid beam, from the sensor to a little short of what it hit
-    let mut rays: Vec<(Point2<f64>, Point2<f64>)> = Vec::new();
     let mut scans = 0;
-    for (k, item) in reader.enumerate() {
-        let item = item?;
-        if k % a.every.max(1) != a.offset % a.every.max(1) {
-            continue;
-        }
-        let Some(truth) = item.scan.truth else {
-            bail!("{}: scan {k} has no pose: a map needs a corrected log", a.log.display())
-        };
+    for item in survey(&a)? {
+        let (scan, truth) = item?;
         scans += 1;
-        let view = item.scan.view();
-        let short = 2.0 * a.sigma.max(0.05);
-        for i in 0..view.len() {
-            if let Reading::Valid(d) = view.reading(i) {
-                if d > short {
-                    let angle = view.geometry.angle(i);
-                    let end = Point2::new(angle.cos(), angle.sin()) * (d - short);
-                    rays.push((truth * Point2::origin(), truth * end));
-                }
-            }
-        }
-        for l in &seg.segment(&view).lines {
+        for l in &seg.segment(&scan.view()).lines {
             if l.start.coords.norm().max(l.end.coords.norm()) > a.max_range || l.length() < 0.3 {
                 continue;
             }
@@ -93,8 +73,8 @@ pub fn run(a: BuildArgs) -> Result<()> {
     if walls.is_empty() {
         bail!("{}: no wall was seen twice", a.log.display());
     }
+    let seen_free = if a.seen_cell > 0.0 { seen_free(&a, &walls)? } else { None };
     // a map from scans is good to about a decimetre (pose corrections, merging)
-    let seen_free = (a.seen_cell > 0.0).then(|| seen_free(&walls, &rays, a.seen_cell)).flatten();
     let map = WallMap { walls, sigma: a.sigma, seen_free };
     std::fs::write(&a.out, map.to_json("built")).with_context(|| format!("writing {}", a.out.display()))?;
     eprintln!("{}: {} walls from {} lines of {scans} scans", a.out.display(), map.walls.len(), seen.len());
@@ -108,16 +88,43 @@ pub fn run(a: BuildArgs) -> Result<()> {
     Ok(())
 }
 
-/// The cells `rays` crossed, on a raster over the walls' bounds and a metre around them; `None`
-/// when that raster would be too large.
-fn seen_free(walls: &[Wall], rays: &[(Point2<f64>, Point2<f64>)], cell: f64) -> Option<SeenFree> {
+/// The scans the map is built from (every `every`-th from `offset`), each with its true pose.
+fn survey(a: &BuildArgs) -> Result<impl Iterator<Item = Result<(LaserScan, Pose)>> + '_> {
+    let reader = CarmenReader::open(&a.log, FlaserLayout::default())?;
+    let every = a.every.max(1);
+    Ok(reader.enumerate().filter(move |(k, _)| k % every == a.offset % every).map(move |(k, item)| {
+        let scan = item?.scan;
+        let truth = scan
+            .truth
+            .with_context(|| format!("{}: scan {k} has no pose: a map needs a corrected log", a.log.display()))?;
+        Ok((scan, truth))
+    }))
+}
+
+/// The cells the survey's valid beams crossed, from the sensor to a little short of what each
+/// hit, on a raster over the walls' bounds and a metre around them (a second pass over the
+/// log, so no beam is kept in memory); `None` when that raster would be too large.
+fn seen_free(a: &BuildArgs, walls: &[Wall]) -> Result<Option<SeenFree>> {
     let (lo, hi) = mapserver::map::bounds_of(walls);
     let margin = Vector2::new(1.0, 1.0);
-    let mut seen = SeenFree::covering(lo - margin, hi + margin, cell)?;
-    for &(from, to) in rays {
-        seen.mark_ray(from, to);
+    let Some(mut seen) = SeenFree::covering(lo - margin, hi + margin, a.seen_cell) else {
+        return Ok(None);
+    };
+    let short = 2.0 * a.sigma.max(0.05);
+    for item in survey(a)? {
+        let (scan, truth) = item?;
+        let view = scan.view();
+        let sensor = truth * Point2::origin();
+        for i in 0..view.len() {
+            if let Reading::Valid(d) = view.reading(i) {
+                if d > short {
+                    let angle = view.geometry.angle(i);
+                    seen.mark_ray(sensor, truth * (Point2::new(angle.cos(), angle.sin()) * (d - short)));
+                }
+            }
+        }
     }
-    Some(seen)
+    Ok(Some(seen))
 }
 
 /// Clusters lines by direction (within 2 degrees) and then offset (within 6 cm), and merges
