@@ -37,12 +37,19 @@ impl SeenFree {
         if cols * rows > MAX_CELLS as f64 || (cols * rows).is_nan() {
             return None;
         }
-        Self::empty(lo, cell, cols as usize, rows as usize)
+        Self::empty(lo, cell, cols as usize, rows as usize).ok()
     }
 
-    fn empty(origin: Point2<f64>, cell: f64, cols: usize, rows: usize) -> Option<Self> {
-        cols.checked_mul(rows).filter(|&n| n > 0 && n <= MAX_CELLS)?;
-        Some(SeenFree { raster: BitGrid::clear(Grid { origin, cell, cols, rows }) })
+    /// Nothing seen yet, on a grid whose origin is finite, whose cell is positive and finite
+    /// and whose cells number 1 to [`MAX_CELLS`]; the error says which does not hold.
+    fn empty(origin: Point2<f64>, cell: f64, cols: usize, rows: usize) -> Result<Self, String> {
+        if !(origin.x.is_finite() && origin.y.is_finite() && cell.is_finite() && cell > 0.0) {
+            return Err(format!("origin {origin} and cell {cell} must be finite, the cell positive"));
+        }
+        cols.checked_mul(rows)
+            .filter(|&n| n > 0 && n <= MAX_CELLS)
+            .ok_or(format!("{cols} x {rows} cells: between 1 and {MAX_CELLS} are allowed"))?;
+        Ok(SeenFree { raster: BitGrid::clear(Grid { origin, cell, cols, rows }) })
     }
 
     pub fn origin(&self) -> Point2<f64> {
@@ -71,10 +78,7 @@ impl SeenFree {
     /// A raster from its parts, as [`bits`](Self::bits) gives them; `None` when they do not
     /// fit together.
     pub fn from_bits(origin: Point2<f64>, cell: f64, cols: usize, rows: usize, bits: &[u64]) -> Option<Self> {
-        if !(origin.x.is_finite() && origin.y.is_finite() && cell.is_finite() && cell > 0.0) {
-            return None;
-        }
-        let mut seen = Self::empty(origin, cell, cols, rows)?;
+        let mut seen = Self::empty(origin, cell, cols, rows).ok()?;
         if bits.len() != seen.raster.bits.len() {
             return None;
         }
@@ -184,11 +188,7 @@ impl SeenFree {
             .ok_or("\"origin\" must be [x, y]")?;
         let cell = number("cell")?;
         let (cols, rows) = (count("cols")? as usize, count("rows")? as usize);
-        if !(origin.x.is_finite() && origin.y.is_finite() && cell.is_finite() && cell > 0.0) {
-            return Err(format!("origin {origin} and cell {cell} must be finite, the cell positive"));
-        }
-        let mut seen = Self::empty(origin, cell, cols, rows)
-            .ok_or(format!("{cols} x {rows} cells: between 1 and {MAX_CELLS} are allowed"))?;
+        let mut seen = Self::empty(origin, cell, cols, rows)?;
         let runs = v.get("runs").and_then(Value::as_array).ok_or("\"runs\" must be a list of run lengths")?;
         let (mut at, mut seen_run) = (0usize, false);
         for (k, run) in runs.iter().enumerate() {
