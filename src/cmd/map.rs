@@ -2,7 +2,7 @@
 
 use anyhow::{bail, Context, Result};
 use clap::Subcommand;
-use mapserver::{procedural, CornerIndex, MapCornerConfig};
+use mapserver::{procedural, MapCornerConfig};
 use std::path::PathBuf;
 
 #[derive(Subcommand)]
@@ -70,14 +70,15 @@ pub fn run(c: MapCommand) -> Result<()> {
             Ok(())
         }
         MapCommand::Info { map } => {
-            let m = mapserver::WallMap::load(&map)?;
-            let idx = CornerIndex::of_map(&m, &MapCornerConfig::default());
+            // what the localizer prepares from the map: its corners and what it rules out
+            let model = localize::model::MapModel::new(mapserver::WallMap::load(&map)?, &MapCornerConfig::default());
+            let m = &model.map;
             let (lo, hi) = m.bounds();
             println!(
                 "{}: {} walls, {} corners, {:.1} x {:.1} m",
                 map.display(),
                 m.walls.len(),
-                idx.corners().len(),
+                model.corners.corners().len(),
                 hi.x - lo.x,
                 hi.y - lo.y
             );
@@ -92,8 +93,7 @@ pub fn run(c: MapCommand) -> Result<()> {
                     seen.cell()
                 );
             }
-            let closed = localize::model::MapModel::new(m, &MapCornerConfig::default()).outside.is_some();
-            println!("  outline {}", if closed { "closed: no answer outside it" } else { "open" });
+            println!("  outline {}", if model.outside.is_some() { "closed: no answer outside it" } else { "open" });
             Ok(())
         }
     }
