@@ -25,42 +25,49 @@ use nalgebra::{Point2, Vector2};
 /// A bound line `V_min` or `V_max`, through one sample's bound point `a` and an earlier one's
 /// opposite bound point `b`, with what [`hit`] needs of it computed once: most samples cross a
 /// bound line without moving it.
+///
+/// The direction is oriented so that `numerator` is positive: a beam `dir` then crosses the
+/// line ahead of the sensor exactly where `cross(dir, e)` is positive, and one comparison with
+/// `min_den` tells both that and whether the beam is too close to parallel.
 #[derive(Clone, Copy, Debug, PartialEq)]
 struct BoundLine {
-    /// The line's direction, b - a.
+    /// The line's direction, ±(b - a).
     e: Vector2<f64>,
-    /// cross(a, e), and the squared threshold below which a beam counts as parallel.
+    /// |cross(a, e)|: the distance along a beam is `numerator / cross(dir, e)`.
     numerator: f64,
-    parallel: f64,
+    /// The smallest `cross(dir, e)` of a beam that crosses the line ahead of the sensor and
+    /// not (nearly) parallel to it: 1e-12 |e|, or +inf for a line through the sensor.
+    min_den: f64,
 }
 
 impl BoundLine {
     /// No bound yet (a line of one sample): crosses no beam.
-    const NONE: BoundLine = BoundLine { e: Vector2::new(0.0, 0.0), numerator: 0.0, parallel: 1.0 };
+    const NONE: BoundLine = BoundLine { e: Vector2::new(0.0, 0.0), numerator: 0.0, min_den: f64::INFINITY };
 
     fn through(a: Point2<f64>, b: Point2<f64>) -> Self {
         let e = b - a;
-        BoundLine { e, numerator: cross(&a.coords, &e), parallel: 1e-24 * e.norm_squared().max(1e-24) }
+        let numerator = cross(&a.coords, &e);
+        if numerator == 0.0 || numerator.is_nan() {
+            return BoundLine::NONE;
+        }
+        let e = if numerator < 0.0 { -e } else { e };
+        BoundLine { e, numerator: numerator.abs(), min_den: 1e-12 * e.norm().max(1e-12) }
     }
 
     /// Distance along the unit beam `dir` at which the line crosses it; `None` when it is
-    /// parallel (|cross(dir, e)| < 1e-12 |e|, without a square root) or crosses behind the
-    /// sensor.
+    /// parallel (|cross(dir, e)| < 1e-12 |e|) or crosses behind the sensor.
     #[inline]
     fn hit(&self, dir: Vector2<f64>) -> Option<f64> {
         let c = self.crossing(dir, Crossing::NONE);
         (c.den > 0.0).then(|| c.num / c.den)
     }
 
-    /// [`hit`](Self::hit) as a fraction, `unbounded` where `hit` is `None`: no division, and no
-    /// branch for the caller to mispredict.
+    /// [`hit`](Self::hit) as a fraction, `unbounded` where `hit` is `None`: no division.
     #[inline]
     fn crossing(&self, dir: Vector2<f64>, unbounded: Crossing) -> Crossing {
         let den = cross(&dir, &self.e);
-        // same signs: the crossing lies ahead of the sensor
-        let ahead = self.numerator * den > 0.0 && den * den >= self.parallel;
-        if ahead {
-            Crossing { num: self.numerator.abs(), den: den.abs() }
+        if den >= self.min_den {
+            Crossing { num: self.numerator, den }
         } else {
             unbounded
         }
@@ -273,18 +280,16 @@ impl LineVisibility {
 /// from a point does, and bound points lie ahead of the sensor.
 #[inline]
 fn push_chain(chain: &mut Vec<Point2<f64>>, c: Point2<f64>, near: bool, turn: f64) -> usize {
-    let mut kept = chain.len();
     // b with the sensor (near) or against it (far), or on the chord: never restrictive
     let sensor_side = if near { turn } else { -turn };
     // (a, b) = the last two kept candidates: each dropped b makes its predecessor the next b
-    for pair in chain.windows(2).rev() {
-        let (a, b) = (pair[0], pair[1]);
+    while let [.., a, b] = chain[..] {
         if cross(&(c - a), &(b - a)) * sensor_side < 0.0 {
             break;
         }
-        kept -= 1;
+        chain.pop();
     }
-    chain.truncate(kept);
+    let kept = chain.len();
     chain.push(c);
     kept
 }
