@@ -12,7 +12,9 @@ pub mod slide;
 
 pub use cost::{Cost, CostConfig, CostKind};
 pub use gema2::{Gema2, Gema2Config};
-pub use localizer::{same_pose, FirstLook, Hypothesis, Localization, Localizer, LocalizerConfig, LocateTimes, Status};
+pub use localizer::{
+    same_pose, FirstLook, Hypothesis, Judgement, Localization, Localizer, LocalizerConfig, LocateTimes, Status,
+};
 pub use matching::pose_from_corners;
 pub use model::MapModel;
 pub use refine::RefineConfig;

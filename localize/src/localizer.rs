@@ -416,6 +416,24 @@ impl Localizer {
         self.locate_lines_given(scan, seg)
     }
 
+    /// For diagnosis, after [`locate`](Self::locate) of `scan`: how the search would have
+    /// judged `pose` at each step.
+    pub fn judge(&mut self, scan: &ScanView<'_>, pose: &Pose) -> Judgement {
+        let model = Arc::clone(&self.model);
+        let cfg = self.config;
+        let screen = Screen::new(&model.field, cfg.screen_cap);
+        let mean = |points: &[Point2<f64>]| {
+            screen.sum(pose, points, f64::INFINITY).unwrap_or(f64::INFINITY) / points.len().max(1) as f64
+        };
+        let (prescreen, screen) = (mean(&self.screen_few), mean(&self.screen_pts));
+        let final_cfg = CostConfig { sigma_floor: self.cost.sigma_floor.max(model.map.sigma), ..self.cost };
+        let cost_at = cost(scan, pose, &model.caster, &self.error, &final_cfg, &mut self.scratch, &mut self.expected);
+        let refined = refine(&model, &self.refine_pts, pose, &cfg.refine).0;
+        let refined_cost =
+            cost(scan, &refined, &model.caster, &self.error, &final_cfg, &mut self.scratch, &mut self.expected);
+        Judgement { prescreen, screen, cost: cost_at, refined, refined_cost }
+    }
+
     fn locate_lines_given(&mut self, scan: &ScanView<'_>, seg: &Segmentation) -> &Localization {
         self.out.hypotheses.clear();
         self.out.status = Status::Failed;
@@ -535,13 +553,12 @@ impl Localizer {
         self.candidates.clear();
         let cfg = self.config;
         let model = Arc::clone(&self.model);
-        let field = &model.field;
         // screening in two passes: one in `prescreen_step` points for all poses, then every
         // point for the `keep` best
         self.screen_few.clear();
         self.screen_few.extend(self.screen_pts.iter().step_by(cfg.prescreen_step.max(1)));
-        let cap = cfg.screen_cap.min(FIELD_CAP);
-        let mut pass = FirstPass::new(field, &self.screen_few, cap, keep, &mut self.best_sums);
+        let screen = Screen::new(&model.field, cfg.screen_cap);
+        let mut pass = FirstPass::new(screen, &self.screen_few, keep, &mut self.best_sums);
         let candidates = &mut self.candidates;
         match source {
             Source::Corners(corners) => {
@@ -594,7 +611,7 @@ impl Localizer {
         }
         let n = self.screen_pts.len().max(1) as f64;
         for c in self.candidates.iter_mut() {
-            c.score = screen_sum(field, &c.pose, &self.screen_pts, cap, f64::INFINITY).unwrap_or(f64::INFINITY) / n;
+            c.score = screen.sum(&c.pose, &self.screen_pts, f64::INFINITY).unwrap_or(f64::INFINITY) / n;
         }
     }
 
@@ -701,14 +718,25 @@ enum Source {
     Slides,
 }
 
+/// How the search judges one pose of a scan ([`Localizer::judge`]).
+#[derive(Clone, Copy, Debug)]
+pub struct Judgement {
+    /// The screen's first pass and its full pass (mean per point).
+    pub prescreen: f64,
+    pub screen: f64,
+    /// Eq. 7 at the pose, the pose refinement reaches from it, and eq. 7 there.
+    pub cost: Cost,
+    pub refined: Pose,
+    pub refined_cost: Cost,
+}
+
 /// The screen's first pass over one in `prescreen_step` points. It keeps the `keep` best sums:
 /// a pose is dropped as soon as its partial sum reaches the `keep`-th best so far (sums only
 /// grow), which leaves the kept set as it was and stops most wrong poses after a few points; a
 /// pose that puts every point far from the walls is never worth more work.
 struct FirstPass<'a> {
-    field: &'a DistanceField,
+    screen: Screen<'a>,
     points: &'a [Point2<f64>],
-    cap: f64,
     keep: usize,
     limit: f64,
     /// The best sums so far, as a max-heap of their bit patterns.
@@ -716,22 +744,16 @@ struct FirstPass<'a> {
 }
 
 impl<'a> FirstPass<'a> {
-    fn new(
-        field: &'a DistanceField,
-        points: &'a [Point2<f64>],
-        cap: f64,
-        keep: usize,
-        best: &'a mut BinaryHeap<u64>,
-    ) -> Self {
+    fn new(screen: Screen<'a>, points: &'a [Point2<f64>], keep: usize, best: &'a mut BinaryHeap<u64>) -> Self {
         best.clear();
-        let limit = cap * cap * 0.95 * points.len().max(1) as f64;
-        FirstPass { field, points, cap, keep, limit, best }
+        let limit = screen.cap * screen.cap * 0.95 * points.len().max(1) as f64;
+        FirstPass { screen, points, keep, limit, best }
     }
 
-    /// The pose's mean capped squared distance over the points, or `None` when it cannot be
-    /// among the `keep` best.
+    /// The pose's mean screen cost over the points, or `None` when it cannot be among the
+    /// `keep` best.
     fn score(&mut self, pose: &Pose) -> Option<f64> {
-        let sum = screen_sum(self.field, pose, self.points, self.cap, self.limit)?;
+        let sum = self.screen.sum(pose, self.points, self.limit)?;
         let best = &mut *self.best;
         // sums are non-negative, so their bit patterns order as the sums do
         if best.len() < self.keep {
@@ -747,19 +769,32 @@ impl<'a> FirstPass<'a> {
     }
 }
 
-/// Eq. 7's cheap stand-in for screening: the sum over `points` (sensor frame) placed at `pose`
-/// of their squared distance to the nearest wall, each capped at `cap`; `None` as soon as the
-/// partial sum reaches `limit`.
-#[inline]
-fn screen_sum(field: &DistanceField, pose: &Pose, points: &[Point2<f64>], cap: f64, limit: f64) -> Option<f64> {
-    let mut sum = 0.0;
-    for q in points {
-        sum += field.distance(pose * q).min(cap).powi(2);
-        if sum >= limit {
-            return None;
-        }
+/// Eq. 7's cheap stand-in for screening: scan points placed at a pose cost their squared
+/// distance to the nearest wall, capped at `cap`.
+#[derive(Clone, Copy)]
+struct Screen<'a> {
+    field: &'a DistanceField,
+    cap: f64,
+}
+
+impl<'a> Screen<'a> {
+    fn new(field: &'a DistanceField, cap: f64) -> Self {
+        Screen { field, cap: cap.min(FIELD_CAP) }
     }
-    Some(sum)
+
+    /// The sum over `points` (sensor frame) placed at `pose`; `None` as soon as the partial sum
+    /// reaches `limit`.
+    #[inline]
+    fn sum(&self, pose: &Pose, points: &[Point2<f64>], limit: f64) -> Option<f64> {
+        let mut sum = 0.0;
+        for q in points {
+            sum += self.field.distance(pose * q).min(self.cap).powi(2);
+            if sum >= limit {
+                return None;
+            }
+        }
+        Some(sum)
+    }
 }
 
 /// Sorts `candidates` by score and keeps the `count` best that are not within 0.1 m and 2

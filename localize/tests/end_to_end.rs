@@ -386,3 +386,36 @@ fn a_slid_pose_needs_half_its_beams_to_be_ok() {
     }
     assert!(demoted > 0, "no furnished scan had a weakly supported slid pose: the test shows nothing");
 }
+
+/// `judge` (what `--diagnose` reports of the truth) grades the true pose of a scan as the
+/// search grades its answer: refinement stays on it, its cost is at the noise floor, and a pose
+/// a metre away is worse at the screen and at eq. 7.
+#[test]
+fn judging_the_true_pose_grades_it_as_the_search_does() {
+    let map = procedural::apartment();
+    let mut g = gema2(&map, LocalizerConfig::default());
+    let mut sim = Simulator::new(&map, SensorModel::urg04lx(), Scenario::Clean, 5);
+    let mut judged = 0;
+    for _ in 0..10 {
+        let scan = sim.next_scan();
+        let truth = scan.truth.unwrap();
+        let (_, loc) = g.process(&scan.view());
+        let Some(best) = loc.best().filter(|h| same_pose(&h.pose, &truth, 0.05, 1f64.to_radians())) else {
+            continue;
+        };
+        let answer = best.cost;
+        let at = g.localizer.judge(&scan.view(), &truth);
+        assert!(
+            (at.refined.translation.vector - truth.translation.vector).norm() < 0.05,
+            "refinement left the truth: {at:?}"
+        );
+        assert!(at.cost.inliers > 0.9 && at.cost.through < 0.02, "cost at the truth {at:?}");
+        assert!((at.refined_cost.value - answer.value).abs() < 0.2, "truth {at:?}, answer {answer:?}");
+        let (x, y, th) = (truth.translation.x, truth.translation.y, truth.rotation.angle());
+        let away = g.localizer.judge(&scan.view(), &pose(x + 0.7, y - 0.7, th));
+        assert!(away.screen > at.screen && away.prescreen >= at.prescreen, "truth {at:?}, away {away:?}");
+        assert!(away.cost.value > 2.0 * at.cost.value, "truth {at:?}, away {away:?}");
+        judged += 1;
+    }
+    assert!(judged >= 8, "only {judged} of 10 clean scans were located");
+}

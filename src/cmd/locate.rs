@@ -175,6 +175,7 @@ pub fn run(a: LocateArgs) -> Result<()> {
     };
     let mut summary = Summary::default();
     let mut diagnosis = crate::diagnose::Diagnosis::default();
+    let mut judge = None;
     for (index, item) in reader.enumerate() {
         let item = item?;
         if a.every == 0 || index % a.every != a.offset % a.every.max(1) {
@@ -196,6 +197,7 @@ pub fn run(a: LocateArgs) -> Result<()> {
             if std::env::var_os("GEMA2_DUMP").is_some_and(|v| v.to_str().is_some_and(|v| what.starts_with(v))) {
                 eprintln!("scan {index}: {what}");
                 crate::diagnose::dump(seg, loc, truth, &model);
+                judge = Some(*truth);
             }
             diagnosis.add(what);
         }
@@ -223,6 +225,22 @@ pub fn run(a: LocateArgs) -> Result<()> {
         }
         summary
             .add(Outcome::of(loc.status, best.map(|h| h.pose), scan.truth, micros).with_steps(&seg.times, &loc.times));
+        if let Some(truth) = judge.take() {
+            let j = gema2.localizer.judge(&scan.view(), &truth);
+            let (at, after) = (j.cost, j.refined_cost);
+            eprintln!(
+                "  truth: prescreen {:.4} screen {:.4}; cost {:.3} inliers {:.3} through {:.3}; refined from it ({:.2} m off): cost {:.3} inliers {:.3} through {:.3}",
+                j.prescreen,
+                j.screen,
+                at.value,
+                at.inliers,
+                at.through,
+                (j.refined.translation.vector - truth.translation.vector).norm(),
+                after.value,
+                after.inliers,
+                after.through
+            );
+        }
     }
     if let Some(mut w) = csv {
         w.flush()?;
