@@ -426,12 +426,18 @@ impl Localizer {
             screen.sum(pose, points, f64::INFINITY).unwrap_or(f64::INFINITY) / points.len().max(1) as f64
         };
         let (prescreen, screen) = (mean(&self.screen_few), mean(&self.screen_pts));
-        let final_cfg = CostConfig { sigma_floor: self.cost.sigma_floor.max(model.map.sigma), ..self.cost };
+        let final_cfg = self.final_cost_config();
         let cost_at = cost(scan, pose, &model.caster, &self.error, &final_cfg, &mut self.scratch, &mut self.expected);
         let refined = refine(&model, &self.refine_pts, pose, &cfg.refine).0;
         let refined_cost =
             cost(scan, &refined, &model.caster, &self.error, &final_cfg, &mut self.scratch, &mut self.expected);
         Judgement { prescreen, screen, cost: cost_at, refined, refined_cost }
+    }
+
+    /// The cost configuration of a hypothesis's final eq. 7: never expect the scan to agree
+    /// with the map better than the map is accurate.
+    fn final_cost_config(&self) -> CostConfig {
+        CostConfig { sigma_floor: self.cost.sigma_floor.max(self.model.map.sigma), ..self.cost }
     }
 
     fn locate_lines_given(&mut self, scan: &ScanView<'_>, seg: &Segmentation) -> &Localization {
@@ -525,8 +531,7 @@ impl Localizer {
             c.pose = refine(&model, &self.refine_pts, &c.pose, &self.config.refine).0;
         }
         let t3 = Instant::now();
-        // never expect the scan to agree with the map better than the map is accurate
-        let final_cfg = CostConfig { sigma_floor: self.cost.sigma_floor.max(model.map.sigma), ..self.cost };
+        let final_cfg = self.final_cost_config();
         for c in &self.candidates {
             let cost =
                 cost(scan, &c.pose, &model.caster, &self.error, &final_cfg, &mut self.scratch, &mut self.expected);
