@@ -140,6 +140,24 @@ pub fn dump(seg: &Segmentation, loc: &Localization, truth: &Pose, model: &locali
     }
 }
 
+/// Prints how the search judges the true pose ([`localize::Localizer::judge`]), after
+/// [`dump`].
+pub fn dump_judgement(j: &localize::Judgement, truth: &Pose) {
+    let (at, after) = (j.cost, j.refined_cost);
+    eprintln!(
+        "  truth: prescreen {:.4} screen {:.4}; cost {:.3} inliers {:.3} through {:.3}; refined from it ({:.2} m off): cost {:.3} inliers {:.3} through {:.3}",
+        j.prescreen,
+        j.screen,
+        at.value,
+        at.inliers,
+        at.through,
+        (j.refined.translation.vector - truth.translation.vector).norm(),
+        after.value,
+        after.inliers,
+        after.through
+    );
+}
+
 /// One scan's segmentation and the map seen from the true pose, as JSON (sensor frame), for
 /// plotting.
 pub fn scan_json(scan: &laser::LaserScan, seg: &Segmentation, model: &localize::MapModel) -> String {

@@ -226,20 +226,7 @@ pub fn run(a: LocateArgs) -> Result<()> {
         summary
             .add(Outcome::of(loc.status, best.map(|h| h.pose), scan.truth, micros).with_steps(&seg.times, &loc.times));
         if let Some(truth) = judge.take() {
-            let j = gema2.localizer.judge(&scan.view(), &truth);
-            let (at, after) = (j.cost, j.refined_cost);
-            eprintln!(
-                "  truth: prescreen {:.4} screen {:.4}; cost {:.3} inliers {:.3} through {:.3}; refined from it ({:.2} m off): cost {:.3} inliers {:.3} through {:.3}",
-                j.prescreen,
-                j.screen,
-                at.value,
-                at.inliers,
-                at.through,
-                (j.refined.translation.vector - truth.translation.vector).norm(),
-                after.value,
-                after.inliers,
-                after.through
-            );
+            crate::diagnose::dump_judgement(&gema2.localizer.judge(&scan.view(), &truth), &truth);
         }
     }
     if let Some(mut w) = csv {
