@@ -71,6 +71,20 @@ pub struct LocalizerConfig {
     pub refined: usize,
     /// Scan points used by refinement.
     pub refine_points: usize,
+    /// When a hypothesis distinct from the best costs less than `polish_margin` more (per
+    /// beam, as [`ambiguity_margin`](Self::ambiguity_margin)), every hypothesis that close is
+    /// refined again over `polish_points` scan points, `polish_iterations` steps from the final
+    /// gate, and keeps the pose that costs less. Refined over 160 points, the true pose of a
+    /// clean simulated scan costs a median 0.01-0.02 more than the truth, and 0.05 more in 7-15 %
+    /// of scans: enough to rank near-equal poses wrongly or call the right one `ambiguous`.
+    /// Over the 39 simulated logs this took successes from 10913 to 10924, `ok` from 9247 to
+    /// 9266 and wrong `ok` from 70 to 67 (aces: ok precision 91.0 to 92.1 %), for 8 % more
+    /// instructions on the clean office log (164 hypotheses polished in its 300 scans). Polishing
+    /// without a contest costs about 95 us a scan more for no more successes; 341 points gave
+    /// fewer successes than none; 3 steps no more than 2. 0 points: no polish.
+    pub polish_margin: f64,
+    pub polish_points: usize,
+    pub polish_iterations: usize,
     pub refine: RefineConfig,
     pub cost: CostConfig,
     /// The sensor's e(d), which sets the noise scale of the cost.
@@ -169,6 +183,9 @@ impl Default for LocalizerConfig {
             sparse_kept: 64,
             refined: 6,
             refine_points: 160,
+            polish_margin: 0.6,
+            polish_points: 682,
+            polish_iterations: 2,
             refine: RefineConfig::default(),
             cost: CostConfig::default(),
             error: ErrorModel::default(),
@@ -340,6 +357,7 @@ pub struct Localizer {
     /// The first screening pass's best sums (a max-heap of their bit patterns).
     best_sums: BinaryHeap<u64>,
     refine_pts: Vec<Point2<f64>>,
+    polish_pts: Vec<Point2<f64>>,
     candidates: Vec<Candidate>,
     /// [`Self::keep_best`]'s kept candidates as (x, position), sorted by x.
     kept_by_x: Vec<(f64, usize)>,
@@ -367,6 +385,7 @@ impl Localizer {
             screen_few: Vec::new(),
             best_sums: BinaryHeap::new(),
             refine_pts: Vec::new(),
+            polish_pts: Vec::new(),
             candidates: Vec::new(),
             kept_by_x: Vec::new(),
             lines: Vec::new(),
@@ -453,6 +472,7 @@ impl Localizer {
         self.cost.skip_no_returns = drops > 0 && crate::cost::surface_dropouts(scan, &self.error) >= drops;
         subsample(seg, self.config.screen_points, &mut self.screen_pts);
         subsample(seg, self.config.refine_points, &mut self.refine_pts);
+        subsample(seg, self.config.polish_points, &mut self.polish_pts);
         let first = self.config.first_look;
         let mut settled = false;
         if first.corners > 0 && first.corners < self.config.corners_tried {
@@ -545,10 +565,12 @@ impl Localizer {
             }
         }
         let t4 = Instant::now();
+        self.polish(scan);
+        let t5 = Instant::now();
         let times = &mut self.out.times;
         times.matching += t1 - t0;
         times.coarse += t2 - t1;
-        times.refine += t3 - t2;
+        times.refine += (t3 - t2) + (t5 - t4);
         times.cost += t4 - t3;
     }
 
@@ -617,6 +639,43 @@ impl Localizer {
         let n = self.screen_pts.len().max(1) as f64;
         for c in self.candidates.iter_mut() {
             c.score = screen.sum(&c.pose, &self.screen_pts, f64::INFINITY).unwrap_or(f64::INFINITY) / n;
+        }
+    }
+
+    /// When the best hypothesis so far is contested (see [`LocalizerConfig::polish_margin`]),
+    /// refines once more, over the polish points, every hypothesis that costs less than the
+    /// margin more than the best, and costs it again (the polish's time counts as
+    /// refinement). One polished by an earlier search's contest is polished again, which
+    /// keeps it or lowers its cost: a contest judged between polished and unpolished poses
+    /// would favour the polished.
+    fn polish(&mut self, scan: &ScanView<'_>) {
+        let cfg = self.config;
+        if cfg.polish_points == 0 || self.polish_pts.is_empty() {
+            return;
+        }
+        let hyps = &self.out.hypotheses;
+        let Some(best) = hyps.iter().min_by(|a, b| a.cost.value.total_cmp(&b.cost.value)).copied() else {
+            return;
+        };
+        let near = |h: &Hypothesis| h.cost.value - best.cost.value < cfg.polish_margin;
+        let contested = hyps
+            .iter()
+            .any(|h| near(h) && !same_pose(&h.pose, &best.pose, cfg.distinct_position, cfg.distinct_heading));
+        if !contested {
+            return;
+        }
+        let best = best.cost.value;
+        let final_cfg = self.final_cost_config();
+        // it starts where refinement ended: at its final gate
+        let refine_cfg =
+            RefineConfig { first_gate: cfg.refine.final_gate, iterations: cfg.polish_iterations, ..cfg.refine };
+        let model = Arc::clone(&self.model);
+        for h in self.out.hypotheses.iter_mut().filter(|h| h.cost.value - best < cfg.polish_margin) {
+            let pose = refine(&model, &self.polish_pts, &h.pose, &refine_cfg).0;
+            let c = cost(scan, &pose, &model.caster, &self.error, &final_cfg, &mut self.scratch, &mut self.expected);
+            if c.value < h.cost.value {
+                (h.pose, h.cost) = (pose, c);
+            }
         }
     }
 

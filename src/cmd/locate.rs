@@ -48,7 +48,7 @@ pub struct LocateArgs {
     /// Override a parameter, KEY=VALUE (repeatable): reach, long_reach, long_line, min_arm,
     /// max_direction_sigma (degrees), corners, screen_points, prescreen_step, prescreened,
     /// screen_cap, screened, map_reach, wall_ends (0 or 1), refined, refine_points,
-    /// refine_iterations, first_corners (0: no first look), first_prescreened, first_screened,
+    /// refine_iterations, polish_points (0: no polish), polish_margin, polish_iterations, first_corners (0: no first look), first_prescreened, first_screened,
     /// first_refined, first_inliers, first_through, coarse_beams, coarse_sigma, sparse_beams,
     /// sparse_kept, arm_slack, map_sigma (a floor on the map's accuracy), cost_stride,
     /// front_cap, through_cap, grazing_cap (1: off), surface_dropouts (0: never skip missing
@@ -108,6 +108,9 @@ pub fn configs(a: &LocateArgs) -> Result<(SegmenterConfig, LocalizerConfig, MapC
             "refined" => loc.refined = v as usize,
             "refine_points" => loc.refine_points = v as usize,
             "refine_iterations" => loc.refine.iterations = v as usize,
+            "polish_points" => loc.polish_points = v as usize,
+            "polish_margin" => loc.polish_margin = v,
+            "polish_iterations" => loc.polish_iterations = v as usize,
             "first_corners" => loc.first_look.corners = v as usize,
             "first_screened" => loc.first_look.screened = v as usize,
             "first_prescreened" => loc.first_look.prescreened = v as usize,
