@@ -71,17 +71,17 @@ pub struct LocalizerConfig {
     pub refined: usize,
     /// Scan points used by refinement.
     pub refine_points: usize,
-    /// When a hypothesis distinct from the best costs less than `polish_margin` more (per
-    /// beam, as [`ambiguity_margin`](Self::ambiguity_margin)), every hypothesis that close is
-    /// refined again over `polish_points` scan points, `polish_iterations` steps from the final
-    /// gate, and keeps the pose that costs less. Refined over 160 points, the true pose of a
-    /// clean simulated scan costs a median 0.01-0.02 more than the truth, and 0.05 more in 7-15 %
-    /// of scans: enough to rank near-equal poses wrongly or call the right one `ambiguous`.
-    /// Over the 39 simulated logs this took successes from 10913 to 10924, `ok` from 9247 to
-    /// 9266 and wrong `ok` from 70 to 67 (aces: ok precision 91.0 to 92.1 %), for 8 % more
-    /// instructions on the clean office log (164 hypotheses polished in its 300 scans). Polishing
-    /// without a contest costs about 95 us a scan more for no more successes; 341 points gave
-    /// fewer successes than none; 3 steps no more than 2. 0 points: no polish.
+    /// When a hypothesis distinct from the best costs less than `polish_margin` more (per beam, as
+    /// [`ambiguity_margin`](Self::ambiguity_margin)), every hypothesis that close is refined again
+    /// over `polish_points` scan points, `polish_iterations` steps from the final gate, and keeps
+    /// the pose that costs less. Refined over 160 points, the true pose of a clean simulated scan
+    /// costs a median 0.01-0.02 more than the truth, and 0.05 more in 7-15 % of scans: enough to
+    /// rank near-equal poses wrongly or call the right one `ambiguous`. Over the 39 simulated logs
+    /// this took successes from 10913 to 10924, `ok` from 9247 to 9266 and wrong `ok` from 70 to 67
+    /// (aces: ok precision 91.0 to 92.1 %), for 8 % more instructions on the clean office log (164
+    /// hypotheses polished in its 300 scans). Polishing without a contest costs about 95 us a scan
+    /// more for no more successes; 341 points gave fewer successes than none; 3 steps no more than
+    /// 2. 0 points: no polish.
     pub polish_margin: f64,
     pub polish_points: usize,
     pub polish_iterations: usize,

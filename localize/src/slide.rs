@@ -104,9 +104,9 @@ impl Default for SlideConfig {
 /// few tenths of a metre wide beside a wall: requiring the other line to be 0.3 m long left 2
 /// of those 300 scans without a pose; slid, one is right and the other `ambiguous`, its twin
 /// one pillar spacing along the wall (over the 39 simulated logs, 7 more successes and no more
-/// wrong `ok`). Where the scan cannot tell (a corridor whose ends are out
-/// of range, a person's legs beside one wall), every position along the wall explains it
-/// equally well and the scan ends `ambiguous` or `failed`, never `ok`.
+/// wrong `ok`). Where the scan cannot tell (a corridor whose ends are out of range, a person's
+/// legs beside one wall), every position along the wall explains it equally well and the scan
+/// ends `ambiguous` or `failed`, never `ok`.
 pub fn slide_lines(lines: &[SlideLine], cfg: &SlideConfig, out: &mut Vec<usize>) {
     out.clear();
     let usable = |l: &SlideLine| l.length() >= cfg.min_length && l.direction_sigma <= cfg.max_direction_sigma;

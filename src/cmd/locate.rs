@@ -48,17 +48,16 @@ pub struct LocateArgs {
     /// Override a parameter, KEY=VALUE (repeatable): reach, long_reach, long_line, min_arm,
     /// max_direction_sigma (degrees), corners, screen_points, prescreen_step, prescreened,
     /// screen_cap, screened, map_reach, wall_ends (0 or 1), refined, refine_points,
-    /// refine_iterations, polish_points (0: no polish), polish_margin, polish_iterations, first_corners (0: no first look), first_prescreened, first_screened,
-    /// first_refined, first_inliers, first_through, coarse_beams, coarse_sigma, sparse_beams,
-    /// sparse_kept, arm_slack, map_sigma (a floor on the map's accuracy), cost_stride,
-    /// front_cap, through_cap, grazing_cap (1: off), surface_dropouts (0: never skip missing
-    /// returns), inside_only (0: also make hypotheses outside a closed outline),
-    /// ambiguity, cornerless_tie, min_inliers, max_through, max_through_approximate (for maps
-    /// with a sigma of 5 cm or more), max_through_ok,
-    /// merge_angle (degrees),
-    /// min_samples, averaging (readings per sample, section 4.1), noise_tolerance (0: never
-    /// widen e(d) to a noisier scan's measured noise), error_constant,
-    /// error_proportional, slide_lines, slide_min_length, slide_step, slide_slack,
+    /// refine_iterations, polish_points (0: no polish), polish_margin, polish_iterations,
+    /// first_corners (0: no first look), first_prescreened, first_screened, first_refined,
+    /// first_inliers, first_through, coarse_beams, coarse_sigma, sparse_beams, sparse_kept,
+    /// arm_slack, map_sigma (a floor on the map's accuracy), cost_stride, front_cap, through_cap,
+    /// grazing_cap (1: off), surface_dropouts (0: never skip missing returns), inside_only (0: also
+    /// make hypotheses outside a closed outline), ambiguity, cornerless_tie, min_inliers,
+    /// max_through, max_through_approximate (for maps with a sigma of 5 cm or more),
+    /// max_through_ok, merge_angle (degrees), min_samples, averaging (readings per sample, section
+    /// 4.1), noise_tolerance (0: never widen e(d) to a noisier scan's measured noise),
+    /// error_constant, error_proportional, slide_lines, slide_min_length, slide_step, slide_slack,
     /// slide_screened, slide_max_poses, slide_sigma_deg, slide_min_inliers_ok.
     #[arg(long = "set", value_name = "KEY=VALUE")]
     pub set: Vec<String>,
