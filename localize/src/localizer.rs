@@ -472,7 +472,6 @@ impl Localizer {
         self.cost.skip_no_returns = drops > 0 && crate::cost::surface_dropouts(scan, &self.error) >= drops;
         subsample(seg, self.config.screen_points, &mut self.screen_pts);
         subsample(seg, self.config.refine_points, &mut self.refine_pts);
-        subsample(seg, self.config.polish_points, &mut self.polish_pts);
         let first = self.config.first_look;
         let mut settled = false;
         if first.corners > 0 && first.corners < self.config.corners_tried {
@@ -565,7 +564,7 @@ impl Localizer {
             }
         }
         let t4 = Instant::now();
-        self.polish(scan);
+        self.polish(scan, seg);
         let t5 = Instant::now();
         let times = &mut self.out.times;
         times.matching += t1 - t0;
@@ -648,9 +647,9 @@ impl Localizer {
     /// refinement). One polished by an earlier search's contest is polished again, which
     /// keeps it or lowers its cost: a contest judged between polished and unpolished poses
     /// would favour the polished.
-    fn polish(&mut self, scan: &ScanView<'_>) {
+    fn polish(&mut self, scan: &ScanView<'_>, seg: &Segmentation) {
         let cfg = self.config;
-        if cfg.polish_points == 0 || self.polish_pts.is_empty() {
+        if cfg.polish_points == 0 {
             return;
         }
         let hyps = &self.out.hypotheses;
@@ -664,13 +663,14 @@ impl Localizer {
         if !contested {
             return;
         }
-        let best = best.cost.value;
+        // only for a contested scan: an uncontested one never needs them
+        subsample(seg, cfg.polish_points, &mut self.polish_pts);
         let final_cfg = self.final_cost_config();
         // it starts where refinement ended: at its final gate
         let refine_cfg =
             RefineConfig { first_gate: cfg.refine.final_gate, iterations: cfg.polish_iterations, ..cfg.refine };
         let model = Arc::clone(&self.model);
-        for h in self.out.hypotheses.iter_mut().filter(|h| h.cost.value - best < cfg.polish_margin) {
+        for h in self.out.hypotheses.iter_mut().filter(|h| near(h)) {
             let pose = refine(&model, &self.polish_pts, &h.pose, &refine_cfg).0;
             let c = cost(scan, &pose, &model.caster, &self.error, &final_cfg, &mut self.scratch, &mut self.expected);
             if c.value < h.cost.value {
