@@ -24,6 +24,11 @@ impl Grid {
             .then(|| r as usize * self.cols + c as usize)
     }
 
+    /// Centre of cell (c, r).
+    pub fn centre(&self, c: usize, r: usize) -> Point2<f64> {
+        crate::grid::centre_of(self.origin, self.cell, c, r)
+    }
+
     pub fn cells(&self) -> usize {
         self.cols * self.rows
     }

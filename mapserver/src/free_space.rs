@@ -42,8 +42,9 @@ impl FreeSpace {
         let origin = Point2::new(lo.x - 2.0 * cell, lo.y - 2.0 * cell);
         let cols = (w / cell).ceil() as usize + 4;
         let rows = (h / cell).ceil() as usize + 4;
+        let grid = Grid { origin, cell, cols, rows };
         let passable: Vec<bool> =
-            (0..rows * cols).map(|i| field.distance(cell_centre(origin, cell, i % cols, i / cols)) >= cell).collect();
+            (0..rows * cols).map(|i| field.distance(grid.centre(i % cols, i / cols)) >= cell).collect();
         let mut labels = vec![0u32; rows * cols];
         let mut regions = 0;
         let mut sizes = vec![0];
@@ -73,7 +74,7 @@ impl FreeSpace {
                 }
             }
         }
-        FreeSpace { grid: Grid { origin, cell, cols, rows }, labels, regions, sizes }
+        FreeSpace { grid, labels, regions, sizes }
     }
 
     /// The region holding `q`, or `None` where `q` is off the grid or too near a wall.
@@ -107,11 +108,10 @@ impl FreeSpace {
 
     /// Cell centres on a lattice of about `count` points over the grid, for sampling.
     pub fn lattice(&self, count: usize) -> impl Iterator<Item = Point2<f64>> + '_ {
-        let Grid { origin, cell, cols, rows } = self.grid;
+        let grid = self.grid;
+        let Grid { cols, rows, .. } = grid;
         let stride = ((cols * rows) as f64 / count.max(1) as f64).sqrt().ceil().max(1.0) as usize;
-        (0..rows)
-            .step_by(stride)
-            .flat_map(move |r| (0..cols).step_by(stride).map(move |c| cell_centre(origin, cell, c, r)))
+        (0..rows).step_by(stride).flat_map(move |r| (0..cols).step_by(stride).map(move |c| grid.centre(c, r)))
     }
 }
 
@@ -141,11 +141,6 @@ impl Outside {
         // NaN coordinates are no position at all, not a position outside
         self.raster.at(q).unwrap_or(!(q.x.is_nan() || q.y.is_nan()))
     }
-}
-
-/// Centre of cell (c, r) of a grid with its first cell's corner at `origin`.
-fn cell_centre(origin: Point2<f64>, cell: f64, c: usize, r: usize) -> Point2<f64> {
-    Point2::new(origin.x + (c as f64 + 0.5) * cell, origin.y + (r as f64 + 0.5) * cell)
 }
 
 #[cfg(test)]

@@ -147,6 +147,6 @@ impl WallGrid {
 
 /// Centre of cell (c, r) of a grid of cells of side `cell` whose first cell starts at `origin`.
 #[inline]
-fn centre_of(origin: Point2<f64>, cell: f64, c: usize, r: usize) -> Point2<f64> {
+pub(crate) fn centre_of(origin: Point2<f64>, cell: f64, c: usize, r: usize) -> Point2<f64> {
     Point2::new(origin.x + (c as f64 + 0.5) * cell, origin.y + (r as f64 + 0.5) * cell)
 }
