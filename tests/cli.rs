@@ -101,6 +101,28 @@ fn unknown_maps_and_missing_logs_are_clear_errors() {
     assert!(text(&out.stderr).contains("/no/such.log"));
 }
 
+/// `--set` is one vocabulary for `locate` and the pipeline's stages; a typo or a bad value is
+/// refused before any work, naming the setting (and, for a typo, the known ones).
+#[test]
+fn bad_settings_are_refused_by_locate_and_the_stages() {
+    for args in [
+        &["locate", "--map", "office", "--log", "/dev/null", "--set", "screend=5"][..],
+        &["stage", "localize", "--set", "screend=5"],
+        &["stage", "segment", "--set", "screend=5"],
+    ] {
+        let out = gema2(args);
+        assert!(!out.status.success(), "{args:?}");
+        let err = text(&out.stderr);
+        assert!(err.contains("unknown setting \"screend\"") && err.contains("merge_angle"), "{args:?}: {err}");
+    }
+    // a localization setting is not the segment stage's
+    let out = gema2(&["stage", "segment", "--set", "screened=5"]);
+    assert!(text(&out.stderr).contains("unknown setting \"screened\""), "{}", text(&out.stderr));
+    let out = gema2(&["stage", "localize", "--set", "refined=-1"]);
+    assert!(!out.status.success());
+    assert!(text(&out.stderr).contains("refined: -1 is not a whole number"), "{}", text(&out.stderr));
+}
+
 /// A sensor other than the URG-04LX: a SICK-like 180-degree, 361-beam, 30 m scanner. The log
 /// says so (ROBOTLASER1's start angle, field of view, resolution and maximum range), and
 /// `locate` reads that layout back and localizes with it.

@@ -4,6 +4,7 @@
 use crate::localizer::{Localization, Localizer, LocalizerConfig};
 use crate::model::MapModel;
 use laser::ScanView;
+use mapserver::MapCornerConfig;
 use segment::{LineVisibilitySegmenter, Segmentation, Segmenter, SegmenterConfig};
 use std::sync::Arc;
 
@@ -13,6 +14,8 @@ use std::sync::Arc;
 pub struct Gema2Config {
     pub segmenter: SegmenterConfig,
     pub localizer: LocalizerConfig,
+    /// Map corners, which the localizer matches scan corners against.
+    pub map_corners: MapCornerConfig,
 }
 
 pub struct Gema2 {

@@ -8,6 +8,7 @@ pub mod matching;
 pub mod model;
 pub mod node;
 pub mod refine;
+pub mod settings;
 pub mod slide;
 
 pub use cost::{Cost, CostConfig, CostKind};

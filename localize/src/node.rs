@@ -9,7 +9,6 @@ use anyhow::{anyhow, Context, Result};
 use clap::Args;
 use laser::pose_theta;
 use mapserver::wire::map_from_msg;
-use mapserver::MapCornerConfig;
 use messages::iceoryx2::prelude::*;
 use messages::{
     monotonic_ns, open_topic, CornersMsg, Freshness, HypothesisMsg, ListenerDrain, MapMsg, Outlet, PoseMsg, PoseMsgXyt,
@@ -28,9 +27,16 @@ pub struct LocalizeArgs {
     /// Track: after an ok scan, match only map corners within this radius (metres) of it.
     #[arg(long)]
     pub track: Option<f64>,
+    /// Override a parameter, KEY=VALUE (repeatable), as `gema2 locate --set`. Settings of the
+    /// segmentation's error model and `wall_ends` must match the segment stage's.
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    pub set: Vec<String>,
 }
 
 pub fn run(a: LocalizeArgs) -> Result<()> {
+    let mut config = Gema2Config::default();
+    config.localizer.track_radius = a.track;
+    config.apply(&a.set).context("localize: --set")?;
     a.stage.place()?;
     let node = messages::create_node("localize")?;
     let corners = open_topic::<CornersMsg>(&node, &a.stage.prefix, Topic::Corners)?;
@@ -48,8 +54,6 @@ pub fn run(a: LocalizeArgs) -> Result<()> {
     // the map may already be waiting in history; a wake-up may be lost (MISSED_WAKEUP_POLL)
     let _poll = waitset.attach_interval(messages::MISSED_WAKEUP_POLL).map_err(|e| err("waitset", &e))?;
 
-    let mut config = Gema2Config::default();
-    config.localizer.track_radius = a.track;
     let mut localizer: Option<(Localizer, u32)> = None;
     let mut seg = Segmentation::default();
     let mut fresh = Freshness::default();
@@ -70,7 +74,7 @@ pub fn run(a: LocalizeArgs) -> Result<()> {
             while let Ok(Some(m)) = map_in.receive() {
                 match map_from_msg(&m) {
                     Ok(walls) if localizer.as_ref().is_none_or(|(_, v)| *v != m.version) => {
-                        let model = Arc::new(MapModel::new(walls, &MapCornerConfig::default()));
+                        let model = Arc::new(MapModel::new(walls, &config.map_corners));
                         eprintln!("localize: map version {} ({} walls)", m.version, m.count);
                         match localizer.as_mut() {
                             Some((l, v)) => {

@@ -22,11 +22,17 @@ pub struct SegmentArgs {
     /// Implementation: line-visibility (the paper's) or split-and-merge.
     #[arg(long = "impl", default_value = "line-visibility")]
     pub implementation: String,
+    /// Override a segmentation parameter, KEY=VALUE (repeatable), as `gema2 locate --set`.
+    /// Give the localize stage the same error model and `wall_ends`.
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    pub set: Vec<String>,
 }
 
 pub fn run(a: SegmentArgs) -> Result<()> {
     a.stage.place()?;
-    let mut segmenter = segmenter_by_name(&a.implementation, SegmenterConfig::default())
+    let mut config = SegmenterConfig::default();
+    config.apply(&a.set).context("segment: --set")?;
+    let mut segmenter = segmenter_by_name(&a.implementation, config)
         .ok_or_else(|| anyhow!("unknown segment implementation {:?}: one of {SEGMENTERS:?}", a.implementation))?;
     let node = messages::create_node(&format!("segment-{}", a.implementation))?;
     let scans = open_topic::<ScanMsg>(&node, &a.stage.prefix, Topic::Scan)?;

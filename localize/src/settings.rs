@@ -1,0 +1,198 @@
+//! Localization parameters set by name (`--set KEY=VALUE`), after [`segment::settings`]: one
+//! vocabulary for `gema2 locate` and the pipeline's `localize` stage.
+
+use crate::gema2::Gema2Config;
+use crate::localizer::LocalizerConfig;
+use crate::CostKind;
+use segment::{SegmenterConfig, Setting, SettingError};
+
+impl LocalizerConfig {
+    /// The keys [`set`](Self::set) knows.
+    pub const SETTINGS: &'static [&'static str] = &[
+        "corners",
+        "screen_points",
+        "prescreen_step",
+        "prescreened",
+        "screen_cap",
+        "screened",
+        "refined",
+        "refine_points",
+        "refine_iterations",
+        "polish_points (0: no polish)",
+        "polish_margin",
+        "polish_iterations",
+        "first_corners (0: no first look)",
+        "first_prescreened",
+        "first_screened",
+        "first_refined",
+        "first_inliers",
+        "first_through",
+        "coarse_beams",
+        "coarse_sigma",
+        "sparse_beams",
+        "sparse_kept",
+        "arm_slack",
+        "map_sigma (a floor on the map's accuracy)",
+        "cost_stride",
+        "front_cap",
+        "through_cap",
+        "grazing_cap (1: off)",
+        "paper_cost (1: eq. 7 as printed)",
+        "surface_dropouts (0: never skip missing returns)",
+        "inside_only (0: also make hypotheses outside a closed outline)",
+        "ambiguity",
+        "cornerless_tie",
+        "min_inliers",
+        "max_through",
+        "max_through_approximate (for maps with a sigma of 5 cm or more)",
+        "max_through_ok",
+        "track (metres; 0: always global)",
+        "slide_lines",
+        "slide_min_length",
+        "slide_step",
+        "slide_slack",
+        "slide_screened",
+        "slide_max_poses",
+        "slide_sigma_deg",
+        "slide_min_inliers_ok",
+        "error_constant",
+        "error_proportional",
+    ];
+
+    /// Applies `s` when it names a localization parameter: `Ok(true)`; `Ok(false)` when it
+    /// names none.
+    pub fn set(&mut self, s: &Setting<'_>) -> Result<bool, SettingError> {
+        let v = s.value;
+        match s.key {
+            "corners" => self.corners_tried = s.count()?.max(1),
+            "screen_points" => self.screen_points = s.count()?,
+            "prescreen_step" => self.prescreen_step = s.count()?,
+            "prescreened" => self.prescreened = s.count()?,
+            "screen_cap" => self.screen_cap = v,
+            "screened" => self.screened = s.count()?,
+            "refined" => self.refined = s.count()?,
+            "refine_points" => self.refine_points = s.count()?,
+            "refine_iterations" => self.refine.iterations = s.count()?,
+            "polish_points" => self.polish_points = s.count()?,
+            "polish_margin" => self.polish_margin = v,
+            "polish_iterations" => self.polish_iterations = s.count()?,
+            "first_corners" => self.first_look.corners = s.count()?,
+            "first_prescreened" => self.first_look.prescreened = s.count()?,
+            "first_screened" => self.first_look.screened = s.count()?,
+            "first_refined" => self.first_look.refined = s.count()?,
+            "first_inliers" => self.first_look.min_inliers = v,
+            "first_through" => self.first_look.max_through = v,
+            "coarse_beams" => self.coarse_beams = s.count()?,
+            "coarse_sigma" => self.coarse_sigma = v,
+            "sparse_beams" => self.sparse_beams = s.count()?,
+            "sparse_kept" => self.sparse_kept = s.count()?,
+            "arm_slack" => self.arm_slack = v,
+            "map_sigma" => self.cost.sigma_floor = v,
+            "cost_stride" => self.cost.stride = s.count()?,
+            "front_cap" => self.cost.front_cap = v,
+            "through_cap" => self.cost.through_cap = v,
+            "grazing_cap" => self.cost.grazing_cap = v,
+            "paper_cost" => self.cost.kind = if s.switch() { CostKind::Paper } else { CostKind::OneSided },
+            "surface_dropouts" => self.surface_dropouts = s.count()?,
+            "inside_only" => self.inside_only = s.switch(),
+            "ambiguity" => self.ambiguity_margin = v,
+            "cornerless_tie" => self.cornerless_tie = v,
+            "min_inliers" => self.min_inliers = v,
+            "max_through" => self.max_through = v,
+            "max_through_approximate" => self.max_through_approximate = v,
+            "max_through_ok" => self.max_through_ok = v,
+            "track" => self.track_radius = (v > 0.0).then_some(v),
+            "slide_lines" => self.slide.lines = s.count()?,
+            "slide_min_length" => self.slide.min_length = v,
+            "slide_step" => self.slide.step = v,
+            "slide_slack" => self.slide.slack = v,
+            "slide_screened" => self.slide.screened = s.count()?,
+            "slide_max_poses" => self.slide.max_poses = s.count()?,
+            "slide_sigma_deg" => self.slide.max_direction_sigma = s.degrees(),
+            "slide_min_inliers_ok" => self.slide.min_inliers_ok = v,
+            "error_constant" => self.error.constant = v,
+            "error_proportional" => self.error.proportional = v,
+            _ => return Ok(false),
+        }
+        Ok(true)
+    }
+}
+
+impl Gema2Config {
+    /// The map-corner keys [`set`](Self::set) knows besides the segmenter's and localizer's.
+    pub const MAP_SETTINGS: &'static [&'static str] = &["map_reach", "wall_ends (0 or 1)"];
+
+    /// Every key [`set`](Self::set) knows, with what a value means where that is not plain.
+    pub fn settings() -> Vec<&'static str> {
+        let mut all: Vec<&str> = Vec::new();
+        for &k in SegmenterConfig::SETTINGS.iter().chain(LocalizerConfig::SETTINGS).chain(Self::MAP_SETTINGS) {
+            if !all.contains(&k) {
+                all.push(k);
+            }
+        }
+        all
+    }
+
+    /// Applies `s` to every configuration it concerns: a key shared by segmentation and
+    /// localization (the error model, `wall_ends`) is set in both, so the stages agree.
+    pub fn set(&mut self, s: &Setting<'_>) -> Result<(), SettingError> {
+        let mut known = self.segmenter.set(s)?;
+        known |= self.localizer.set(s)?;
+        match s.key {
+            "map_reach" => self.map_corners.reach = s.value,
+            "wall_ends" => self.map_corners.wall_ends = s.switch(),
+            _ if known => {}
+            _ => return Err(SettingError::Unknown { key: s.key.to_string(), known: Self::settings() }),
+        }
+        Ok(())
+    }
+
+    /// Applies every `KEY=VALUE` of `settings`, or none of them when one is malformed or
+    /// unknown.
+    pub fn apply<S: AsRef<str>>(&mut self, settings: &[S]) -> Result<(), SettingError> {
+        let mut c = *self;
+        for kv in settings {
+            c.set(&Setting::parse(kv.as_ref())?)?;
+        }
+        *self = c;
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_shared_setting_reaches_every_stage_that_uses_it() {
+        let mut c = Gema2Config::default();
+        c.apply(&["error_constant=0.05", "wall_ends=0", "screened=100", "map_reach=2", "track=3"]).unwrap();
+        assert_eq!(c.segmenter.error.constant, 0.05);
+        assert_eq!(c.localizer.error.constant, 0.05);
+        assert!(!c.segmenter.ends.enabled && !c.map_corners.wall_ends);
+        assert_eq!(c.localizer.screened, 100);
+        assert_eq!(c.map_corners.reach, 2.0);
+        assert_eq!(c.localizer.track_radius, Some(3.0));
+    }
+
+    #[test]
+    fn unknown_or_malformed_settings_change_nothing() {
+        let mut c = Gema2Config::default();
+        let before = format!("{c:?}");
+        let err = c.apply(&["screened=100", "screend=5"]).unwrap_err();
+        assert!(err.to_string().contains("\"screend\""), "{err}");
+        assert!(err.to_string().contains("screened") && err.to_string().contains("merge_angle"), "{err}");
+        assert!(c.apply(&["screened=100", "refined=-1"]).is_err());
+        assert!(c.apply(&["screened=100", "front_cap=NaN"]).is_err());
+        assert_eq!(format!("{c:?}"), before);
+    }
+
+    #[test]
+    fn every_listed_key_is_accepted() {
+        for listed in Gema2Config::settings() {
+            let key = listed.split(' ').next().unwrap_or(listed);
+            let mut c = Gema2Config::default();
+            assert!(c.apply(&[format!("{key}=1")]).is_ok(), "{key}");
+        }
+    }
+}
