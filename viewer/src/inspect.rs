@@ -4,7 +4,7 @@
 use crate::entities::*;
 use re_log_encoding::DecoderApp;
 use rerun::log::{Chunk, LogMsg};
-use rerun::{Arrows2D, LineStrips2D, Points2D, Scalars, TextLog};
+use rerun::{Arrows2D, Image, LineStrips2D, Points2D, Scalars, TextLog};
 use std::collections::BTreeMap;
 use std::io::BufReader;
 use std::path::{Path, PathBuf};
@@ -40,6 +40,9 @@ pub struct Inspection {
     /// Static entities: instances of the map's walls and corners.
     pub map_walls: usize,
     pub map_corners: usize,
+    /// Cells drawn as seen free by the map's survey ([`MAP_SEEN_FREE`]), 0 without.
+    pub map_seen_free: usize,
+    map_seen_free_row: Option<rerun::log::RowId>,
 }
 
 /// The component whose list length is an entity's instance count.
@@ -108,6 +111,25 @@ impl Inspection {
                 *hi = (*hi).max(t);
             }
         }
+        if path == MAP_SEEN_FREE && chunk.is_static() {
+            // the newest row wins, as in rerun, whatever order the chunks were written in: an
+            // RGBA image (a cell is seen where its pixel is not clear), or a later map's clear
+            let buffer = Image::descriptor_buffer().component;
+            let cells: Vec<usize> = if chunk.components().contains_component(buffer) {
+                chunk
+                    .iter_slices::<&[u8]>(buffer)
+                    .map(|b| b.iter().map(|b| b.chunks_exact(4).filter(|px| px[3] > 0).count()).sum())
+                    .collect()
+            } else {
+                vec![0; chunk.num_rows()]
+            };
+            for (row, n) in chunk.row_ids().zip(cells) {
+                if self.map_seen_free_row.is_none_or(|newest| row > newest) {
+                    (self.map_seen_free_row, self.map_seen_free) = (Some(row), n);
+                }
+            }
+            return;
+        }
         if let Some(component) = counted_component(path) {
             let rows = chunk.iter_component_indices(scan_timeline, component);
             let lens = chunk.iter_component_offsets(component).map(|s| s.len);
@@ -172,7 +194,11 @@ impl Inspection {
         if let Some((lo, hi)) = self.acquired {
             out.push(format!("time span: {:.3} s", (hi - lo) as f64 / 1e9));
         }
-        out.push(format!("map: {} walls, {} corners", self.map_walls, self.map_corners));
+        let seen = match self.map_seen_free {
+            0 => String::new(),
+            n => format!(", {n} cells of seen free space"),
+        };
+        out.push(format!("map: {} walls, {} corners{seen}", self.map_walls, self.map_corners));
         if !self.success.is_empty() {
             let ok = self.success.values().filter(|&&s| s).count();
             let errors: Vec<f64> = self

@@ -5,14 +5,14 @@ use crate::entities::*;
 use crate::output::{Output, OutputError};
 use laser::ScanGeometry;
 use mapserver::wire::map_from_msg;
-use mapserver::{CornerIndex, MapCornerConfig};
+use mapserver::{CornerIndex, MapCornerConfig, SeenFree};
 use messages::{
     CornersMsg, Freshness, Header, LinesMsg, MapMsg, PoseMsg, PoseMsgXyt, ScanMsg, Stage, StageSpan, Topic, MAX_BEAMS,
     MAX_CORNERS, MAX_HYPOTHESES, MAX_LINES, STATUS_AMBIGUOUS, STATUS_FAILED, STATUS_OK,
 };
 use rerun::components::TextLogLevel;
 use rerun::datatypes::Rgba32;
-use rerun::{Arrows2D, Color, LineStrips2D, Points2D, RecordingStream, Scalars, TextLog};
+use rerun::{Arrows2D, Color, Image, LineStrips2D, Points2D, RecordingStream, Scalars, TextLog, Transform3D};
 use std::collections::VecDeque;
 use std::time::Duration;
 
@@ -125,6 +125,33 @@ struct KeptScan {
     corners: Vec<[f32; 2]>,
 }
 
+/// The map's static entities.
+struct MapStatic {
+    walls: LineStrips2D,
+    corners: Points2D,
+    seen_free: Option<(Image, Transform3D)>,
+}
+
+/// Colour of a cell the map's survey saw free.
+const SEEN_FREE_RGBA: [u8; 4] = [80, 200, 120, 60];
+
+/// [`MAP_SEEN_FREE`]: pixel (c, r) is cell (c, r), so the image is scaled by the cell size and
+/// moved to the raster's origin (the map frame's y and the image's rows both grow from it).
+fn seen_free_image(seen: &SeenFree) -> (Image, Transform3D) {
+    let (cols, rows) = seen.size();
+    let bits = seen.bits();
+    let mut rgba = vec![0u8; cols * rows * 4];
+    for (i, px) in rgba.chunks_exact_mut(4).enumerate() {
+        if bits[i / 64] >> (i % 64) & 1 == 1 {
+            px.copy_from_slice(&SEEN_FREE_RGBA);
+        }
+    }
+    let image = Image::from_rgba32(rgba, [cols as u32, rows as u32]).with_draw_order(-20.0);
+    let o = seen.origin();
+    let place = Transform3D::from_translation_scale([o.x as f32, o.y as f32, 0.0], seen.cell() as f32);
+    (image, place)
+}
+
 /// Turns pipeline messages into a rerun recording.
 pub struct Recorder {
     output: Output,
@@ -132,7 +159,7 @@ pub struct Recorder {
     kept: VecDeque<KeptScan>,
     map_version: Option<u32>,
     /// The last map, kept to log again into each new file part.
-    map_static: Option<(LineStrips2D, Points2D)>,
+    map_static: Option<MapStatic>,
     last_status: Option<u32>,
 }
 
@@ -222,14 +249,24 @@ impl Recorder {
             TextLogLevel::INFO,
             format!("map version {}: {} walls, {} corners", m.version, walls.walls.len(), corners.corners().len()),
         )?;
-        self.map_static = Some((strips, points));
+        let seen_free = walls.seen_free.as_ref().map(seen_free_image);
+        if seen_free.is_none() && self.map_static.as_ref().is_some_and(|m| m.seen_free.is_some()) {
+            // the previous version's free space is not this one's
+            self.rec().log_static(MAP_SEEN_FREE, &rerun::Clear::flat()).map_err(stream_err)?;
+        }
+        self.map_static = Some(MapStatic { walls: strips, corners: points, seen_free });
         self.log_map()
     }
 
     fn log_map(&self) -> Result<(), OutputError> {
-        if let Some((strips, points)) = &self.map_static {
-            self.rec().log_static(MAP_WALLS, strips).map_err(stream_err)?;
-            self.rec().log_static(MAP_CORNERS, points).map_err(stream_err)?;
+        if let Some(m) = &self.map_static {
+            self.rec().log_static(MAP_WALLS, &m.walls).map_err(stream_err)?;
+            self.rec().log_static(MAP_CORNERS, &m.corners).map_err(stream_err)?;
+            if let Some((image, place)) = &m.seen_free {
+                self.rec()
+                    .log_static(MAP_SEEN_FREE, &[image as &dyn rerun::AsComponents, place])
+                    .map_err(stream_err)?;
+            }
         }
         Ok(())
     }

@@ -86,6 +86,42 @@ fn map() -> Box<MapMsg> {
     m
 }
 
+/// A map that keeps its survey's free space (as a map built from a log does) is drawn with it,
+/// cell for cell; a later version without it clears it.
+#[test]
+fn a_map_with_seen_free_space_is_drawn_with_it() {
+    use mapserver::{wire::map_to_msg, SeenFree};
+    use nalgebra::Point2;
+    let mut walls = mapserver::wire::map_from_msg(&map()).unwrap();
+    let mut seen = SeenFree::covering(Point2::new(0.0, 0.0), Point2::new(4.0, 3.0), 0.5).unwrap();
+    seen.mark_ray(Point2::new(0.25, 0.25), Point2::new(3.75, 0.25)); // the bottom row of 8 cells
+    seen.mark_ray(Point2::new(0.25, 0.75), Point2::new(0.25, 2.75)); // and 5 more up the left
+    let cells = seen.seen_cells();
+    assert_eq!(cells, 13);
+    walls.seen_free = Some(seen);
+    let mut with_seen = map();
+    map_to_msg(&walls, 1, &mut with_seen).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("seen.rrd");
+    let output = Output::open(OutputSpec { file: Some(file.clone()), ..Default::default() }).unwrap();
+    let mut r = Recorder::new(output);
+    r.map(&with_seen).unwrap();
+    let (_, parts) = r.finish().unwrap();
+    let got = Inspection::read(&parts).unwrap();
+    assert_eq!((got.map_walls, got.map_seen_free), (4, cells));
+    assert!(got.render().contains("13 cells of seen free space"), "{}", got.render());
+
+    let file = dir.path().join("replaced.rrd");
+    let output = Output::open(OutputSpec { file: Some(file.clone()), ..Default::default() }).unwrap();
+    let mut r = Recorder::new(output);
+    r.map(&with_seen).unwrap();
+    let mut plain = map();
+    plain.version = 2;
+    r.map(&plain).unwrap();
+    let (_, parts) = r.finish().unwrap();
+    assert_eq!(Inspection::read(&parts).unwrap().map_seen_free, 0);
+}
+
 #[test]
 fn a_recording_holds_every_entity_with_the_counts_sent() {
     let dir = tempfile::tempdir().unwrap();
