@@ -29,9 +29,9 @@ pub struct SegmentArgs {
 }
 
 pub fn run(a: SegmentArgs) -> Result<()> {
-    a.stage.place()?;
     let mut config = SegmenterConfig::default();
     config.apply(&a.set).context("segment: --set")?;
+    a.stage.place()?;
     let mut segmenter = segmenter_by_name(&a.implementation, config)
         .ok_or_else(|| anyhow!("unknown segment implementation {:?}: one of {SEGMENTERS:?}", a.implementation))?;
     let node = messages::create_node(&format!("segment-{}", a.implementation))?;
