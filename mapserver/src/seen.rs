@@ -65,6 +65,11 @@ impl SeenFree {
         (self.raster.grid.cols, self.raster.grid.rows)
     }
 
+    /// Whether each cell was seen, row by row from the origin (the order of [`bits`](Self::bits)).
+    pub fn cells(&self) -> impl Iterator<Item = bool> + '_ {
+        (0..self.raster.grid.cells()).map(|i| self.raster.get(i))
+    }
+
     /// How many cells were seen.
     pub fn seen_cells(&self) -> usize {
         self.raster.bits.iter().map(|w| w.count_ones() as usize).sum()

@@ -139,10 +139,9 @@ const SEEN_FREE_RGBA: [u8; 4] = [80, 200, 120, 60];
 /// moved to the raster's origin (the map frame's y and the image's rows both grow from it).
 fn seen_free_image(seen: &SeenFree) -> (Image, Transform3D) {
     let (cols, rows) = seen.size();
-    let bits = seen.bits();
     let mut rgba = vec![0u8; cols * rows * 4];
-    for (i, px) in rgba.chunks_exact_mut(4).enumerate() {
-        if bits[i / 64] >> (i % 64) & 1 == 1 {
+    for (px, seen) in rgba.chunks_exact_mut(4).zip(seen.cells()) {
+        if seen {
             px.copy_from_slice(&SEEN_FREE_RGBA);
         }
     }
