@@ -64,7 +64,7 @@ impl LocalizerConfig {
     pub fn set(&mut self, s: &Setting<'_>) -> Result<bool, SettingError> {
         let v = s.value;
         match s.key {
-            "corners" => self.corners_tried = s.count()?.max(1),
+            "corners" => self.corners_tried = s.count()?,
             "screen_points" => self.screen_points = s.count()?,
             "prescreen_step" => self.prescreen_step = s.count()?,
             "prescreened" => self.prescreened = s.count()?,
