@@ -85,6 +85,31 @@ fn scans_arrive_with_the_ranges_the_emulator_sent() {
 }
 
 #[test]
+fn a_sensor_still_speaking_scip_1_1_is_switched_to_scip_2_0() {
+    let emu = start(emulator(EmulatorFaults { starts_in_scip11: true, ..Default::default() }));
+    let mut urg = open(&emu.path);
+    let info = urg.connect().unwrap().clone();
+    assert_eq!((info.amin, info.amax), (44, 725));
+    urg.start(Encoding::Three, 44, 725, 1, 0).unwrap();
+    assert_eq!(urg.next_scan().unwrap().ranges_mm.len(), 682);
+}
+
+#[test]
+fn a_sensor_left_in_time_adjust_mode_is_brought_out_of_it() {
+    let emu = start(emulator(EmulatorFaults { starts_in_time_adjust: true, ..Default::default() }));
+    let mut urg = open(&emu.path);
+    urg.connect().unwrap();
+    urg.start(Encoding::Three, 44, 725, 1, 0).unwrap();
+    assert_eq!(urg.next_scan().unwrap().ranges_mm.len(), 682);
+    // reading the clock leaves the sensor out of time-adjust mode again
+    urg.stop().unwrap();
+    let t = urg.sensor_time().unwrap();
+    assert!(urg.sensor_time().unwrap() >= t);
+    urg.laser_on().unwrap();
+    assert_eq!(urg.single_scan(Encoding::Two, 44, 725, 1).unwrap().ranges_mm.len(), 682);
+}
+
+#[test]
 fn a_corrupted_checksum_drops_that_scan_only() {
     let emu = start(emulator(EmulatorFaults { corrupt_scan: Some(2), ..Default::default() }));
     let mut urg = open(&emu.path);

@@ -24,6 +24,12 @@ pub struct EmulateArgs {
     /// Also make this path a symlink to the pseudo-terminal.
     #[arg(long)]
     pub link: Option<PathBuf>,
+    /// Start speaking SCIP 1.1, as older URG-04LX firmware does after power-up.
+    #[arg(long)]
+    pub scip11: bool,
+    /// Start in time-adjust mode, as a sensor whose last client died while reading its clock.
+    #[arg(long)]
+    pub time_adjust: bool,
 }
 
 pub fn run(a: EmulateArgs) -> Result<()> {
@@ -38,7 +44,9 @@ pub fn run(a: EmulateArgs) -> Result<()> {
             .map(|&r| if r.is_finite() && r > 0.02 && r < max { (r * 1000.0).round() as u32 } else { 0 })
             .collect()
     });
-    let mut emu = UrgEmulator::urg04lx(source, Duration::from_millis(a.period_ms), EmulatorFaults::default());
+    let faults =
+        EmulatorFaults { starts_in_scip11: a.scip11, starts_in_time_adjust: a.time_adjust, ..Default::default() };
+    let mut emu = UrgEmulator::urg04lx(source, Duration::from_millis(a.period_ms), faults);
     let (mut master, slave) = TTYPort::pair().context("creating a pseudo-terminal")?;
     master.set_timeout(Duration::from_millis(5))?;
     let path = slave.name().context("the pseudo-terminal has no name")?;

@@ -196,14 +196,32 @@ impl<T: Read + Write> Urg<T> {
     }
 
     /// Brings the sensor to a known state and reads its description: stops any stream, switches
-    /// a SCIP 1.1 sensor to SCIP 2.0, then `VV`, `PP` and `II`.
+    /// a SCIP 1.1 sensor to SCIP 2.0, ends a time-adjust mode left open, then `VV`, `PP` and
+    /// `II`.
     pub fn connect(&mut self) -> Result<&SensorInfo, ScipError> {
-        // QT twice: the first may be lost in a stream already running
-        let _ = self.command("QT");
+        // QT twice: the first may be lost in a stream already running, and its answer tells
+        // what state the sensor is in
+        match self.command("QT") {
+            // SCIP 1.1 knows no QT (firmware before 3.x starts in it)
+            Ok(f) if f.status == "E" => {
+                let f = self.command("SCIP2.0")?;
+                if !matches!(f.status.as_str(), "0" | "00" | "0E") {
+                    return Err(ScipError::Status {
+                        command: "SCIP2.0".into(),
+                        meaning: "the sensor speaks SCIP 1.1 and did not switch to SCIP 2.0 (update its firmware)",
+                        status: f.status,
+                    });
+                }
+            }
+            // time-adjust mode (TM0 without TM2: a client that died reading the clock)
+            // refuses everything but TM
+            Ok(f) if f.status == "0E" => {
+                let _ = self.command("TM2");
+            }
+            _ => {}
+        }
         self.expect_ok("QT", &["00"])?;
         self.streaming = None;
-        // a SCIP 2.0 sensor answers SCIP2.0 with 0E (or 00); a SCIP 1.1 one switches
-        let _ = self.command("SCIP2.0");
         let mut info = SensorInfo::default();
         for cmd in ["VV", "PP", "II"] {
             let f = self.expect_ok(cmd, &["00"])?;

@@ -19,6 +19,12 @@ pub struct EmulatorFaults {
     pub laser_broken: bool,
     /// Sensor clock at start, milliseconds (set near 2^24 to test the wrap).
     pub start_time_ms: u32,
+    /// Start speaking SCIP 1.1, as URG-04LX firmware older than 3.x does after power-up: every
+    /// command but `SCIP2.0` is answered with the bare status `E`.
+    pub starts_in_scip11: bool,
+    /// Start in time-adjust mode (`TM0` sent, `TM2` never: a client that died while reading
+    /// the clock): every command but `TM1` and `TM2` is answered with status `0E`.
+    pub starts_in_time_adjust: bool,
 }
 
 /// Why serving ended.
@@ -47,6 +53,8 @@ pub struct UrgEmulator {
     /// (echo prefix, three-character?, first, last, cluster, remaining or 0 for endless)
     stream: Option<(String, bool, u32, u32, u32, u32)>,
     next_scan: Instant,
+    scip11: bool,
+    time_adjust: bool,
 }
 
 fn info_line(key: &str, value: &str, out: &mut Vec<u8>) {
@@ -76,6 +84,8 @@ impl UrgEmulator {
             scans_sent: 0,
             stream: None,
             next_scan: Instant::now(),
+            scip11: faults.starts_in_scip11,
+            time_adjust: faults.starts_in_time_adjust,
         }
     }
 
@@ -125,6 +135,22 @@ impl UrgEmulator {
         let mut out = cmd.as_bytes().to_vec();
         out.push(b'\n');
         let code = cmd.get(..2).unwrap_or("");
+        if self.scip11 {
+            // SCIP 1.1 status lines carry no checksum
+            if cmd == "SCIP2.0" {
+                self.scip11 = false;
+                out.extend_from_slice(b"0\n");
+            } else {
+                out.extend_from_slice(b"E\n");
+            }
+            out.push(b'\n');
+            return out;
+        }
+        if self.time_adjust && code != "TM" {
+            status("0E", &mut out);
+            out.push(b'\n');
+            return out;
+        }
         match code {
             "QT" => {
                 self.stream = None;
@@ -177,7 +203,24 @@ impl UrgEmulator {
                 info_line("STAT", "Sensor works well.", &mut out);
             }
             "TM" => match cmd {
-                "TM0" | "TM2" => status("00", &mut out),
+                "TM0" | "TM2" => {
+                    let entering = cmd == "TM0";
+                    // 02 / 03: already in / already out of time-adjust mode
+                    status(
+                        if entering == self.time_adjust {
+                            if entering {
+                                "02"
+                            } else {
+                                "03"
+                            }
+                        } else {
+                            "00"
+                        },
+                        &mut out,
+                    );
+                    self.time_adjust = entering;
+                }
+                "TM1" if !self.time_adjust => status("01", &mut out),
                 "TM1" => {
                     status("00", &mut out);
                     let mut t = Vec::new();

@@ -124,8 +124,9 @@ fn try_frame<R: Read>(r: &mut LineReader<R>, resyncs: &mut u64, skipped: &mut us
         let status = match status_line.len() {
             // status + checksum
             3 => verified(&status_line)?,
-            // some firmware sends a bare status for some commands
-            2 => &status_line[..],
+            // some firmware sends a bare status for some commands, and a sensor still speaking
+            // SCIP 1.1 a one-character one (`E` for a command it does not know)
+            1 | 2 => &status_line[..],
             _ => {
                 *resyncs += 1;
                 skip_to_end(r)?;
