@@ -26,7 +26,8 @@ pub struct AcquireArgs {
     /// Read a real Hokuyo URG-04LX on this serial port (SCIP 2.0).
     #[arg(long)]
     pub serial: Option<String>,
-    /// Baud rate of the serial port (ignored by USB models).
+    /// Baud rate of the serial port (ignored by USB models). An RS-232 sensor that does not
+    /// answer at it is looked for at the other SCIP rates and switched to it.
     #[arg(long, default_value_t = 115_200)]
     pub baud: u32,
     /// Also write every scan as a ROBOTLASER1 line to this file.

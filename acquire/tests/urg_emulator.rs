@@ -110,6 +110,23 @@ fn a_sensor_left_in_time_adjust_mode_is_brought_out_of_it() {
 }
 
 #[test]
+fn an_rs232_sensor_at_another_bit_rate_is_found_and_switched() {
+    // powered up at 19200 bit/s; the host asks for 115200
+    let emu = start(emulator(EmulatorFaults { rs232_bit_rate: Some(19_200), ..Default::default() }));
+    let mut source = SerialSource::new(&emu.path, 115_200);
+    // no retries: the first connection must find it
+    let scan = source.next_scan(&mut |wait| wait.is_zero()).expect("connected on the first attempt").unwrap();
+    assert_eq!(scan.ranges.len(), 682);
+    // the sensor now runs at the requested rate: a client at that rate is answered directly
+    drop(source);
+    let mut urg = open(&emu.path);
+    urg.connect().unwrap();
+    let err = urg.set_bit_rate(12_345).unwrap_err().to_string();
+    assert!(err.contains("SS012345") && err.contains("02") && err.contains("bit rate"), "{err}");
+    urg.set_bit_rate(115_200).unwrap();
+}
+
+#[test]
 fn a_corrupted_checksum_drops_that_scan_only() {
     let emu = start(emulator(EmulatorFaults { corrupt_scan: Some(2), ..Default::default() }));
     let mut urg = open(&emu.path);

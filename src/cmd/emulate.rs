@@ -30,9 +30,16 @@ pub struct EmulateArgs {
     /// Start in time-adjust mode, as a sensor whose last client died while reading its clock.
     #[arg(long)]
     pub time_adjust: bool,
+    /// Emulate an RS-232 link at this bit rate (the sensor powers up at 19200): commands sent
+    /// at another rate go unanswered until the client finds it. Without it, a USB link.
+    #[arg(long)]
+    pub rs232: Option<u32>,
 }
 
 pub fn run(a: EmulateArgs) -> Result<()> {
+    if let Some(r) = a.rs232.filter(|r| !acquire::scip::BIT_RATES.contains(r)) {
+        anyhow::bail!("--rs232 {r}: a URG-04LX runs at one of {:?} bit/s", acquire::scip::BIT_RATES);
+    }
     let map = mapserver::load_map(&a.map)?;
     let mut sim = Simulator::new(&map, SensorModel::urg04lx(), a.scenario, a.seed);
     let source = Box::new(move || {
@@ -44,8 +51,12 @@ pub fn run(a: EmulateArgs) -> Result<()> {
             .map(|&r| if r.is_finite() && r > 0.02 && r < max { (r * 1000.0).round() as u32 } else { 0 })
             .collect()
     });
-    let faults =
-        EmulatorFaults { starts_in_scip11: a.scip11, starts_in_time_adjust: a.time_adjust, ..Default::default() };
+    let faults = EmulatorFaults {
+        starts_in_scip11: a.scip11,
+        starts_in_time_adjust: a.time_adjust,
+        rs232_bit_rate: a.rs232,
+        ..Default::default()
+    };
     let mut emu = UrgEmulator::urg04lx(source, Duration::from_millis(a.period_ms), faults);
     let (mut master, slave) = TTYPort::pair().context("creating a pseudo-terminal")?;
     master.set_timeout(Duration::from_millis(5))?;

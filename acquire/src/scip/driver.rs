@@ -237,6 +237,24 @@ impl<T: Read + Write> Urg<T> {
         Ok(&self.info)
     }
 
+    /// The transport, to change what the protocol does not (a serial port's bit rate).
+    pub fn port_mut(&mut self) -> &mut T {
+        &mut self.reader.inner
+    }
+
+    /// Forgets received bytes not yet read as a response: what arrived before a change of
+    /// bit rate is garbage after it.
+    pub fn discard_input(&mut self) {
+        self.reader.clear();
+    }
+
+    /// Asks an RS-232 sensor to change its bit rate (`SS`); it answers at the old rate, then
+    /// switches. Status 03 (already at that rate) counts as done; a USB sensor accepts and
+    /// ignores the change.
+    pub fn set_bit_rate(&mut self, bps: u32) -> Result<(), ScipError> {
+        self.expect_ok(&format!("SS{bps:06}"), &["00", "03"]).map(|_| ())
+    }
+
     /// Switches the laser on (`BM`).
     pub fn laser_on(&mut self) -> Result<(), ScipError> {
         self.expect_ok("BM", &["00", "02"]).map(|_| ())

@@ -2,7 +2,8 @@
 //! practice) with scans from any source, and can misbehave on purpose for tests.
 
 use super::codec::{checksum, data_lines, encode};
-use std::io::{ErrorKind, Read, Write};
+use serialport::SerialPort;
+use std::io::ErrorKind;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
@@ -25,6 +26,10 @@ pub struct EmulatorFaults {
     /// Start in time-adjust mode (`TM0` sent, `TM2` never: a client that died while reading
     /// the clock): every command but `TM1` and `TM2` is answered with status `0E`.
     pub starts_in_time_adjust: bool,
+    /// Connected by RS-232 at this bit rate (the URG-04LX powers up at 19200): a command sent
+    /// at another rate arrives as framing errors and is not answered; `SS` changes the rate.
+    /// `None`: connected by USB, where the rate does not matter.
+    pub rs232_bit_rate: Option<u32>,
 }
 
 /// Why serving ended.
@@ -55,6 +60,7 @@ pub struct UrgEmulator {
     next_scan: Instant,
     scip11: bool,
     time_adjust: bool,
+    bit_rate: Option<u32>,
 }
 
 fn info_line(key: &str, value: &str, out: &mut Vec<u8>) {
@@ -86,6 +92,7 @@ impl UrgEmulator {
             next_scan: Instant::now(),
             scip11: faults.starts_in_scip11,
             time_adjust: faults.starts_in_time_adjust,
+            bit_rate: faults.rs232_bit_rate,
         }
     }
 
@@ -93,8 +100,14 @@ impl UrgEmulator {
         (self.faults.start_time_ms as u64 + self.origin.elapsed().as_millis() as u64) as u32 & 0xFF_FFFF
     }
 
-    /// Serves until `stop`, a requested close, or the port closing.
-    pub fn serve<P: Read + Write>(&mut self, port: &mut P, stop: &AtomicBool) -> std::io::Result<ServeEnd> {
+    /// The bit rate the emulated RS-232 link runs at (`None` for USB).
+    pub fn bit_rate(&self) -> Option<u32> {
+        self.bit_rate
+    }
+
+    /// Serves until `stop`, a requested close, or the port closing. The port's own rate (a
+    /// pseudo-terminal's master side reads the rate its client set) stands for the host's.
+    pub fn serve<P: SerialPort>(&mut self, port: &mut P, stop: &AtomicBool) -> std::io::Result<ServeEnd> {
         let mut pending: Vec<u8> = Vec::new();
         let mut buf = [0u8; 512];
         loop {
@@ -110,7 +123,8 @@ impl UrgEmulator {
             while let Some(k) = pending.iter().position(|&b| b == b'\n' || b == b'\r') {
                 let line: Vec<u8> = pending.drain(..=k).collect();
                 let cmd = String::from_utf8_lossy(&line[..line.len() - 1]).trim().to_owned();
-                if !cmd.is_empty() {
+                let garbled = self.bit_rate.is_some_and(|r| port.baud_rate().ok() != Some(r));
+                if !cmd.is_empty() && !garbled {
                     let reply = self.answer(&cmd);
                     if port.write_all(&reply).is_err() {
                         return Ok(ServeEnd::PortClosed);
@@ -230,6 +244,18 @@ impl UrgEmulator {
                 _ => status("0F", &mut out),
             },
             "MD" | "MS" | "GD" | "GS" => self.scan_command(cmd, &mut out),
+            "SS" => {
+                match cmd.get(2..).filter(|d| d.len() == 6).and_then(|d| d.parse::<u32>().ok()) {
+                    None => status("01", &mut out),
+                    Some(r) if !super::BIT_RATES.contains(&r) => status("02", &mut out),
+                    Some(r) if self.bit_rate == Some(r) => status("03", &mut out),
+                    Some(r) => {
+                        // the answer still goes out at the old rate; USB ignores the rate
+                        status("00", &mut out);
+                        self.bit_rate = self.bit_rate.map(|_| r);
+                    }
+                }
+            }
             _ if cmd == "SCIP2.0" => status("0E", &mut out),
             _ => status("0E", &mut out),
         }

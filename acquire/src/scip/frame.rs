@@ -22,6 +22,12 @@ impl<R: Read> LineReader<R> {
         LineReader { inner, buf: Vec::with_capacity(4096), start: 0 }
     }
 
+    /// Forgets what was read but not yet returned (bytes received at a wrong bit rate).
+    pub fn clear(&mut self) {
+        self.buf.clear();
+        self.start = 0;
+    }
+
     /// The next line without its LF (CR before LF is dropped too).
     pub fn read_line(&mut self) -> Result<Vec<u8>, ScipError> {
         loop {

@@ -29,6 +29,9 @@ pub enum ScipError {
     Malformed(String),
 }
 
+/// The bit rates `SS` can set, the URG-04LX's power-up rate first.
+pub const BIT_RATES: [u32; 7] = [19_200, 38_400, 57_600, 115_200, 250_000, 500_000, 750_000];
+
 /// What a status code means, for messages.
 pub fn status_meaning(command: &str, status: &str) -> &'static str {
     match (command.get(..2).unwrap_or(""), status) {
@@ -36,6 +39,9 @@ pub fn status_meaning(command: &str, status: &str) -> &'static str {
         (_, "99") => "data",
         ("BM", "01") => "the laser cannot be switched on (laser malfunction)",
         ("BM", "02") => "the laser is already on",
+        ("SS", "01") => "the bit rate is not a number",
+        ("SS", "02") => "the sensor does not support that bit rate",
+        ("SS", "04") => "this sensor model cannot change its bit rate",
         (_, "01") => "the starting step is not a number",
         (_, "02") => "the ending step is not a number",
         (_, "03") => "the cluster count is not a number",

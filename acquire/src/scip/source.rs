@@ -1,11 +1,13 @@
 //! Scans from a URG-04LX on a serial port, surviving what serial links do: a scan that fails
 //! its checksum is dropped and counted; garbage is skipped; a port that disappears (cable
-//! pulled, sensor reset) is reopened with backoff until it comes back.
+//! pulled, sensor reset) is reopened with backoff until it comes back. An RS-232 sensor that
+//! does not answer at the requested bit rate (it powers up at 19200) is looked for at the
+//! others and then switched to the requested one.
 
 use super::driver::{Encoding, LinkStats, Urg};
-use super::ScipError;
+use super::{ScipError, BIT_RATES};
 use laser::LaserScan;
-use serialport::TTYPort;
+use serialport::{SerialPort, TTYPort};
 use std::time::Duration;
 
 pub struct SerialSource {
@@ -16,6 +18,11 @@ pub struct SerialSource {
     /// Totals over every connection.
     pub stats: LinkStats,
     pub reconnects: u64,
+}
+
+/// Whether a failed connection may be a bit rate mismatch: no answer, or garbage.
+fn at_wrong_bit_rate(e: &ScipError) -> bool {
+    matches!(e, ScipError::Timeout | ScipError::Malformed(_) | ScipError::Checksum(_))
 }
 
 /// Errors that reconnecting cannot fix.
@@ -41,12 +48,36 @@ impl SerialSource {
             .open_native()
             .map_err(|e| ScipError::Io(std::io::Error::other(format!("{}: {e}", self.path))))?;
         let mut urg = Urg::new(port, Duration::from_secs(2));
-        let info = urg.connect()?.clone();
+        let info = match urg.connect() {
+            Ok(info) => info.clone(),
+            Err(e) if at_wrong_bit_rate(&e) => self.find_bit_rate(&mut urg).ok_or(e)??,
+            Err(e) => return Err(e),
+        };
         urg.laser_on()?;
         urg.start(Encoding::Three, info.amin, info.amax, 1, 0)?;
         self.urg = Some(urg);
         self.backoff = Duration::from_millis(100);
         Ok(())
+    }
+
+    /// Looks for the sensor at the other bit rates; where it answers, asks it to switch to
+    /// the requested rate and connects again at that. `None` when it answers at none.
+    fn find_bit_rate(&self, urg: &mut Urg<TTYPort>) -> Option<Result<super::SensorInfo, ScipError>> {
+        let found = BIT_RATES.into_iter().filter(|&r| r != self.baud).find(|&r| {
+            urg.port_mut().set_baud_rate(r).is_ok() && {
+                urg.discard_input();
+                urg.connect().is_ok()
+            }
+        })?;
+        eprintln!("acquire: {}: the sensor answers at {found} bit/s; switching it to {}", self.path, self.baud);
+        let switched = urg.set_bit_rate(self.baud).and_then(|()| {
+            urg.port_mut()
+                .set_baud_rate(self.baud)
+                .map_err(|e| ScipError::Io(std::io::Error::other(format!("{}: {e}", self.path))))?;
+            urg.discard_input();
+            urg.connect().cloned()
+        });
+        Some(switched)
     }
 
     fn retire(&mut self) {
