@@ -127,6 +127,21 @@ fn an_rs232_sensor_at_another_bit_rate_is_found_and_switched() {
 }
 
 #[test]
+fn impossible_scan_requests_are_refused_before_anything_is_sent() {
+    let emu = start(emulator(EmulatorFaults::default()));
+    let mut urg = open(&emu.path);
+    urg.connect().unwrap();
+    for (first, last, cluster, scans) in [(700, 44, 1, 0), (44, 10_000, 1, 0), (44, 725, 100, 0), (44, 725, 1, 100)] {
+        let err = urg.start(Encoding::Three, first, last, cluster, scans).unwrap_err();
+        assert!(matches!(err, ScipError::Malformed(_)), "{err}");
+    }
+    assert!(matches!(urg.single_scan(Encoding::Two, 725, 44, 1), Err(ScipError::Malformed(_))));
+    // the link is untouched
+    urg.start(Encoding::Three, 44, 725, 1, 0).unwrap();
+    assert_eq!(urg.next_scan().unwrap().ranges_mm.len(), 682);
+}
+
+#[test]
 fn a_corrupted_checksum_drops_that_scan_only() {
     let emu = start(emulator(EmulatorFaults { corrupt_scan: Some(2), ..Default::default() }));
     let mut urg = open(&emu.path);

@@ -292,6 +292,7 @@ impl<T: Read + Write> Urg<T> {
         cluster: u32,
         scans: u32,
     ) -> Result<(), ScipError> {
+        check_request(first, last, cluster, scans)?;
         let code = if encoding == Encoding::Three { "MD" } else { "MS" };
         let cmd = format!("{code}{first:04}{last:04}{cluster:02}0{scans:02}");
         self.expect_ok(&cmd, &["00"])?;
@@ -359,11 +360,24 @@ impl<T: Read + Write> Urg<T> {
         last: u32,
         cluster: u32,
     ) -> Result<RawScan, ScipError> {
+        check_request(first, last, cluster, 0)?;
         let code = if encoding == Encoding::Three { "GD" } else { "GS" };
         let cmd = format!("{code}{first:04}{last:04}{cluster:02}");
         let f = self.expect_ok(&cmd, &["00"])?;
         self.decode_scan(&f, encoding, first, last, cluster)
     }
+}
+
+/// Refuses what a scan request cannot say in its fixed-width fields (4 digits per step, 2 for
+/// the cluster and scan counts) and an empty step range, before anything is sent.
+fn check_request(first: u32, last: u32, cluster: u32, scans: u32) -> Result<(), ScipError> {
+    if last < first || last > 9999 || cluster > 99 || scans > 99 {
+        return Err(ScipError::Malformed(format!(
+            "a scan request of steps {first}..={last}, cluster {cluster}, {scans} scans: steps must be \
+             increasing and at most 9999, cluster and scans at most 99"
+        )));
+    }
+    Ok(())
 }
 
 /// `KEY:value;` followed by its checksum, which covers the bytes before the `;` (some firmware
