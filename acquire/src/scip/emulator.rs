@@ -100,11 +100,6 @@ impl UrgEmulator {
         (self.faults.start_time_ms as u64 + self.origin.elapsed().as_millis() as u64) as u32 & 0xFF_FFFF
     }
 
-    /// The bit rate the emulated RS-232 link runs at (`None` for USB).
-    pub fn bit_rate(&self) -> Option<u32> {
-        self.bit_rate
-    }
-
     /// Serves until `stop`, a requested close, or the port closing. The port's own rate (a
     /// pseudo-terminal's master side reads the rate its client set) stands for the host's.
     pub fn serve<P: SerialPort>(&mut self, port: &mut P, stop: &AtomicBool) -> std::io::Result<ServeEnd> {
@@ -219,19 +214,12 @@ impl UrgEmulator {
             "TM" => match cmd {
                 "TM0" | "TM2" => {
                     let entering = cmd == "TM0";
-                    // 02 / 03: already in / already out of time-adjust mode
-                    status(
-                        if entering == self.time_adjust {
-                            if entering {
-                                "02"
-                            } else {
-                                "03"
-                            }
-                        } else {
-                            "00"
-                        },
-                        &mut out,
-                    );
+                    let code = match (entering, self.time_adjust) {
+                        (true, true) => "02",   // already in time-adjust mode
+                        (false, false) => "03", // already out of it
+                        _ => "00",
+                    };
+                    status(code, &mut out);
                     self.time_adjust = entering;
                 }
                 "TM1" if !self.time_adjust => status("01", &mut out),
@@ -256,7 +244,7 @@ impl UrgEmulator {
                     }
                 }
             }
-            _ if cmd == "SCIP2.0" => status("0E", &mut out),
+            // an unknown command, or SCIP2.0 to a sensor already speaking it
             _ => status("0E", &mut out),
         }
         out.push(b'\n');
