@@ -1,7 +1,9 @@
 //! Pose refinement: a corner-derived pose inherits the angular error of two short lines, which
 //! at 5 m is several centimetres. A few Gauss-Newton steps of point-to-line least squares
 //! against the map's walls remove it. Points farther than a shrinking gate from any wall (people,
-//! furniture) are left out, and the rest are weighted by a Cauchy kernel.
+//! furniture) are left out, and the rest are weighted by a Cauchy kernel. A prior that the
+//! correction stays within the gate keeps directions the points do not pin down where they
+//! started.
 
 use crate::model::MapModel;
 use laser::Pose;
@@ -29,6 +31,7 @@ impl Default for RefineConfig {
 pub fn refine(model: &MapModel, points: &[Point2<f64>], pose: &Pose, cfg: &RefineConfig) -> (Pose, f64) {
     let mut theta = pose.rotation.angle();
     let mut t = pose.translation.vector;
+    let (start, start_theta) = (t, theta);
     let mut gate = cfg.first_gate;
     let mut paired = 0usize;
     let inverse_kernel_squared = 1.0 / (cfg.kernel * cfg.kernel);
@@ -39,6 +42,8 @@ pub fn refine(model: &MapModel, points: &[Point2<f64>], pose: &Pose, cfg: &Refin
         // the normal equations' upper triangle (h) and gradient (g), accumulated as scalars
         let [mut h00, mut h01, mut h02, mut h11, mut h12, mut h22] = [0.0f64; 6];
         let [mut g0, mut g1, mut g2] = [0.0f64; 3];
+        // weighted sums of the paired points' squared lever arms and of their weights
+        let (mut lever_squared, mut weights) = (0.0f64, 0.0f64);
         let gate_squared = gate * gate;
         paired = 0;
         for q in points {
@@ -75,15 +80,19 @@ pub fn refine(model: &MapModel, points: &[Point2<f64>], pose: &Pose, cfg: &Refin
             g0 += wj0 * r;
             g1 += wj1 * r;
             g2 += wj2 * r;
+            lever_squared += w * rq.norm_squared();
+            weights += w;
         }
         let h = Matrix3::new(h00, h01, h02, h01, h11, h12, h02, h12, h22);
         let g = Vector3::new(g0, g1, g2);
         if paired < 3 {
             break;
         }
-        // a little damping keeps corridor-like scenes (all walls parallel) from sliding
-        let damping = 1e-6 * h.trace().max(1e-9);
-        let Some(step) = (h + Matrix3::identity() * damping).lu().solve(&(-g)) else {
+        // the prior holds the whole correction, not each step: steps cannot add up along a
+        // direction the points do not pin down
+        let prior = prior_damping(cfg.kernel, gate, lever_squared / weights);
+        let offset = Vector3::new(t.x - start.x, t.y - start.y, theta - start_theta);
+        let Some(step) = (h + prior).lu().solve(&(-(g + prior * offset))) else {
             break;
         };
         t += Vector2::new(step.x, step.y);
@@ -95,4 +104,21 @@ pub fn refine(model: &MapModel, points: &[Point2<f64>], pose: &Pose, cfg: &Refin
     }
     let fraction = if points.is_empty() { 0.0 } else { paired as f64 / points.len() as f64 };
     (Isometry2::new(t, theta), fraction)
+}
+
+/// A prior that the correction from the starting pose lies within the pairing gate, as the
+/// matrix added to the normal equations (the prior's information, scaled by `kernel`^2).
+///
+/// Residuals have the scale of the Cauchy kernel, `kernel`; the correction is taken to be
+/// about `gate` in position and `gate / lever` in heading (`lever` the points' rms distance
+/// from the sensor, `lever_squared` its square): beyond the gate, pairing a point with its
+/// nearest wall means nothing. Directions the points pin down are left as they were (their
+/// curvature is tens to hundreds, the prior under 0.2); directions they do not pin down stay
+/// where they started instead of taking the noise divided by a near-zero curvature, metres: a
+/// corridor's walls say nothing about where along it the sensor is, a lone pillar nothing
+/// about turning around it.
+fn prior_damping(kernel: f64, gate: f64, lever_squared: f64) -> Matrix3<f64> {
+    let k = (kernel / gate).powi(2);
+    let lever_squared = if lever_squared.is_finite() { lever_squared.max(1e-6) } else { 1.0 };
+    Matrix3::from_diagonal(&Vector3::new(k, k, k * lever_squared))
 }
