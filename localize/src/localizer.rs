@@ -292,7 +292,7 @@ pub struct Hypothesis {
     pub cost: Cost,
     /// Index of the scan corner (in the segmentation's corner list) and of the map corner (in
     /// the map's inner-angle-sorted corner list) that produced it; for a pose of the slide
-    /// search, [`FROM_SLIDE`] and the index of the wall.
+    /// search, [`FROM_SLIDE`] and the index of the straight run ([`MapModel::runs`]).
     pub scan_corner: u16,
     pub map_corner: u32,
 }
@@ -613,10 +613,10 @@ impl Localizer {
                 // sized for those walls alone
                 let prior = self.prior.zip(cfg.track_radius);
                 let near = |w: &&Wall| prior.is_none_or(|(p, r)| w.closest(p).0 <= r);
-                let step = slide_step(&self.lines, &self.slide_lines, model.map.walls.iter().filter(near), &cfg.slide);
+                let step = slide_step(&self.lines, &self.slide_lines, model.runs.iter().filter(near), &cfg.slide);
                 self.out.slide_step = Some(step);
                 for &li in &self.slide_lines {
-                    for (wi, wall) in model.map.walls.iter().enumerate().filter(|(_, w)| near(w)) {
+                    for (wi, wall) in model.runs.iter().enumerate().filter(|(_, w)| near(w)) {
                         slide_poses(&self.lines[li], wall, step, &cfg.slide, |pose| {
                             if let Some(score) = pass.score(&pose) {
                                 candidates.push(Candidate {
@@ -706,7 +706,7 @@ impl Localizer {
         let Some(best) = hyps.first().filter(|h| h.scan_corner == FROM_SLIDE) else {
             return false;
         };
-        let Some(wall) = self.model.map.walls.get(best.map_corner as usize) else {
+        let Some(wall) = self.model.runs.get(best.map_corner as usize) else {
             return false;
         };
         let along = (wall.b - wall.a).normalize();

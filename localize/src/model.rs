@@ -12,6 +12,9 @@ pub const FIELD_CAP: f64 = 0.5;
 /// a distance field for screening that also names each point's nearest wall for refinement.
 pub struct MapModel {
     pub map: WallMap,
+    /// The walls as straight runs ([`mapserver::runs`]): what corners come from and scan
+    /// lines slide along.
+    pub runs: Vec<Wall>,
     pub corners: CornerIndex,
     pub caster: RayCaster,
     pub field: DistanceField,
@@ -53,6 +56,7 @@ impl MapModel {
     pub fn new(map: WallMap, corners: &MapCornerConfig) -> Self {
         let field = DistanceField::new(&map.walls, FIELD_RESOLUTION, FIELD_CAP);
         MapModel {
+            runs: map.straight_runs(),
             corners: CornerIndex::of_map(&map, corners),
             caster: RayCaster::new(&map.walls),
             outside: FreeSpace::new(&field, map.bounds()).outside(),

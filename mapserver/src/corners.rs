@@ -314,9 +314,12 @@ impl CornerIndex {
     /// [`APPROXIMATE_MAP`] or more: typically built from scans) lists no wall ends: its walls
     /// end where the survey stopped seeing them, not where the walls do. On maps built from the
     /// CARMEN logs, wall ends there made 28 % (aces) to 53 % (freiburg-101) of `ok` poses wrong.
+    ///
+    /// Corners come from the map's straight runs ([`crate::runs`]), not from its walls as
+    /// drawn: a wall drawn in pieces is one wall to a scan.
     pub fn of_map(map: &crate::WallMap, cfg: &MapCornerConfig) -> Self {
         let cfg = MapCornerConfig { wall_ends: cfg.wall_ends && !map.is_approximate(), ..*cfg };
-        Self::build(&map.walls, &cfg)
+        Self::build(&map.straight_runs(), &cfg)
     }
 
     /// Every corner, sorted by inner angle.

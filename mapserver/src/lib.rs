@@ -12,6 +12,7 @@ pub mod map;
 pub mod node;
 pub mod procedural;
 pub mod raycast;
+pub mod runs;
 pub mod seen;
 pub mod thick;
 pub mod wire;

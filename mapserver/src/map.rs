@@ -97,6 +97,12 @@ impl WallMap {
         self.sigma >= crate::corners::APPROXIMATE_MAP
     }
 
+    /// The walls as the straight stretches a scan's lines can match ([`crate::runs`]), to
+    /// within the map's `sigma` or [`crate::runs::STRAIGHTNESS`], whichever is larger.
+    pub fn straight_runs(&self) -> Vec<Wall> {
+        crate::runs::straight_runs(&self.walls, crate::runs::STRAIGHTNESS.max(self.sigma))
+    }
+
     /// Loads and validates a JSON map file.
     pub fn load(path: &Path) -> Result<Self, MapError> {
         let text = std::fs::read_to_string(path).map_err(|source| MapError::Io { path: path.to_owned(), source })?;

@@ -1,0 +1,298 @@
+//! Straight runs: a map's walls as the straight stretches a scan's lines can match.
+//!
+//! Maps draw one straight wall in many ways: one segment, pieces split wherever another wall
+//! meets it (as CAD exports and plan tracers do), or a chain of short, slightly kinked pieces
+//! (a wall traced from an occupancy grid). Line inference (section 4.2) sees one line along
+//! all of them, so corners (section 5.1) must come from the wall as a whole: every piece's
+//! end would be a wall end in the middle of a wall, and a piece shorter than the scan's line
+//! would make the real corner's arm too short to match. Measured on the bundled office's clean
+//! log with each wall split into 0.3-1 m pieces: 98.7 % success drawn whole, 96.7 % in pieces;
+//! with the joints moved up to 1 cm, 68.3 % and one `ok` in nine wrong. From straight runs:
+//! 98.0 and 97.0 %, every `ok` right.
+//!
+//! Runs are found by joining walls end to end where they continue each other (ends within
+//! [`SNAP`], directions within [`MAX_TURN`]) and simplifying each chain (Douglas-Peucker)
+//! so that every drawn point lies within a tolerance of its run. Curved walls keep their
+//! vertices where the curve leaves the tolerance. Ray casting and the cost function keep the
+//! walls as drawn.
+
+use crate::map::Wall;
+use nalgebra::Point2;
+use std::collections::HashMap;
+
+/// Wall ends closer than this are joined, metres.
+pub const SNAP: f64 = 0.02;
+
+/// Largest turn between two walls that may continue each other, radians (the tolerance then
+/// decides whether they do).
+pub const MAX_TURN: f64 = 0.26;
+
+/// The default tolerance: how far a drawn wall may lie from its run, metres. Well inside what
+/// line visibility merges at any range (e(d) is 3 cm at the sensor).
+pub const STRAIGHTNESS: f64 = 0.03;
+
+/// `walls` as straight runs: chains of walls that continue each other become one wall when
+/// every drawn point of the chain lies within `tolerance` of it (otherwise the chain is split
+/// where it bends most, and so on). Walls that continue nothing are returned as they are.
+pub fn straight_runs(walls: &[Wall], tolerance: f64) -> Vec<Wall> {
+    let next = continuations(walls);
+    let mut visited = vec![false; walls.len()];
+    let mut runs = Vec::with_capacity(walls.len());
+    let mut chain: Vec<Point2<f64>> = Vec::new();
+    for start in 0..walls.len() {
+        if visited[start] {
+            continue;
+        }
+        // walk back to the chain's first wall (or round a ring back to `start`)
+        let (mut wall, mut forward) = (start, true);
+        loop {
+            let back = 2 * wall + usize::from(!forward);
+            match next[back] {
+                Some(e) if e / 2 != start => (wall, forward) = (e / 2, is_b(e)),
+                Some(_) => {
+                    (wall, forward) = (start, true);
+                    break;
+                }
+                None => break,
+            }
+        }
+        // then forward along it, collecting its points
+        chain.clear();
+        let first = wall;
+        let ends = |w: usize, fwd: bool| if fwd { (walls[w].a, walls[w].b) } else { (walls[w].b, walls[w].a) };
+        chain.push(ends(wall, forward).0);
+        let mut ring = false;
+        loop {
+            visited[wall] = true;
+            chain.push(ends(wall, forward).1);
+            let out = 2 * wall + usize::from(forward);
+            match next[out] {
+                Some(e) if e / 2 == first => {
+                    ring = true;
+                    break;
+                }
+                Some(e) if !visited[e / 2] => (wall, forward) = (e / 2, !is_b(e)),
+                _ => break,
+            }
+        }
+        if ring {
+            chain.pop();
+            simplify_ring(&chain, tolerance, &mut runs);
+        } else {
+            simplify(&chain, tolerance, &mut runs);
+        }
+    }
+    runs
+}
+
+/// For each wall end (`2 k` is wall k's `a`, `2 k + 1` its `b`), the end of another wall that
+/// continues it: ends within [`SNAP`] whose walls turn by less than [`MAX_TURN`], paired by
+/// smallest turn first at each point.
+fn continuations(walls: &[Wall]) -> Vec<Option<usize>> {
+    let end_point = |e: usize| if is_b(e) { walls[e / 2].b } else { walls[e / 2].a };
+    // outward direction: from the end into its wall
+    let outward = |e: usize| {
+        let w = &walls[e / 2];
+        let d = (w.b - w.a).normalize();
+        if is_b(e) {
+            -d
+        } else {
+            d
+        }
+    };
+    let cell = |p: Point2<f64>| ((p.x / SNAP).floor() as i64, (p.y / SNAP).floor() as i64);
+    let mut grid: HashMap<(i64, i64), Vec<usize>> = HashMap::new();
+    for e in 0..2 * walls.len() {
+        grid.entry(cell(end_point(e))).or_default().push(e);
+    }
+    let min_cos = MAX_TURN.cos();
+    let mut pairs: Vec<(f64, usize, usize)> = Vec::new();
+    for e in 0..2 * walls.len() {
+        let (p, (cx, cy)) = (end_point(e), cell(end_point(e)));
+        for dx in -1..=1 {
+            for dy in -1..=1 {
+                for &f in grid.get(&(cx + dx, cy + dy)).map(Vec::as_slice).unwrap_or(&[]) {
+                    if f <= e || f / 2 == e / 2 || (end_point(f) - p).norm() > SNAP {
+                        continue;
+                    }
+                    // walls that continue each other leave the point in opposite directions
+                    let straightness = -outward(e).dot(&outward(f));
+                    if straightness >= min_cos {
+                        pairs.push((straightness, e, f));
+                    }
+                }
+            }
+        }
+    }
+    pairs.sort_by(|a, b| b.0.total_cmp(&a.0));
+    let mut next = vec![None; 2 * walls.len()];
+    for (_, e, f) in pairs {
+        if next[e].is_none() && next[f].is_none() {
+            next[e] = Some(f);
+            next[f] = Some(e);
+        }
+    }
+    next
+}
+
+/// Whether wall end `e` (see [`continuations`]) is its wall's `b`.
+fn is_b(e: usize) -> bool {
+    e & 1 == 1
+}
+
+/// Douglas-Peucker on an open chain of points: pushes its runs.
+fn simplify(chain: &[Point2<f64>], tolerance: f64, out: &mut Vec<Wall>) {
+    let (Some(&a), Some(&b)) = (chain.first(), chain.last()) else {
+        return;
+    };
+    let far = farthest_from_segment(chain, a, b);
+    match far {
+        Some((k, d)) if d > tolerance => {
+            simplify(&chain[..=k], tolerance, out);
+            simplify(&chain[k..], tolerance, out);
+        }
+        _ => {
+            if (b - a).norm() > 0.0 {
+                out.push(Wall { a, b });
+            }
+        }
+    }
+}
+
+/// Douglas-Peucker on a closed ring: split at the point farthest from the first, then each
+/// half as an open chain.
+fn simplify_ring(ring: &[Point2<f64>], tolerance: f64, out: &mut Vec<Wall>) {
+    let Some(&start) = ring.first() else {
+        return;
+    };
+    let far =
+        (1..ring.len()).max_by(|&i, &j| (ring[i] - start).norm().total_cmp(&(ring[j] - start).norm())).unwrap_or(0);
+    if far == 0 {
+        return;
+    }
+    simplify(&ring[..=far], tolerance, out);
+    let mut rest: Vec<Point2<f64>> = ring[far..].to_vec();
+    rest.push(start);
+    simplify(&rest, tolerance, out);
+}
+
+/// The inner point of `chain` farthest from the segment `a`-`b`, with its distance.
+fn farthest_from_segment(chain: &[Point2<f64>], a: Point2<f64>, b: Point2<f64>) -> Option<(usize, f64)> {
+    let segment = Wall { a, b };
+    (1..chain.len().saturating_sub(1)).map(|k| (k, segment.closest(chain[k]).0)).max_by(|x, y| x.1.total_cmp(&y.1))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    fn w(x1: f64, y1: f64, x2: f64, y2: f64) -> Wall {
+        Wall::new(x1, y1, x2, y2)
+    }
+
+    fn close(a: &Wall, b: &Wall) -> bool {
+        let same = |p: Point2<f64>, q: Point2<f64>| (p - q).norm() < 1e-9;
+        (same(a.a, b.a) && same(a.b, b.b)) || (same(a.a, b.b) && same(a.b, b.a))
+    }
+
+    #[test]
+    fn a_wall_drawn_in_pieces_is_one_run() {
+        // pieces in both directions, out of order
+        let walls = [w(2.0, 0.0, 3.5, 0.0), w(0.0, 0.0, 1.2, 0.0), w(2.0, 0.0, 1.2, 0.0), w(3.5, 0.0, 6.0, 0.0)];
+        let runs = straight_runs(&walls, STRAIGHTNESS);
+        assert_eq!(runs.len(), 1, "{runs:?}");
+        assert!(close(&runs[0], &w(0.0, 0.0, 6.0, 0.0)), "{runs:?}");
+    }
+
+    #[test]
+    fn slightly_kinked_pieces_are_one_run_and_a_corner_stays_a_corner() {
+        let walls = [
+            w(0.0, 0.0, 1.0, 0.008),
+            w(1.0, 0.008, 2.0, -0.006),
+            w(2.0, -0.006, 3.0, 0.0),
+            // a real corner, then a kinked second wall
+            w(3.0, 0.0, 3.01, 1.5),
+            w(3.01, 1.5, 3.0, 3.0),
+        ];
+        let runs = straight_runs(&walls, STRAIGHTNESS);
+        assert_eq!(runs.len(), 2, "{runs:?}");
+        assert!(runs.iter().any(|r| close(r, &w(0.0, 0.0, 3.0, 0.0))), "{runs:?}");
+        assert!(runs.iter().any(|r| close(r, &w(3.0, 0.0, 3.0, 3.0))), "{runs:?}");
+    }
+
+    #[test]
+    fn a_wall_split_where_another_meets_it_is_one_run_and_the_other_stays() {
+        // a corridor wall split at a T junction, with a room wall ending on it
+        let walls = [w(0.0, 0.0, 4.0, 0.0), w(4.0, 0.0, 9.0, 0.0), w(4.0, 0.0, 4.0, -3.0)];
+        let runs = straight_runs(&walls, STRAIGHTNESS);
+        assert_eq!(runs.len(), 2, "{runs:?}");
+        assert!(runs.iter().any(|r| close(r, &w(0.0, 0.0, 9.0, 0.0))), "{runs:?}");
+        assert!(runs.iter().any(|r| close(r, &walls[2])), "{runs:?}");
+    }
+
+    #[test]
+    fn a_door_gap_is_not_bridged() {
+        let walls = [w(0.0, 0.0, 2.0, 0.0), w(2.9, 0.0, 5.0, 0.0)];
+        assert_eq!(straight_runs(&walls, STRAIGHTNESS).len(), 2);
+    }
+
+    #[test]
+    fn a_coarse_polygon_keeps_its_vertices_and_a_fine_one_is_simplified() {
+        let polygon = |n: usize, r: f64| -> Vec<Wall> {
+            let p = |k: usize| {
+                let a = std::f64::consts::TAU * k as f64 / n as f64;
+                (r * a.cos(), r * a.sin())
+            };
+            (0..n).map(|k| w(p(k).0, p(k).1, p(k + 1).0, p(k + 1).1)).collect()
+        };
+        // 36 sides of 5 m radius: each side's sagitta over two sides is 7.6 cm
+        assert_eq!(straight_runs(&polygon(36, 5.0), STRAIGHTNESS).len(), 36);
+        // 360 sides: runs of several sides each, still every drawn point within tolerance
+        let fine = polygon(360, 5.0);
+        let runs = straight_runs(&fine, STRAIGHTNESS);
+        assert!(runs.len() < 120 && runs.len() >= 20, "{} runs", runs.len());
+        for piece in &fine {
+            let d = runs.iter().map(|r| r.closest(piece.a).0).fold(f64::INFINITY, f64::min);
+            assert!(d <= STRAIGHTNESS + 1e-9, "{d}");
+        }
+    }
+
+    #[test]
+    fn an_octagonal_pillar_stays_eight_walls() {
+        let p = |k: usize| {
+            let a = std::f64::consts::FRAC_PI_4 * k as f64;
+            (0.25 * a.cos(), 0.25 * a.sin())
+        };
+        let walls: Vec<Wall> = (0..8).map(|k| w(p(k).0, p(k).1, p(k + 1).0, p(k + 1).1)).collect();
+        assert_eq!(straight_runs(&walls, STRAIGHTNESS).len(), 8);
+    }
+
+    proptest! {
+        /// Whatever the walls: every drawn wall end lies within the tolerance (and the snap) of
+        /// a run, and every run end is a drawn wall end.
+        #[test]
+        fn runs_stay_within_the_tolerance_of_the_drawn_walls(
+            raw in proptest::collection::vec((0u8..6, 0u8..6, 0u8..6, 0u8..6, -0.01f64..0.01), 1..30)
+        ) {
+            let walls: Vec<Wall> = raw
+                .iter()
+                .filter(|(x1, y1, x2, y2, _)| (x1, y1) != (x2, y2))
+                .map(|&(x1, y1, x2, y2, j)| w(f64::from(x1), f64::from(y1) + j, f64::from(x2), f64::from(y2)))
+                .collect();
+            let runs = straight_runs(&walls, STRAIGHTNESS);
+            prop_assert!(runs.len() <= walls.len());
+            for wall in &walls {
+                for p in [wall.a, wall.b] {
+                    let d = runs.iter().map(|r| r.closest(p).0).fold(f64::INFINITY, f64::min);
+                    prop_assert!(d <= STRAIGHTNESS + SNAP + 1e-9, "{:?} is {} from every run", p, d);
+                }
+            }
+            for r in &runs {
+                for p in [r.a, r.b] {
+                    prop_assert!(walls.iter().any(|wall| (wall.a - p).norm() < 1e-9 || (wall.b - p).norm() < 1e-9));
+                }
+            }
+        }
+    }
+}
