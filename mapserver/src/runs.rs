@@ -32,9 +32,10 @@ pub const MAX_TURN: f64 = 0.26;
 /// line visibility merges at any range (e(d) is 3 cm at the sensor).
 pub const STRAIGHTNESS: f64 = 0.03;
 
-/// `walls` as straight runs: chains of walls that continue each other become one wall when
-/// every drawn point of the chain lies within `tolerance` of it (otherwise the chain is split
-/// where it bends most, and so on). Walls that continue nothing are returned as they are.
+/// `walls` as straight runs: walls that overlap along one line are merged first; then chains
+/// of walls that continue each other become one wall when every drawn point of the chain lies
+/// within `tolerance` of it (otherwise the chain is split where it bends most, and so on).
+/// Walls that continue and overlap nothing are returned as they are.
 pub fn straight_runs(walls: &[Wall], tolerance: f64) -> Vec<Wall> {
     let merged = merge_overlaps(walls, tolerance);
     let walls = &merged[..];
@@ -48,7 +49,9 @@ pub fn straight_runs(walls: &[Wall], tolerance: f64) -> Vec<Wall> {
         }
         // walk back to the chain's first wall (or round a ring back to `start`)
         let (mut wall, mut forward) = (start, true);
-        loop {
+        // each wall end continues at most one other, so chains are paths or rings: the walk
+        // ends within a chain's length (the bound only guards that reasoning)
+        for _ in 0..walls.len() {
             let back = 2 * wall + usize::from(!forward);
             match next[back] {
                 Some(e) if e / 2 != start => (wall, forward) = (e / 2, is_b(e)),
