@@ -55,9 +55,10 @@ impl MapModel {
 
     pub fn new(map: WallMap, corners: &MapCornerConfig) -> Self {
         let field = DistanceField::new(&map.walls, FIELD_RESOLUTION, FIELD_CAP);
+        let runs = map.straight_runs();
         MapModel {
-            runs: map.straight_runs(),
-            corners: CornerIndex::of_map(&map, corners),
+            corners: CornerIndex::of_runs(&map, &runs, corners),
+            runs,
             caster: RayCaster::new(&map.walls),
             outside: FreeSpace::new(&field, map.bounds()).outside(),
             unseen: map.seen_free.as_ref().map(|seen| seen.unseen(1)),

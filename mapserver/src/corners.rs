@@ -318,8 +318,13 @@ impl CornerIndex {
     /// Corners come from the map's straight runs ([`crate::runs`]), not from its walls as
     /// drawn: a wall drawn in pieces is one wall to a scan.
     pub fn of_map(map: &crate::WallMap, cfg: &MapCornerConfig) -> Self {
+        Self::of_runs(map, &map.straight_runs(), cfg)
+    }
+
+    /// [`of_map`](Self::of_map) with the map's straight runs already at hand.
+    pub fn of_runs(map: &crate::WallMap, runs: &[Wall], cfg: &MapCornerConfig) -> Self {
         let cfg = MapCornerConfig { wall_ends: cfg.wall_ends && !map.is_approximate(), ..*cfg };
-        Self::build(&map.straight_runs(), &cfg)
+        Self::build(runs, &cfg)
     }
 
     /// Every corner, sorted by inner angle.
