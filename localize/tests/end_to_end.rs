@@ -475,6 +475,7 @@ fn refinement_does_not_wander_where_the_points_say_nothing() {
     let map = WallMap::new(walls);
     let m = model(map.clone());
     let mut sim = Simulator::new(&map, SensorModel::urg04lx(), Scenario::Clean, 5);
+    let mut seg = LineVisibilitySegmenter::new(SegmenterConfig::default());
     let mut worst: f64 = 0.0;
     for k in 0..20 {
         // looking at the pillar from 1.5-3.5 m, from all around it
@@ -483,16 +484,8 @@ fn refinement_does_not_wander_where_the_points_say_nothing() {
         let (x, y) = (centre.0 - range * around.cos(), centre.1 - range * around.sin());
         let truth = pose(x, y, around + 0.2);
         let scan = sim.scan_at(&truth, &Default::default());
-        let points: Vec<_> = scan
-            .ranges
-            .iter()
-            .enumerate()
-            .filter(|(_, &d)| d > 0.02 && d < 5.5)
-            .map(|(i, &d)| {
-                let a = scan.geometry.angle(i);
-                nalgebra::Point2::new(d as f64 * a.cos(), d as f64 * a.sin())
-            })
-            .collect();
+        // the points refinement gets: the scan's samples
+        let points: Vec<_> = seg.segment(&scan.view()).samples.iter().map(|s| s.point()).collect();
         assert!(points.len() >= 10, "only {} returns", points.len());
         let (refined, _) = refine(&m, &points, &truth, &RefineConfig::default());
         worst = worst.max((refined.translation.vector - truth.translation.vector).norm());
@@ -507,18 +500,14 @@ fn refinement_does_not_wander_where_the_points_say_nothing() {
 #[test]
 fn a_map_drawn_in_kinked_pieces_localizes_as_the_whole_walls_do() {
     let whole = procedural::by_name("office").expect("the bundled office");
-    let mut state = 12345u64;
-    let mut uniform = move || {
-        state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-        (state >> 11) as f64 / (1u64 << 53) as f64
-    };
+    let mut rng = laser::rng::Rng::new(12345);
     let mut pieces = Vec::new();
     for w in &whole.walls {
-        let n = (w.length() / (0.3 + 0.7 * uniform())).ceil().max(1.0) as usize;
+        let n = (w.length() / rng.range(0.3, 1.0)).ceil().max(1.0) as usize;
         let mut joints: Vec<_> = (0..=n).map(|k| w.a + (w.b - w.a) * (k as f64 / n as f64)).collect();
         for p in &mut joints[1..n] {
-            p.x += 0.02 * (uniform() - 0.5);
-            p.y += 0.02 * (uniform() - 0.5);
+            p.x += rng.range(-0.01, 0.01);
+            p.y += rng.range(-0.01, 0.01);
         }
         pieces.extend(joints.windows(2).map(|j| Wall::new(j[0].x, j[0].y, j[1].x, j[1].y)));
     }
