@@ -46,7 +46,7 @@ impl SerialSource {
         let port = serialport::new(&self.path, self.baud)
             .timeout(Duration::from_millis(500))
             .open_native()
-            .map_err(|e| ScipError::Io(std::io::Error::other(format!("{}: {e}", self.path))))?;
+            .map_err(|e| self.port_error(e))?;
         let mut urg = Urg::new(port, Duration::from_secs(2));
         let info = match urg.connect() {
             Ok(info) => info.clone(),
@@ -60,21 +60,28 @@ impl SerialSource {
         Ok(())
     }
 
+    /// Sets the port to `rate` and forgets what arrived at the old one.
+    fn retune(&self, urg: &mut Urg<TTYPort>, rate: u32) -> Result<(), ScipError> {
+        urg.port_mut().set_baud_rate(rate).map_err(|e| self.port_error(e))?;
+        urg.discard_input();
+        Ok(())
+    }
+
+    /// A serial port error, naming the port.
+    fn port_error(&self, e: serialport::Error) -> ScipError {
+        ScipError::Io(std::io::Error::other(format!("{}: {e}", self.path)))
+    }
+
     /// Looks for the sensor at the other bit rates; where it answers, asks it to switch to
     /// the requested rate and connects again at that. `None` when it answers at none.
     fn find_bit_rate(&self, urg: &mut Urg<TTYPort>) -> Option<Result<super::SensorInfo, ScipError>> {
-        let found = BIT_RATES.into_iter().filter(|&r| r != self.baud).find(|&r| {
-            urg.port_mut().set_baud_rate(r).is_ok() && {
-                urg.discard_input();
-                urg.connect().is_ok()
-            }
-        })?;
+        let found = BIT_RATES
+            .into_iter()
+            .filter(|&r| r != self.baud)
+            .find(|&r| self.retune(urg, r).is_ok() && urg.connect().is_ok())?;
         eprintln!("acquire: {}: the sensor answers at {found} bit/s; switching it to {}", self.path, self.baud);
         let switched = urg.set_bit_rate(self.baud).and_then(|()| {
-            urg.port_mut()
-                .set_baud_rate(self.baud)
-                .map_err(|e| ScipError::Io(std::io::Error::other(format!("{}: {e}", self.path))))?;
-            urg.discard_input();
+            self.retune(urg, self.baud)?;
             urg.connect().cloned()
         });
         Some(switched)
