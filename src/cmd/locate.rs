@@ -110,7 +110,7 @@ pub fn run(a: LocateArgs) -> Result<()> {
         if let (true, Some(truth)) = (a.diagnose, scan.truth.as_ref()) {
             let what = crate::diagnose::classify(seg, loc, truth, &model, &loc_cfg);
             if std::env::var_os("GEMA2_DUMP").is_some_and(|v| v.to_str().is_some_and(|v| what.starts_with(v))) {
-                eprintln!("scan {index}: {what}");
+                eprintln!("scan {index}: {what} [{}]", loc.status.as_str());
                 crate::diagnose::dump(seg, loc, truth, &model);
                 judge = Some(*truth);
             }
