@@ -54,16 +54,18 @@ impl MapModel {
     }
 
     pub fn new(map: WallMap, corners: &MapCornerConfig) -> Self {
-        let field = DistanceField::new(&map.walls, FIELD_RESOLUTION, FIELD_CAP);
+        // the cost, screening and refinement read the drawn geometry, in as few walls as hold it
+        let walls = map.joined_walls();
+        let field = DistanceField::new(&walls, FIELD_RESOLUTION, FIELD_CAP);
         let runs = map.straight_runs();
         MapModel {
             corners: CornerIndex::of_runs(&map, &runs, corners),
             runs,
-            caster: RayCaster::new(&map.walls),
+            caster: RayCaster::new(&walls),
             outside: FreeSpace::new(&field, map.bounds()).outside(),
             unseen: map.seen_free.as_ref().map(|seen| seen.unseen(1)),
             field,
-            frames: map.walls.iter().map(WallFrame::of).collect(),
+            frames: walls.iter().map(WallFrame::of).collect(),
             map,
         }
     }

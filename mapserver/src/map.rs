@@ -103,6 +103,14 @@ impl WallMap {
         crate::runs::straight_runs(&self.walls, crate::runs::STRAIGHTNESS.max(self.sigma))
     }
 
+    /// The walls as drawn, with pieces that continue or overlap each other along one line
+    /// joined into one wall ([`crate::runs`] to within [`crate::runs::JOINED`]): the same
+    /// geometry in fewer walls, for ray casting and distance fields. A plan traced in pieces
+    /// split wherever another wall meets them has several times the walls it draws.
+    pub fn joined_walls(&self) -> Vec<Wall> {
+        crate::runs::straight_runs(&self.walls, crate::runs::JOINED)
+    }
+
     /// Loads and validates a JSON map file.
     pub fn load(path: &Path) -> Result<Self, MapError> {
         let text = std::fs::read_to_string(path).map_err(|source| MapError::Io { path: path.to_owned(), source })?;

@@ -32,6 +32,11 @@ pub const MAX_TURN: f64 = 0.26;
 /// line visibility merges at any range (e(d) is 3 cm at the sensor).
 pub const STRAIGHTNESS: f64 = 0.03;
 
+/// The tolerance of [`crate::WallMap::joined_walls`], metres: far below any range noise, so
+/// the joined walls are the drawn ones (only gaps narrower than [`SNAP`] between pieces that
+/// continue each other close).
+pub const JOINED: f64 = 0.001;
+
 /// `walls` as straight runs: walls that overlap along one line are merged first; then chains
 /// of walls that continue each other become one wall when every drawn point of the chain lies
 /// within `tolerance` of it (otherwise the chain is split where it bends most, and so on).
@@ -324,6 +329,44 @@ mod tests {
         let runs = straight_runs(&walls, STRAIGHTNESS);
         assert_eq!(runs.len(), 2, "{runs:?}");
         assert!(runs.iter().any(|r| (r.length() - 7.0).abs() < 0.01 && r.a.y.abs() < 0.01), "{runs:?}");
+    }
+
+    /// A plan drawn in pieces (split where other walls meet, drawn twice, overlapping) joins
+    /// back into its walls, and every ray meets the joined walls where it meets the drawn ones;
+    /// pieces that turn by 1 cm at their joints stay pieces.
+    #[test]
+    fn joined_walls_hold_the_drawn_geometry_in_fewer_walls() {
+        let whole = crate::procedural::apartment();
+        let mut pieces = Vec::new();
+        for (k, wall) in whole.walls.iter().enumerate() {
+            let n = 1 + k % 4;
+            let at = |t: f64| wall.a + (wall.b - wall.a) * t;
+            for i in 0..n {
+                let (p, q) = (at(i as f64 / n as f64), at((i + 1) as f64 / n as f64));
+                // every other piece drawn backwards, every third wall drawn twice
+                pieces.push(if i % 2 == 0 { Wall { a: p, b: q } } else { Wall { a: q, b: p } });
+            }
+            if k % 3 == 0 {
+                pieces.push(Wall { a: at(0.2), b: at(0.7) });
+            }
+        }
+        let drawn = crate::WallMap::new(pieces);
+        let joined = drawn.joined_walls();
+        assert!(joined.len() <= whole.walls.len(), "{} joined walls, {} drawn whole", joined.len(), whole.walls.len());
+        let (drawn_caster, joined_caster) = (crate::RayCaster::new(&drawn.walls), crate::RayCaster::new(&joined));
+        let (lo, hi) = drawn.bounds();
+        let mut rng = laser::rng::Rng::new(3);
+        for _ in 0..2000 {
+            let origin = Point2::new(rng.range(lo.x, hi.x), rng.range(lo.y, hi.y));
+            let angle = rng.range(-3.2, 3.2);
+            let (a, b) = (drawn_caster.cast_ray_brute(origin, angle), joined_caster.cast_ray_brute(origin, angle));
+            assert!(
+                (a - b).abs() < 2e-3 || (a.is_infinite() && b.is_infinite()),
+                "{origin} {angle}: {a} drawn, {b} joined"
+            );
+        }
+        let kinked = [w(0.0, 0.0, 1.0, 0.01), w(1.0, 0.01, 2.0, 0.0)];
+        assert_eq!(crate::WallMap::new(kinked.to_vec()).joined_walls().len(), 2);
     }
 
     #[test]
