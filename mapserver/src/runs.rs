@@ -15,7 +15,8 @@
 //! [`SNAP`], directions within [`MAX_TURN`]) and simplifying each chain (Douglas-Peucker)
 //! so that every drawn point lies within a tolerance of its run. Curved walls keep their
 //! vertices where the curve leaves the tolerance. Ray casting and the cost function keep the
-//! walls as drawn.
+//! drawn geometry: for them only pieces that continue each other to within [`JOINED`] are
+//! joined ([`crate::WallMap::joined_walls`]).
 
 use crate::map::Wall;
 use nalgebra::Point2;
