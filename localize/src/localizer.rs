@@ -21,8 +21,9 @@ use crate::cost::{cost, Cost, CostConfig};
 use crate::matching::{arms_fit, pose_from_corners};
 use crate::model::{MapModel, FIELD_CAP};
 use crate::refine::{refine, RefineConfig};
-use crate::slide::{slide_lines, slide_poses, slide_step, SlideConfig, SlideLine, FROM_SLIDE};
+use crate::slide::{chord_poses, slide_lines, slide_poses, slide_step, SlideConfig, SlideLine, FROM_SLIDE};
 use laser::{angle_diff, pose_theta, Pose, ScanView};
+use mapserver::runs::RunChain;
 use mapserver::{DistanceField, RayScratch, Wall};
 use nalgebra::Point2;
 use segment::{ErrorModel, Segmentation};
@@ -613,20 +614,28 @@ impl Localizer {
                 // sized for those walls alone
                 let prior = self.prior.zip(cfg.track_radius);
                 let near = |w: &&Wall| prior.is_none_or(|(p, r)| w.closest(p).0 <= r);
-                let step = slide_step(&self.lines, &self.slide_lines, model.runs.iter().filter(near), &cfg.slide);
+                let bent_near = |c: &&RunChain| prior.is_none_or(|(p, r)| c.runs().any(|w| w.closest(p).0 <= r));
+                let bends = model.bends.iter().filter(bent_near);
+                let step = slide_step(
+                    &self.lines,
+                    &self.slide_lines,
+                    model.runs.iter().filter(near),
+                    bends.clone().map(RunChain::length),
+                    &cfg.slide,
+                );
                 self.out.slide_step = Some(step);
                 for &li in &self.slide_lines {
+                    let mut offer = |pose, map_corner| {
+                        if let Some(score) = pass.score(&pose) {
+                            candidates.push(Candidate { pose, score, scan_corner: FROM_SLIDE, map_corner });
+                        }
+                    };
                     for (wi, wall) in model.runs.iter().enumerate().filter(|(_, w)| near(w)) {
-                        slide_poses(&self.lines[li], wall, step, &cfg.slide, |pose| {
-                            if let Some(score) = pass.score(&pose) {
-                                candidates.push(Candidate {
-                                    pose,
-                                    score,
-                                    scan_corner: FROM_SLIDE,
-                                    map_corner: wi as u32,
-                                });
-                            }
-                        });
+                        slide_poses(&self.lines[li], wall, step, &cfg.slide, |pose| offer(pose, wi as u32));
+                    }
+                    // a chord's pose names no run
+                    for chain in bends.clone() {
+                        chord_poses(&self.lines[li], chain, step, |pose| offer(pose, u32::MAX));
                     }
                 }
             }

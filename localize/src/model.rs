@@ -1,5 +1,6 @@
 //! Everything the localizer pre-computes from a wall map, once.
 
+use mapserver::runs::RunChain;
 use mapserver::{CornerIndex, DistanceField, FreeSpace, MapCornerConfig, Outside, RayCaster, Wall, WallMap};
 use nalgebra::{Point2, Vector2};
 
@@ -15,6 +16,9 @@ pub struct MapModel {
     /// The walls as straight runs ([`mapserver::runs`]): what corners come from and scan
     /// lines slide along.
     pub runs: Vec<Wall>,
+    /// The chains of more than one run (curved or bent walls), along which the slide search
+    /// also lays scan lines as chords ([`crate::slide::chord_poses`]).
+    pub bends: Vec<RunChain>,
     pub corners: CornerIndex,
     pub caster: RayCaster,
     pub field: DistanceField,
@@ -57,10 +61,12 @@ impl MapModel {
         // the cost, screening and refinement read the drawn geometry, in as few walls as hold it
         let walls = map.joined_walls();
         let field = DistanceField::new(&walls, FIELD_RESOLUTION, FIELD_CAP);
-        let runs = map.straight_runs();
+        let chains = map.chains_of_runs();
+        let runs: Vec<Wall> = chains.iter().flat_map(RunChain::runs).collect();
         MapModel {
             corners: CornerIndex::of_runs(&map, &runs, corners),
             runs,
+            bends: chains.into_iter().filter(|c| c.run_count() >= 2).collect(),
             caster: RayCaster::new(&walls),
             outside: FreeSpace::new(&field, map.bounds()).outside(),
             unseen: map.seen_free.as_ref().map(|seen| seen.unseen(1)),

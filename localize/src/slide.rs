@@ -15,6 +15,7 @@
 //! scan confirms.
 
 use laser::Pose;
+use mapserver::runs::RunChain;
 use mapserver::Wall;
 use nalgebra::{Isometry2, Point2, UnitComplex, Vector2};
 use segment::Line;
@@ -121,10 +122,14 @@ pub fn slide_lines(lines: &[SlideLine], cfg: &SlideConfig, out: &mut Vec<usize>)
 /// that would make more than `cfg.max_poses` poses. The slide search is otherwise linear in the
 /// map's wall length; the budget keeps it bounded on large maps (at a coarser step, refinement
 /// has more to pull).
+///
+/// `bends` are the lengths of the chains the lines are also laid along as chords
+/// ([`chord_poses`]): at most 2 (length / s + 1) poses each.
 pub fn slide_step<'a>(
     lines: &[SlideLine],
     chosen: &[usize],
     walls: impl Iterator<Item = &'a Wall> + Clone,
+    bends: impl Iterator<Item = f64> + Clone,
     cfg: &SlideConfig,
 ) -> f64 {
     // poses at step s: 2 (floor(room / s) + 1) for each pair with room >= 0
@@ -137,6 +142,10 @@ pub fn slide_step<'a>(
                 room += r;
                 pairs += 1;
             }
+        }
+        for bend in bends.clone() {
+            room += bend;
+            pairs += 1;
         }
     }
     let budget = cfg.max_poses as f64 / 2.0 - pairs as f64;
@@ -177,6 +186,70 @@ pub fn slide_poses(line: &SlideLine, wall: &Wall, step: f64, cfg: &SlideConfig, 
             offer(Isometry2::from_parts(t.into(), rotation));
         }
     }
+}
+
+/// Calls `offer` with every pose that lays `line` (sensor frame) as a chord of `chain`, a
+/// curved or bent wall: the line's start on the chain at positions `step` apart along it, its
+/// end where the chain first comes the line's length away, both ways round. A line lying along
+/// one run is [`slide_poses`]'s, so only chords that span a bend are offered.
+///
+/// A wall drawn as a polygon of short runs (a round hall, a curved facade) has no corners a
+/// scan's lines meet at, and every run is shorter than the line a scan fits along several of
+/// them, so neither corners nor [`slide_poses`] give a pose there. The fitted line lies within
+/// e(d) of the wall, as the chord does, so refinement pulls the pose from the chord the rest
+/// of the way.
+pub fn chord_poses(line: &SlideLine, chain: &RunChain, step: f64, mut offer: impl FnMut(Pose)) {
+    let length = line.length();
+    if !(step.is_finite() && step > 0.0) || length < 1e-9 {
+        return;
+    }
+    let runs: Vec<Wall> = chain.runs().collect();
+    if runs.len() < 2 {
+        return;
+    }
+    // positions continue from run to run `step` apart
+    let mut along = 0.0;
+    for (i, run) in runs.iter().enumerate() {
+        let run_length = run.length();
+        let w = (run.b - run.a) / run_length;
+        while along < run_length {
+            let p = run.a + w * along;
+            if let Some(q) = chord_end(&runs, i, p, length, chain.closed) {
+                offer(lay(line, p, q));
+                offer(lay(line, q, p));
+            }
+            along += step;
+        }
+        along -= run_length;
+    }
+}
+
+/// Where the chain of `runs` first comes `length` away from `p` on run `i`, going on along it
+/// (round it when `closed`); `None` when that is on run `i` itself or nowhere.
+fn chord_end(runs: &[Wall], i: usize, p: Point2<f64>, length: f64, closed: bool) -> Option<Point2<f64>> {
+    if (runs[i].b - p).norm() >= length {
+        return None; // along one run
+    }
+    let later = if closed { runs.len() - 1 } else { runs.len() - 1 - i };
+    (1..=later).map(|k| &runs[(i + k) % runs.len()]).find_map(|run| {
+        let (a, d) = (run.a - p, run.b - run.a);
+        if (run.b - p).norm() < length {
+            return None;
+        }
+        // |a + t d| = length, the larger root: the distance is below it at t = 0
+        let (qa, qb, qc) = (d.norm_squared(), d.dot(&a), a.norm_squared() - length * length);
+        let t = (-qb + (qb * qb - qa * qc).max(0.0).sqrt()) / qa;
+        Some(run.a + d * t.clamp(0.0, 1.0))
+    })
+}
+
+/// The pose that puts `line`'s start on `from` and its direction towards `to`.
+fn lay(line: &SlideLine, from: Point2<f64>, to: Point2<f64>) -> Pose {
+    let target = (to - from).normalize();
+    let d = line.direction();
+    let rotation =
+        UnitComplex::from_cos_sin_unchecked(target.x * d.x + target.y * d.y, target.y * d.x - target.x * d.y);
+    Isometry2::from_parts((from.coords - rotation * line.start.coords).into(), rotation)
 }
 
 #[cfg(test)]
@@ -235,6 +308,99 @@ mod tests {
         }
     }
 
+    /// The least-squares line through `points` (sensor frame), as line inference fits one.
+    fn fitted(points: &[Point2<f64>]) -> SlideLine {
+        let samples: Vec<Sample> = points
+            .iter()
+            .enumerate()
+            .map(|(i, p)| {
+                let d = p.coords.norm();
+                Sample { beam: i as u32, dir: p.coords / d, d, near: d - 0.01, far: d + 0.01, gap_before: i == 0 }
+            })
+            .collect();
+        let mut m = Moments::default();
+        for s in &samples {
+            m.add(s.point());
+        }
+        let last = samples.len() - 1;
+        SlideLine::from(&Line::from_moments(&samples, 0, last, m, &ErrorModel::default()).expect("a fit"))
+    }
+
+    proptest! {
+        /// A curved wall (a circle drawn as a polygon of short runs) seen from a pose inside
+        /// it: the scan's line along several runs, laid back as a chord, gives a pose near
+        /// enough for refinement, where no single run is long enough to slide it along.
+        #[test]
+        fn a_chord_of_a_curved_wall_gives_a_pose_near_the_truth(
+            x in -1.5f64..1.5, y in -1.5f64..1.5, th in -3.1f64..3.1, from in 0.0f64..6.2,
+        ) {
+            let (r, sides) = (5.0, 40);
+            let p = |k: usize| {
+                let a = std::f64::consts::TAU * k as f64 / sides as f64;
+                Point2::new(r * a.cos(), r * a.sin())
+            };
+            let walls: Vec<Wall> = (0..sides).map(|k| Wall { a: p(k), b: p(k + 1) }).collect();
+            let chains = mapserver::runs::chains_of_runs(&walls, 0.03);
+            prop_assert_eq!(chains.len(), 1);
+            // the wall's points over 0.3 rad of arc (three runs), seen from the truth
+            let truth = pose(x, y, th);
+            let inv = truth.inverse();
+            let on_wall = |a: f64| {
+                let k = ((a / std::f64::consts::TAU * sides as f64).floor() as usize) % sides;
+                let w = &walls[k];
+                let (ray, dir) = (Point2::origin(), nalgebra::Vector2::new(a.cos(), a.sin()));
+                // where the ray from the centre at angle a meets that side
+                let e = w.b - w.a;
+                let t = (w.a - ray).perp(&e) / dir.perp(&e);
+                inv * (ray + dir * t)
+            };
+            let points: Vec<Point2<f64>> = (0..60).map(|i| on_wall(from + 0.3 * i as f64 / 59.0)).collect();
+            let l = fitted(&points);
+            prop_assume!(l.length() > 1.0);
+            let cfg = SlideConfig::default();
+            for wall in &walls {
+                let mut n = 0;
+                slide_poses(&l, wall, cfg.step, &cfg, |_| n += 1);
+                prop_assert_eq!(n, 0);
+            }
+            let mut best = (f64::INFINITY, f64::INFINITY);
+            chord_poses(&l, &chains[0], cfg.step, |q| {
+                let e = (q.translation.vector - truth.translation.vector).norm();
+                let h = laser::angle_diff(pose_theta(&q), th).abs();
+                if e + h < best.0 + best.1 {
+                    best = (e, h);
+                }
+            });
+            prop_assert!(best.0 < 0.15 && best.1 < 3f64.to_radians(), "{:?}", best);
+        }
+    }
+
+    #[test]
+    fn a_chord_within_one_run_is_left_to_the_slide_along_it() {
+        let chain = RunChain {
+            points: vec![Point2::new(0.0, 0.0), Point2::new(10.0, 0.0), Point2::new(19.0, 3.0)],
+            closed: false,
+        };
+        let l = line(Point2::new(2.0, -1.0), Point2::new(2.0, 1.0));
+        let mut poses = Vec::new();
+        chord_poses(&l, &chain, 0.5, |p| poses.push(p));
+        // only starts within 2 m before the bend, both ways round
+        assert!(!poses.is_empty());
+        for q in &poses {
+            let (s, e) = (q * l.start, q * l.end);
+            // one end on the first run within the line's length of the bend, the other past it
+            let before = |p: Point2<f64>| p.y.abs() < 1e-9 && p.x >= 10.0 - l.length() - 1e-9 && p.x <= 10.0;
+            let after = |p: Point2<f64>| p.x > 10.0 && (p.y - (p.x - 10.0) / 3.0).abs() < 1e-9;
+            assert!((before(s) && after(e)) || (before(e) && after(s)), "{s} {e}");
+            assert!(((e - s).norm() - l.length()).abs() < 1e-9);
+        }
+        assert!(poses.len() <= 2 * 5, "{}", poses.len());
+        // no position or an infinite step: no poses
+        let mut n = 0;
+        chord_poses(&l, &chain, f64::INFINITY, |_| n += 1);
+        assert_eq!(n, 0);
+    }
+
     #[test]
     fn a_line_alone_is_not_slid_but_one_beside_any_other_is() {
         let cfg = SlideConfig::default();
@@ -259,7 +425,7 @@ mod tests {
         let walls: Vec<Wall> =
             (0..100).map(|k| Wall { a: Point2::new(0.0, k as f64), b: Point2::new(10.0, k as f64) }).collect();
         let count = |cfg: &SlideConfig| {
-            let step = slide_step(&[short], &[0], walls.iter(), cfg);
+            let step = slide_step(&[short], &[0], walls.iter(), std::iter::empty(), cfg);
             let mut n = 0;
             for w in &walls {
                 slide_poses(&short, w, step, cfg, |_| n += 1);

@@ -103,6 +103,12 @@ impl WallMap {
         crate::runs::straight_runs(&self.walls, crate::runs::STRAIGHTNESS.max(self.sigma))
     }
 
+    /// [`straight_runs`](Self::straight_runs) with the runs that continue each other (a curved
+    /// or bent wall) kept together as chains, in the same order.
+    pub fn chains_of_runs(&self) -> Vec<crate::runs::RunChain> {
+        crate::runs::chains_of_runs(&self.walls, crate::runs::STRAIGHTNESS.max(self.sigma))
+    }
+
     /// The walls as drawn, with pieces that continue or overlap each other along one line
     /// joined into one wall ([`crate::runs`] to within [`crate::runs::JOINED`]): the same
     /// geometry in fewer walls, for ray casting and distance fields. A plan traced in pieces

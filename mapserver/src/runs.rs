@@ -43,11 +43,53 @@ pub const JOINED: f64 = 0.001;
 /// within `tolerance` of it (otherwise the chain is split where it bends most, and so on).
 /// Walls that continue and overlap nothing are returned as they are.
 pub fn straight_runs(walls: &[Wall], tolerance: f64) -> Vec<Wall> {
+    let mut runs = Vec::with_capacity(walls.len());
+    for chain in chains_of_runs(walls, tolerance) {
+        runs.extend(chain.runs());
+    }
+    runs
+}
+
+/// Chains of straight runs that continue each other, each turning by less than [`MAX_TURN`]
+/// from the last: a curved or bent wall drawn as a polygon. Runs that continue no other form a
+/// chain of one run.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RunChain {
+    /// The runs' ends in order along the chain; a closed chain's last run returns to the
+    /// first point, which is not repeated.
+    pub points: Vec<Point2<f64>>,
+    pub closed: bool,
+}
+
+impl RunChain {
+    /// The chain's runs in order, leaving out any of no length.
+    pub fn runs(&self) -> impl Iterator<Item = Wall> + '_ {
+        let n = self.points.len();
+        let count = if self.closed && n >= 2 { n } else { n.saturating_sub(1) };
+        (0..count)
+            .map(move |k| Wall { a: self.points[k], b: self.points[(k + 1) % n] })
+            .filter(|w| (w.b - w.a).norm() > 0.0)
+    }
+
+    /// Number of runs (as [`runs`](Self::runs) gives them).
+    pub fn run_count(&self) -> usize {
+        self.runs().count()
+    }
+
+    /// Total length, metres.
+    pub fn length(&self) -> f64 {
+        self.runs().map(|w| w.length()).sum()
+    }
+}
+
+/// `walls` as [`RunChain`]s: [`straight_runs`] with the runs that continue each other kept
+/// together, in the same order.
+pub fn chains_of_runs(walls: &[Wall], tolerance: f64) -> Vec<RunChain> {
     let merged = merge_overlaps(walls, tolerance);
     let walls = &merged[..];
     let next = continuations(walls);
     let mut visited = vec![false; walls.len()];
-    let mut runs = Vec::with_capacity(walls.len());
+    let mut chains = Vec::new();
     let mut chain: Vec<Point2<f64>> = Vec::new();
     for start in 0..walls.len() {
         if visited[start] {
@@ -87,14 +129,19 @@ pub fn straight_runs(walls: &[Wall], tolerance: f64) -> Vec<Wall> {
                 _ => break,
             }
         }
+        let mut points = Vec::new();
         if ring {
             chain.pop();
-            simplify_ring(&chain, tolerance, &mut runs);
-        } else {
-            simplify(&chain, tolerance, &mut runs);
+            simplify_ring(&chain, tolerance, &mut points);
+        } else if let Some(&last) = chain.last() {
+            simplify(&chain, tolerance, &mut points);
+            points.push(last);
+        }
+        if points.len() >= 2 {
+            chains.push(RunChain { points, closed: ring });
         }
     }
-    runs
+    chains
 }
 
 /// Largest angle between walls that overlap along one line, radians.
@@ -233,8 +280,9 @@ fn is_b(e: usize) -> bool {
     e & 1 == 1
 }
 
-/// Douglas-Peucker on an open chain of points: pushes its runs.
-fn simplify(chain: &[Point2<f64>], tolerance: f64, out: &mut Vec<Wall>) {
+/// Douglas-Peucker on an open chain of points: pushes the points its runs start at (the
+/// chain's last point, where the last run ends, is left to the caller).
+fn simplify(chain: &[Point2<f64>], tolerance: f64, out: &mut Vec<Point2<f64>>) {
     let (Some(&a), Some(&b)) = (chain.first(), chain.last()) else {
         return;
     };
@@ -244,17 +292,13 @@ fn simplify(chain: &[Point2<f64>], tolerance: f64, out: &mut Vec<Wall>) {
             simplify(&chain[..=k], tolerance, out);
             simplify(&chain[k..], tolerance, out);
         }
-        _ => {
-            if (b - a).norm() > 0.0 {
-                out.push(Wall { a, b });
-            }
-        }
+        _ => out.push(a),
     }
 }
 
 /// Douglas-Peucker on a closed ring: split at the point farthest from the first, then each
-/// half as an open chain.
-fn simplify_ring(ring: &[Point2<f64>], tolerance: f64, out: &mut Vec<Wall>) {
+/// half as an open chain. Pushes the points its runs start at, the ring's first first.
+fn simplify_ring(ring: &[Point2<f64>], tolerance: f64, out: &mut Vec<Point2<f64>>) {
     let Some(&start) = ring.first() else {
         return;
     };
@@ -368,6 +412,32 @@ mod tests {
         }
         let kinked = [w(0.0, 0.0, 1.0, 0.01), w(1.0, 0.01, 2.0, 0.0)];
         assert_eq!(crate::WallMap::new(kinked.to_vec()).joined_walls().len(), 2);
+    }
+
+    #[test]
+    fn a_curved_wall_is_one_chain_of_runs_and_a_corner_ends_a_chain() {
+        // a half circle of 16 sides (11.25 degree turns), then a square corner into a straight wall
+        let p = |k: usize| {
+            let a = std::f64::consts::PI * k as f64 / 16.0;
+            Point2::new(5.0 * a.cos(), 5.0 * a.sin())
+        };
+        let mut walls: Vec<Wall> = (0..16).map(|k| Wall { a: p(k), b: p(k + 1) }).collect();
+        walls.push(w(-5.0, 0.0, -2.0, 0.0));
+        let chains = chains_of_runs(&walls, STRAIGHTNESS);
+        assert_eq!(chains.len(), 2, "{chains:?}");
+        let arc = chains.iter().find(|c| c.run_count() == 16).expect("the arc as one chain");
+        assert!(!arc.closed);
+        assert!((arc.length() - walls[..16].iter().map(Wall::length).sum::<f64>()).abs() < 1e-9);
+        assert!(chains.iter().any(|c| c.run_count() == 1 && close(&c.runs().next().unwrap(), &walls[16])));
+        // the runs are the chains' runs, in order
+        let flat: Vec<Wall> = chains.iter().flat_map(RunChain::runs).collect();
+        assert_eq!(flat, straight_runs(&walls, STRAIGHTNESS));
+        // a full circle is one closed chain whose runs return to its start
+        let ring: Vec<Wall> = (0..32).map(|k| Wall { a: p(k), b: p(k + 1) }).collect();
+        let chains = chains_of_runs(&ring, STRAIGHTNESS);
+        assert_eq!(chains.len(), 1);
+        assert!(chains[0].closed && chains[0].run_count() == 32, "{chains:?}");
+        assert!((chains[0].length() - ring.iter().map(Wall::length).sum::<f64>()).abs() < 1e-9);
     }
 
     #[test]
