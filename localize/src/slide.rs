@@ -176,9 +176,7 @@ pub fn slide_poses(line: &SlideLine, wall: &Wall, step: f64, cfg: &SlideConfig, 
         // the rotation that turns the line's direction onto the wall's, or against it; the
         // line end that lands nearer the wall's start is then `start` or `end`
         let (target, near_end) = if forward { (w, line.start) } else { (-w, line.end) };
-        let d = line.direction();
-        let rotation =
-            UnitComplex::from_cos_sin_unchecked(target.x * d.x + target.y * d.y, target.y * d.x - target.x * d.y);
+        let rotation = turning(line, target);
         let turned = rotation * near_end.coords;
         for k in 0..=steps {
             let along = first + k as f64 * step;
@@ -245,11 +243,14 @@ fn chord_end(runs: &[Wall], i: usize, p: Point2<f64>, length: f64, closed: bool)
 
 /// The pose that puts `line`'s start on `from` and its direction towards `to`.
 fn lay(line: &SlideLine, from: Point2<f64>, to: Point2<f64>) -> Pose {
-    let target = (to - from).normalize();
-    let d = line.direction();
-    let rotation =
-        UnitComplex::from_cos_sin_unchecked(target.x * d.x + target.y * d.y, target.y * d.x - target.x * d.y);
+    let rotation = turning(line, (to - from).normalize());
     Isometry2::from_parts((from.coords - rotation * line.start.coords).into(), rotation)
+}
+
+/// The rotation that turns `line`'s direction onto the unit vector `target`.
+fn turning(line: &SlideLine, target: Vector2<f64>) -> UnitComplex<f64> {
+    let d = line.direction();
+    UnitComplex::from_cos_sin_unchecked(target.x * d.x + target.y * d.y, target.y * d.x - target.x * d.y)
 }
 
 #[cfg(test)]
@@ -259,21 +260,10 @@ mod tests {
     use proptest::prelude::*;
     use segment::{fit::Moments, ErrorModel, Sample};
 
-    /// A line fitted through points from `a` to `b` (sensor frame).
+    /// A line fitted through 20 points from `a` to `b` (sensor frame).
     fn line(a: Point2<f64>, b: Point2<f64>) -> SlideLine {
-        let n = 20;
-        let samples: Vec<Sample> = (0..n)
-            .map(|i| {
-                let p = a + (b - a) * (i as f64 / (n - 1) as f64);
-                let d = p.coords.norm();
-                Sample { beam: i as u32, dir: p.coords / d, d, near: d - 0.01, far: d + 0.01, gap_before: i == 0 }
-            })
-            .collect();
-        let mut m = Moments::default();
-        for s in &samples {
-            m.add(s.point());
-        }
-        SlideLine::from(&Line::from_moments(&samples, 0, n - 1, m, &ErrorModel::default()).expect("a fit"))
+        let points: Vec<Point2<f64>> = (0..20).map(|i| a + (b - a) * (i as f64 / 19.0)).collect();
+        fitted(&points)
     }
 
     proptest! {
