@@ -12,6 +12,7 @@
 //! rejected by the cost function.
 
 use crate::map::Wall;
+use crate::sight::SightLines;
 use nalgebra::{Point2, Vector2};
 use std::f64::consts::{PI, TAU};
 
@@ -60,6 +61,9 @@ pub struct MapCornerConfig {
     pub max_gap: f64,
     /// Also list wall ends, as corners of inner angle 2 pi (see `segment::end`).
     pub wall_ends: bool,
+    /// List only the corners a sensor can see ([`crate::view`]): none whose wedge lies in a
+    /// wall drawn with thickness.
+    pub only_in_view: bool,
 }
 
 impl Default for MapCornerConfig {
@@ -70,6 +74,7 @@ impl Default for MapCornerConfig {
             min_arm_length: 0.1,
             max_gap: 3.0,
             wall_ends: true,
+            only_in_view: true,
         }
     }
 }
@@ -316,7 +321,9 @@ impl CornerIndex {
     /// CARMEN logs, wall ends there made 28 % (aces) to 53 % (freiburg-101) of `ok` poses wrong.
     ///
     /// Corners come from the map's straight runs ([`crate::runs`]), not from its walls as
-    /// drawn: a wall drawn in pieces is one wall to a scan.
+    /// drawn: a wall drawn in pieces is one wall to a scan. With
+    /// [`MapCornerConfig::only_in_view`], corners no sensor can see are left out
+    /// ([`crate::view`]).
     pub fn of_map(map: &crate::WallMap, cfg: &MapCornerConfig) -> Self {
         Self::of_runs(map, &map.straight_runs(), cfg)
     }
@@ -324,7 +331,12 @@ impl CornerIndex {
     /// [`of_map`](Self::of_map) with the map's straight runs already at hand.
     pub fn of_runs(map: &crate::WallMap, runs: &[Wall], cfg: &MapCornerConfig) -> Self {
         let cfg = MapCornerConfig { wall_ends: cfg.wall_ends && !map.is_approximate(), ..*cfg };
-        Self::build(runs, &cfg)
+        let mut index = Self::build(runs, &cfg);
+        if cfg.only_in_view {
+            let sight = SightLines::new(runs, crate::view::LOOK);
+            index.corners.retain(|c| crate::view::in_view(c, &sight));
+        }
+        index
     }
 
     /// Every corner, sorted by inner angle.

@@ -14,7 +14,9 @@ pub mod procedural;
 pub mod raycast;
 pub mod runs;
 pub mod seen;
+pub mod sight;
 pub mod thick;
+pub mod view;
 pub mod wire;
 
 pub use bundled::{bundled, load_map, BUNDLED};
@@ -24,3 +26,4 @@ pub use free_space::{FreeSpace, Outside};
 pub use map::{MapError, Wall, WallMap};
 pub use raycast::{RayCaster, RayScratch};
 pub use seen::SeenFree;
+pub use sight::SightLines;

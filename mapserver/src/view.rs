@@ -1,0 +1,167 @@
+//! Which of the map's corners a sensor can see.
+//!
+//! A plan drawn with thick walls (two faces per wall, jambs at doors: [`crate::thick`]) gives
+//! every face corners on both of its sides, and the extensions of faces meet all over the
+//! plan. The corners whose wedge (the region between their arms) lies in a wall's body are
+//! never seen, since no beam enters a wall, yet each would make a candidate pose for every
+//! scan corner of its inner angle: in the bundled office drawn 12 cm thick they were 74 % of
+//! its 15464 corners.
+//!
+//! A corner is in view when, along each of its arms' lines and within the arm's extent (the
+//! collinear walls a scan sees as one), some wall faces the wedge with space a sensor can
+//! stand in: a point clear of every wall by [`STANDING_CLEARANCE`], reached from the wall
+//! along its normal without crossing another. A wall end (inner angle 2 pi) is seen from
+//! either side of its wall, so one arm facing such space is enough.
+//!
+//! Corners facing the space around a closed building stay: poses out there are never the
+//! answer, but one that explains a scan as well as the answer tells the localizer the scan is
+//! ambiguous (dropping them made 7 more wrong `ok` answers over 42 simulated logs).
+
+use crate::corners::MapCorner;
+use crate::sight::SightLines;
+use nalgebra::{Point2, Vector2};
+use std::f64::consts::{FRAC_1_SQRT_2, TAU};
+
+/// How far from a wall the look for space to stand in goes, metres: the reach of the
+/// [`SightLines`] that [`in_view`] takes.
+pub const LOOK: f64 = 1.0;
+
+/// Clearance from every wall of a point a sensor can stand at, metres: more than half the
+/// thickness of a wall drawn with both faces (10-25 cm), so the body between two faces never
+/// counts.
+pub const STANDING_CLEARANCE: f64 = 0.15;
+
+/// How far along an arm's extent the look for a wall facing the corner goes, metres.
+const ARM_LOOK: f64 = 3.0;
+
+/// Step of the look along an arm, metres.
+const ARM_STEP: f64 = 0.1;
+
+/// Step of the look along a wall's normal, metres.
+const STEP: f64 = 0.05;
+
+/// How far beside an arm's line its wall may lie, metres: junctions are merged within
+/// millimetres, so an arm's line may pass a little beside the wall it stands for.
+const ON_LINE: f64 = 0.03;
+
+/// How far off a wall the look along its normal starts, metres.
+const OFF_WALL: f64 = 1e-3;
+
+/// Whether a sensor can see corner `c` of the walls `sight` was built on (with reach
+/// [`LOOK`]); see the module documentation.
+pub fn in_view(c: &MapCorner, sight: &SightLines) -> bool {
+    let mut faced = c.arms.iter().enumerate().map(|(k, arm)| {
+        // the wedge lies counter-clockwise of the right arm and clockwise of the left
+        let u = arm.direction;
+        let side = if k == 0 { Vector2::new(-u.y, u.x) } else { Vector2::new(u.y, -u.x) };
+        let end = arm.extent.min(arm.gap + ARM_LOOK).max(arm.gap + arm.length);
+        let mut t = arm.gap + 0.5 * arm.length.min(ARM_STEP);
+        while t <= end {
+            if faces_standing_space(c.position + u * t, u, side, sight) {
+                return true;
+            }
+            t += ARM_STEP;
+        }
+        false
+    });
+    if c.inner_angle >= TAU {
+        faced.any(|open| open)
+    } else {
+        faced.all(|open| open)
+    }
+}
+
+/// Whether a wall within [`ON_LINE`] of `on_line` (a point on an arm's line, whose direction
+/// away from the corner is `along`) faces `side` with space a sensor can stand in: a point of
+/// that clearance in sight of the wall. The looks leave the wall at several angles, as a
+/// narrow wedge opens away from its corner rather than straight across from the wall.
+fn faces_standing_space(on_line: Point2<f64>, along: Vector2<f64>, side: Vector2<f64>, sight: &SightLines) -> bool {
+    let ahead = on_line + side * ON_LINE;
+    let back = sight.free_run(ahead, -side);
+    if back > 2.0 * ON_LINE {
+        // no wall here: a gap (a door) along the arm's line, which faces nothing
+        return false;
+    }
+    let from = ahead - side * (back - OFF_WALL);
+    LOOK_ANGLES.iter().any(|&(cos, sin)| {
+        let dir = along * cos + side * sin;
+        let run = sight.free_run(from, dir);
+        // a point clear by STANDING_CLEARANCE lies at least that far from the wall it looks at
+        let steps = ((run - STANDING_CLEARANCE) / STEP).floor().max(0.0) as usize;
+        (1..=steps).any(|i| sight.clearance(from + dir * (i as f64 * STEP)) >= STANDING_CLEARANCE)
+    })
+}
+
+/// The looks' directions as (cosine, sine) of their angle from the arm's direction towards the
+/// wedge: straight across first, then turned 45 degrees either way.
+const LOOK_ANGLES: [(f64, f64); 3] = [(0.0, 1.0), (FRAC_1_SQRT_2, FRAC_1_SQRT_2), (-FRAC_1_SQRT_2, FRAC_1_SQRT_2)];
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::corners::{CornerIndex, MapCornerConfig};
+    use crate::map::{Wall, WallMap};
+    use crate::thick::thicken;
+    use std::f64::consts::FRAC_PI_2;
+
+    /// A 6 x 4 m room split by a partition at x = 3 with a 0.9 m door.
+    fn two_rooms() -> WallMap {
+        let mut walls = Wall::rectangle(0.0, 0.0, 6.0, 4.0).to_vec();
+        walls.extend([Wall::new(3.0, 0.0, 3.0, 1.5), Wall::new(3.0, 2.4, 3.0, 4.0)]);
+        WallMap::new(walls)
+    }
+
+    fn all_corners(map: &WallMap) -> Vec<MapCorner> {
+        let cfg = MapCornerConfig { only_in_view: false, ..MapCornerConfig::default() };
+        CornerIndex::of_map(map, &cfg).corners().to_vec()
+    }
+
+    #[test]
+    fn every_corner_of_walls_drawn_as_lines_is_in_view() {
+        let map = two_rooms();
+        let sight = SightLines::new(&map.straight_runs(), LOOK);
+        let corners = all_corners(&map);
+        assert!(corners.len() > 20);
+        for c in &corners {
+            assert!(in_view(c, &sight), "{c:?}");
+        }
+    }
+
+    #[test]
+    fn corners_whose_wedge_lies_in_a_thick_walls_body_are_out_of_view() {
+        let map = thicken(&two_rooms(), 0.12);
+        let sight = SightLines::new(&map.straight_runs(), LOOK);
+        let corners = all_corners(&map);
+        let at = |x: f64, y: f64, beta: f64| {
+            corners
+                .iter()
+                .filter(move |c| (c.position - Point2::new(x, y)).norm() < 1e-3 && (c.inner_angle - beta).abs() < 1e-3)
+        };
+        // the left room's inside corner: its 90 degree wedge is the room, the 270 degree one
+        // is mostly wall
+        assert!(at(0.06, 0.06, FRAC_PI_2).count() >= 1);
+        assert!(at(0.06, 0.06, FRAC_PI_2).all(|c| in_view(c, &sight)));
+        assert!(at(0.06, 0.06, 3.0 * FRAC_PI_2).count() >= 1);
+        assert!(at(0.06, 0.06, 3.0 * FRAC_PI_2).all(|c| !in_view(c, &sight)));
+        // the door's jamb on the partition's left face: the convex corner (270 degrees, seen
+        // from the room and the doorway) is in view, its 90 degrees inside the partition is not
+        assert!(at(2.94, 1.56, 3.0 * FRAC_PI_2).any(|c| in_view(c, &sight)));
+        assert!(at(2.94, 1.56, FRAC_PI_2).count() >= 1);
+        assert!(at(2.94, 1.56, FRAC_PI_2).all(|c| !in_view(c, &sight)));
+        // the building's outer face stays: its corners face the space around it
+        assert!(at(-0.06, -0.06, 3.0 * FRAC_PI_2).any(|c| in_view(c, &sight)));
+        let kept = corners.iter().filter(|c| in_view(c, &sight)).count();
+        assert!(kept < corners.len() / 2, "{kept} of {} in view", corners.len());
+    }
+
+    #[test]
+    fn an_office_drawn_thick_offers_about_as_many_corners_as_drawn_as_lines() {
+        let lines = crate::load_map("office").unwrap();
+        let thick = thicken(&lines, 0.12);
+        let in_view = |m: &WallMap| CornerIndex::of_map(m, &MapCornerConfig::default()).corners().len();
+        let (of_lines, of_thick, all_of_thick) = (in_view(&lines), in_view(&thick), all_corners(&thick).len());
+        // the faces' corners on both sides and their extensions made five times as many
+        assert!(all_of_thick > 4 * of_lines, "{all_of_thick} corners drawn thick, {of_lines} as lines");
+        assert!(2 * of_thick < 3 * of_lines, "{of_thick} corners in view drawn thick, {of_lines} as lines");
+    }
+}
