@@ -19,7 +19,7 @@
 
 use crate::cost::{cost, Cost, CostConfig};
 use crate::matching::{arms_fit, pose_from_corners};
-use crate::model::{MapModel, FIELD_CAP};
+use crate::model::{MapModel, WallFrame, FIELD_CAP};
 use crate::refine::{refine, RefineConfig};
 use crate::slide::{chord_poses, slide_lines, slide_poses, slide_step, SlideConfig, SlideLine, FROM_SLIDE};
 use laser::{angle_diff, pose_theta, Pose, ScanView};
@@ -441,7 +441,7 @@ impl Localizer {
     pub fn judge(&mut self, scan: &ScanView<'_>, pose: &Pose) -> Judgement {
         let model = Arc::clone(&self.model);
         let cfg = self.config;
-        let screen = Screen::new(&model.field, cfg.screen_cap);
+        let screen = Screen::new(&model, cfg.screen_cap);
         let mean = |points: &[Point2<f64>]| {
             screen.sum(pose, points, f64::INFINITY).unwrap_or(f64::INFINITY) / points.len().max(1) as f64
         };
@@ -584,7 +584,7 @@ impl Localizer {
         // point for the `keep` best
         self.screen_few.clear();
         self.screen_few.extend(self.screen_pts.iter().step_by(cfg.prescreen_step.max(1)));
-        let screen = Screen::new(&model.field, cfg.screen_cap);
+        let screen = Screen::new(&model, cfg.screen_cap);
         let mut pass = FirstPass::new(screen, &self.screen_few, keep, &mut self.best_sums);
         let candidates = &mut self.candidates;
         match source {
@@ -847,26 +847,61 @@ impl<'a> FirstPass<'a> {
 #[derive(Clone, Copy)]
 struct Screen<'a> {
     field: &'a DistanceField,
+    /// With [`MapModel::closed_sides`]: each wall's frame and closed sides.
+    sides: Option<(&'a [WallFrame], &'a [[bool; 2]])>,
     cap: f64,
 }
 
 impl<'a> Screen<'a> {
-    fn new(field: &'a DistanceField, cap: f64) -> Self {
-        Screen { field, cap: cap.min(FIELD_CAP) }
+    fn new(model: &'a MapModel, cap: f64) -> Self {
+        let sides = model.closed_sides.as_deref().map(|closed| (&model.frames[..], closed));
+        Screen { field: &model.field, sides, cap: cap.min(FIELD_CAP) }
     }
 
     /// The sum over `points` (sensor frame) placed at `pose`; `None` as soon as the partial sum
     /// reaches `limit`.
+    ///
+    /// A point whose nearest wall turns its closed side to the sensor is unexplained (the cap):
+    /// its beam would have crossed a wall's body to reach that face. A pose a wall's thickness
+    /// off the truth puts its points there, on the far face of the walls it sees, where the
+    /// distance alone finds them as near a wall as the truth's.
     #[inline]
     fn sum(&self, pose: &Pose, points: &[Point2<f64>], limit: f64) -> Option<f64> {
+        let sensor = Point2::from(pose.translation.vector);
         let mut sum = 0.0;
         for q in points {
-            sum += self.field.distance(pose * q).min(self.cap).powi(2);
+            let p = pose * q;
+            let mut d = self.field.distance(p).min(self.cap);
+            if let Some((frames, closed)) = self.sides {
+                if d < self.cap && self.seen_from_a_closed_side(p, sensor, frames, closed) {
+                    d = self.cap;
+                }
+            }
+            sum += d * d;
             if sum >= limit {
                 return None;
             }
         }
         Some(sum)
+    }
+
+    /// Whether `sensor` lies on the closed side of the wall nearest to `p`.
+    #[inline]
+    fn seen_from_a_closed_side(
+        &self,
+        p: Point2<f64>,
+        sensor: Point2<f64>,
+        frames: &[WallFrame],
+        closed: &[[bool; 2]],
+    ) -> bool {
+        let Some(k) = self.field.nearest_wall(p) else {
+            return false;
+        };
+        let (Some(f), Some(sides)) = (frames.get(k as usize), closed.get(k as usize)) else {
+            return false;
+        };
+        let left = f.normal.dot(&(sensor - f.a)) > 0.0;
+        sides[usize::from(!left)]
     }
 }
 
@@ -926,6 +961,31 @@ fn subsample(seg: &Segmentation, count: usize, out: &mut Vec<Point2<f64>>) {
 mod tests {
     use super::*;
     use proptest::prelude::*;
+
+    /// Seen from the left, a 12 cm thick partition's left face; a pose 12 cm further right puts
+    /// those points on its right face, from inside the wall. The distance field alone finds them
+    /// on a wall either way; the closed sides tell the second apart.
+    #[test]
+    fn the_screen_tells_a_pose_a_walls_thickness_off_from_the_truth() {
+        let mut walls = mapserver::Wall::rectangle(0.0, 0.0, 6.0, 4.0).to_vec();
+        walls.push(mapserver::Wall::new(3.0, 0.0, 3.0, 4.0));
+        let thick = mapserver::thick::thicken(&mapserver::WallMap::new(walls), 0.12);
+        let model = MapModel::new(thick, &mapserver::MapCornerConfig::default());
+        assert!(model.closed_sides.is_some());
+        let truth = Pose::new(nalgebra::Vector2::new(1.5, 2.0), 0.0);
+        // sensor-frame points on the face x = 2.94 at 0.5 m spacing, 2 cm behind it as noise has them
+        let points: Vec<Point2<f64>> = (0..6).map(|k| Point2::new(1.44 + 0.02, -1.25 + 0.5 * k as f64)).collect();
+        let off = Pose::new(nalgebra::Vector2::new(1.62, 2.0), 0.0);
+        let screen = Screen::new(&model, 0.12);
+        let at_truth = screen.sum(&truth, &points, f64::INFINITY).unwrap();
+        let a_wall_off = screen.sum(&off, &points, f64::INFINITY).unwrap();
+        assert!(at_truth < 6.0 * 0.03f64.powi(2), "{at_truth}");
+        assert!(a_wall_off >= 6.0 * 0.12f64.powi(2) * 0.99, "{a_wall_off}");
+        // both lie on a wall by distance alone
+        for pose in [truth, off] {
+            assert!(points.iter().all(|q| model.field.distance(pose * q) < 0.04));
+        }
+    }
 
     /// A slid pose further along the wall ties with the best only when the scan cannot tell
     /// them apart: their costs summed over the beams differ by less than `cornerless_tie`. A

@@ -24,6 +24,10 @@ pub struct MapModel {
     pub field: DistanceField,
     /// Each wall as refinement reads it, in one place.
     pub frames: Vec<WallFrame>,
+    /// Which sides of each wall face no space a sensor can stand in (the inside of a thick
+    /// wall's faces), by wall as `frames`: left (along `normal`) then right. `None` when every
+    /// side is open.
+    pub closed_sides: Option<Vec<[bool; 2]>>,
     /// The space around the building; `None` when the map's outline is open.
     pub outside: Option<Outside>,
     /// Where the map's survey saw no free space (more than a cell from any it saw); `None`
@@ -72,6 +76,7 @@ impl MapModel {
             unseen: map.seen_free.as_ref().map(|seen| seen.unseen(1)),
             field,
             frames: walls.iter().map(WallFrame::of).collect(),
+            closed_sides: mapserver::view::closed_sides(&walls),
             map,
         }
     }

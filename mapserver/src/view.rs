@@ -18,6 +18,7 @@
 //! ambiguous (dropping them made 7 more wrong `ok` answers over 42 simulated logs).
 
 use crate::corners::MapCorner;
+use crate::map::Wall;
 use crate::sight::SightLines;
 use nalgebra::{Point2, Vector2};
 use std::f64::consts::{FRAC_1_SQRT_2, TAU};
@@ -71,6 +72,28 @@ pub fn in_view(c: &MapCorner, sight: &SightLines) -> bool {
     }
 }
 
+/// For each wall, whether each of its sides (left then right of `a` to `b`) is closed: no point
+/// along it faces space a sensor can stand in, as the sides of a thick wall's faces that look
+/// into its body. `None` when every side of every wall is open (walls drawn as lines).
+pub fn closed_sides(walls: &[Wall]) -> Option<Vec<[bool; 2]>> {
+    let sight = SightLines::new(walls, LOOK);
+    let sides: Vec<[bool; 2]> = walls
+        .iter()
+        .map(|w| {
+            let e = w.b - w.a;
+            let Some(u) = e.try_normalize(1e-12) else {
+                return [false, false];
+            };
+            let left = Vector2::new(-u.y, u.x);
+            [left, -left].map(|side| !SIDE_SAMPLES.iter().any(|&f| faces_standing_space(w.a + e * f, u, side, &sight)))
+        })
+        .collect();
+    sides.iter().any(|s| s[0] || s[1]).then_some(sides)
+}
+
+/// Where along a wall [`closed_sides`] looks, as fractions of its length.
+const SIDE_SAMPLES: [f64; 3] = [0.25, 0.5, 0.75];
+
 /// Whether a wall within [`ON_LINE`] of `on_line` (a point on an arm's line, whose direction
 /// away from the corner is `along`) faces `side` with space a sensor can stand in: a point of
 /// that clearance in sight of the wall. The looks leave the wall at several angles, as a
@@ -100,7 +123,7 @@ const LOOK_ANGLES: [(f64, f64); 3] = [(0.0, 1.0), (FRAC_1_SQRT_2, FRAC_1_SQRT_2)
 mod tests {
     use super::*;
     use crate::corners::{CornerIndex, MapCornerConfig};
-    use crate::map::{Wall, WallMap};
+    use crate::map::WallMap;
     use crate::thick::thicken;
     use std::f64::consts::FRAC_PI_2;
 
@@ -152,6 +175,28 @@ mod tests {
         assert!(at(-0.06, -0.06, 3.0 * FRAC_PI_2).any(|c| in_view(c, &sight)));
         let kept = corners.iter().filter(|c| in_view(c, &sight)).count();
         assert!(kept < corners.len() / 2, "{kept} of {} in view", corners.len());
+    }
+
+    #[test]
+    fn the_sides_of_a_thick_walls_faces_that_look_into_its_body_are_closed() {
+        let lines = two_rooms();
+        assert_eq!(closed_sides(&lines.walls), None);
+        let thick = thicken(&lines, 0.12);
+        let sides = closed_sides(&thick.walls).expect("a thick wall's body closes a side of each face");
+        let mut closed_count = 0;
+        for (w, closed) in thick.walls.iter().zip(&sides) {
+            let u = (w.b - w.a).normalize();
+            let left = Vector2::new(-u.y, u.x);
+            for (k, side) in [left, -left].into_iter().enumerate() {
+                // 3 cm off the face's middle: in the body when within half the thickness of a
+                // centre line
+                let q = w.a + (w.b - w.a) / 2.0 + side * 0.03;
+                let in_body = lines.walls.iter().any(|v| v.closest(q).0 < 0.06);
+                assert_eq!(closed[k], in_body, "{w:?} side {k}");
+                closed_count += usize::from(closed[k]);
+            }
+        }
+        assert_eq!(closed_count, thick.walls.len());
     }
 
     #[test]
