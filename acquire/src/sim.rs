@@ -216,7 +216,7 @@ impl Simulator {
             let a = theta + g.angle(i);
             let dir = Vector2::new(a.cos(), a.sin());
             for w in &obstacles.walls {
-                if let Some(t) = ray_segment(origin, dir, w) {
+                if let Some(t) = w.ray_hit(origin, dir) {
                     *d = d.min(t);
                 }
             }
@@ -342,18 +342,6 @@ impl Simulator {
         let walls = boxes.iter().flat_map(|c| (0..4).map(move |k| Wall { a: c[k], b: c[(k + 1) % 4] })).collect();
         Obstacles { walls, circles: Vec::new() }
     }
-}
-
-fn ray_segment(o: Point2<f64>, dir: Vector2<f64>, w: &Wall) -> Option<f64> {
-    let e = w.b - w.a;
-    let den = dir.perp(&e);
-    if den.abs() < 1e-15 {
-        return None;
-    }
-    let ao = w.a - o;
-    let t = ao.perp(&e) / den;
-    let s = ao.perp(&dir) / den;
-    (t > 0.0 && (0.0..=1.0).contains(&s)).then_some(t)
 }
 
 fn ray_circle(o: Point2<f64>, dir: Vector2<f64>, c: Point2<f64>, r: f64) -> Option<f64> {

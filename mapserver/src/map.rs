@@ -2,7 +2,7 @@
 //! keys are ignored. A malformed file is rejected with the file's name and the offending
 //! element.
 
-use nalgebra::Point2;
+use nalgebra::{Point2, Vector2};
 use serde_json::Value;
 use std::path::{Path, PathBuf};
 use thiserror::Error;
@@ -31,6 +31,21 @@ impl Wall {
 
     pub fn length(&self) -> f64 {
         (self.b - self.a).norm()
+    }
+
+    /// Distance from `from` along `dir` at which the ray meets the wall (its ends included,
+    /// with 1e-12 of slack), if strictly ahead; `None` when it misses or runs parallel.
+    #[inline]
+    pub fn ray_hit(&self, from: Point2<f64>, dir: Vector2<f64>) -> Option<f64> {
+        let e = self.b - self.a;
+        let den = dir.perp(&e);
+        if den.abs() < 1e-15 {
+            return None;
+        }
+        let ao = self.a - from;
+        let t = ao.perp(&e) / den;
+        let s = ao.perp(&dir) / den;
+        (t > 0.0 && (-1e-12..=1.0 + 1e-12).contains(&s)).then_some(t)
     }
 
     /// Distance from `p` to the segment, and the closest point on it.

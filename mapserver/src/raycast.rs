@@ -222,10 +222,7 @@ impl RayCaster {
     /// Brute force: one ray against every wall. The reference the sweep is tested against.
     pub fn cast_ray_brute(&self, origin: Point2<f64>, angle: f64) -> f64 {
         let dir = Vector2::new(angle.cos(), angle.sin());
-        self.walls
-            .iter()
-            .filter_map(|w| ray_segment(Vector2::zeros(), dir, w.a - origin, w.b - origin))
-            .fold(f64::INFINITY, f64::min)
+        self.walls.iter().filter_map(|w| w.ray_hit(origin, dir)).fold(f64::INFINITY, f64::min)
     }
 }
 
@@ -317,20 +314,6 @@ fn crosses(p: Point2<f64>, q: Point2<f64>, o: &Wall) -> bool {
     }
     let (t1, t2) = (e.perp(&(p - o.a)), e.perp(&(q - o.a)));
     (t1 > margin && t2 < -margin) || (t1 < -margin && t2 > margin)
-}
-
-/// Distance along unit `dir` from `o` to segment [a, b], if it is hit in front.
-#[inline]
-fn ray_segment(o: Vector2<f64>, dir: Vector2<f64>, a: Vector2<f64>, b: Vector2<f64>) -> Option<f64> {
-    let e = b - a;
-    let den = dir.perp(&e);
-    if den.abs() < 1e-15 {
-        return None;
-    }
-    let ao = a - o;
-    let t = ao.perp(&e) / den;
-    let s = ao.perp(&dir) / den;
-    (t > 0.0 && (-1e-12..=1.0 + 1e-12).contains(&s)).then_some(t)
 }
 
 /// What [`sweep`] needs of a cast's beam layout, computed once per cast rather than per wall.

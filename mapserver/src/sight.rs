@@ -26,15 +26,15 @@ impl SightLines {
     }
 
     /// How far from `from` along the unit vector `dir` the first wall lies, or [`reach`]
-    /// (the constructor's) when none lies nearer. A wall through `from` stops the view at 0
-    /// unless `dir` runs along it.
+    /// (the constructor's) when none lies nearer ([`Wall::ray_hit`]: a wall through `from`
+    /// itself does not stop the view).
     ///
     /// [`reach`]: Self::new
     pub fn free_run(&self, from: Point2<f64>, dir: Vector2<f64>) -> f64 {
         self.grid
             .walls_near(from)
             .iter()
-            .filter_map(|&k| crossing(from, dir, &self.walls[k as usize]))
+            .filter_map(|&k| self.walls[k as usize].ray_hit(from, dir))
             .fold(self.reach, f64::min)
     }
 
@@ -42,19 +42,6 @@ impl SightLines {
     pub fn clearance(&self, p: Point2<f64>) -> f64 {
         self.grid.walls_near(p).iter().map(|&k| self.walls[k as usize].closest(p).0).fold(self.reach, f64::min)
     }
-}
-
-/// Distance along `dir` from `o` at which the ray meets wall `w` (ends included), if ahead.
-fn crossing(o: Point2<f64>, dir: Vector2<f64>, w: &Wall) -> Option<f64> {
-    let e = w.b - w.a;
-    let den = dir.perp(&e);
-    if den.abs() < 1e-15 {
-        return None;
-    }
-    let ao = w.a - o;
-    let t = ao.perp(&e) / den;
-    let s = ao.perp(&dir) / den;
-    (t >= 0.0 && (-1e-12..=1.0 + 1e-12).contains(&s)).then_some(t)
 }
 
 #[cfg(test)]
@@ -85,7 +72,7 @@ mod tests {
             let walls: Vec<Wall> = segs.iter().map(|&(a, b, c, d)| Wall::new(a, b, c, d)).collect();
             let sight = SightLines::new(&walls, reach);
             let (o, dir) = (Point2::new(ox, oy), Vector2::new(angle.cos(), angle.sin()));
-            let brute = walls.iter().filter_map(|w| crossing(o, dir, w)).fold(reach, f64::min);
+            let brute = walls.iter().filter_map(|w| w.ray_hit(o, dir)).fold(reach, f64::min);
             prop_assert!((sight.free_run(o, dir) - brute).abs() < 1e-9);
             let nearest = walls.iter().map(|w| w.closest(o).0).fold(reach, f64::min);
             prop_assert!((sight.clearance(o) - nearest).abs() < 1e-9);
