@@ -872,10 +872,8 @@ impl<'a> Screen<'a> {
         for q in points {
             let p = pose * q;
             let mut d = self.field.distance(p).min(self.cap);
-            if let Some((frames, closed)) = self.sides {
-                if d < self.cap && self.seen_from_a_closed_side(p, sensor, frames, closed) {
-                    d = self.cap;
-                }
+            if d < self.cap && self.seen_from_a_closed_side(p, sensor) {
+                d = self.cap;
             }
             sum += d * d;
             if sum >= limit {
@@ -885,15 +883,13 @@ impl<'a> Screen<'a> {
         Some(sum)
     }
 
-    /// Whether `sensor` lies on the closed side of the wall nearest to `p`.
+    /// Whether `sensor` lies on the closed side of the wall nearest to `p` (never when the map
+    /// has no closed sides).
     #[inline]
-    fn seen_from_a_closed_side(
-        &self,
-        p: Point2<f64>,
-        sensor: Point2<f64>,
-        frames: &[WallFrame],
-        closed: &[[bool; 2]],
-    ) -> bool {
+    fn seen_from_a_closed_side(&self, p: Point2<f64>, sensor: Point2<f64>) -> bool {
+        let Some((frames, closed)) = self.sides else {
+            return false;
+        };
         let Some(k) = self.field.nearest_wall(p) else {
             return false;
         };
