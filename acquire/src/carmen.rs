@@ -191,7 +191,9 @@ fn parse_robotlaser1(t: &[&str]) -> Result<LaserScan, String> {
     let m = count(t, base + 7 + n, "remission count")?;
     let p = base + 8 + n + m;
     let truth = finite_pose(num(t, p, "laser_x")?, num(t, p + 1, "laser_y")?, num(t, p + 2, "laser_theta")?)?;
-    let increment = if res > 0.0 {
+    // the resolution gives beam i's angle, start + i * resolution, as CARMEN reads it: negative
+    // for a laser that lists its beams clockwise (mounted upside down); 0 when not recorded
+    let increment = if res != 0.0 {
         res
     } else if n > 1 {
         fov / (n - 1) as f64
@@ -319,6 +321,20 @@ mod tests {
         let got = read(line).remove(0).unwrap();
         assert_eq!(got.scan.ranges, vec![1.0, 2.0, 3.0]);
         assert!((got.scan.geometry.angle_increment - 1.57).abs() < 1e-12);
+    }
+
+    #[test]
+    fn a_negative_resolution_lists_the_beams_clockwise() {
+        // a laser mounted upside down: beam i at start + i * resolution, turning clockwise
+        let line = "ROBOTLASER1 0 1.57 3.14 -1.57 80 0.01 0 3 1.0 2.0 3.0 0 1 2 0.3 1 2 0.3 0 0 0 0 0 5.0 h 5.0\n";
+        let got = read(line).remove(0).unwrap();
+        assert!((got.scan.geometry.angle_increment + 1.57).abs() < 1e-12);
+        assert!((got.scan.geometry.angle(2) + 1.57).abs() < 1e-12);
+        // the writer keeps the sign
+        let mut out = Vec::new();
+        write_robotlaser1(&mut out, &got.scan).unwrap();
+        let again = read(&String::from_utf8(out).unwrap()).remove(0).unwrap();
+        assert_eq!(again.scan.geometry, got.scan.geometry);
     }
 
     #[test]

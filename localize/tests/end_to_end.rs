@@ -159,6 +159,42 @@ fn returns_lost_as_maximum_range_are_not_seen_through_walls() {
     assert!(counted > 3.0 * through && counted > 0.04, "counted as through-wall beams: {counted} (skipped: {through})");
 }
 
+/// A laser that lists its beams clockwise (mounted upside down, as a ROS `LaserScan` with a
+/// negative `angle_increment` says) sees the same scene: each scan, reversed with its increment
+/// negated, is localized as the original is.
+#[test]
+fn a_laser_listing_its_beams_clockwise_is_localized_as_one_listing_them_counter_clockwise() {
+    let map = procedural::apartment();
+    let (mut ccw, mut cw) = (gema2(&map, LocalizerConfig::default()), gema2(&map, LocalizerConfig::default()));
+    let mut sim = Simulator::new(&map, SensorModel::urg04lx(), Scenario::Clean, 12);
+    let (n, mut right, mut agree) = (40, 0, 0);
+    for _ in 0..n {
+        let scan = sim.next_scan();
+        let truth = scan.truth.unwrap();
+        let g = scan.geometry;
+        let last = scan.ranges.len() - 1;
+        let reversed = LaserScan {
+            geometry: ScanGeometry { angle_min: g.angle(last), angle_increment: -g.angle_increment, ..g },
+            ranges: scan.ranges.iter().rev().copied().collect(),
+            ..scan.clone()
+        };
+        let (_, a) = ccw.process(&scan.view());
+        let a = a.best().map(|h| h.pose);
+        let (_, b) = cw.process(&reversed.view());
+        let b = b.best().map(|h| h.pose);
+        if b.is_some_and(|p| same_pose(&p, &truth, 0.3, 5f64.to_radians())) {
+            right += 1;
+        }
+        if let (Some(a), Some(b)) = (a, b) {
+            if same_pose(&a, &b, 0.05, 1f64.to_radians()) {
+                agree += 1;
+            }
+        }
+    }
+    assert!(right >= n * 9 / 10, "{right}/{n} clockwise scans right");
+    assert!(agree >= n * 9 / 10, "{agree}/{n} clockwise scans agree with the counter-clockwise ones");
+}
+
 fn locate(map: &WallMap, ranges: Vec<f32>, geometry: ScanGeometry) -> Status {
     let mut gema2 = gema2(map, LocalizerConfig::default());
     let scan = LaserScan { geometry, ranges, stamp: 0.0, truth: None };

@@ -213,6 +213,7 @@ impl LineVisibility {
     }
 
     /// [`include`](Self::include) with the bounds on `samples[j]`'s beam already computed.
+    #[inline]
     pub fn include_within(&mut self, samples: &[Sample], j: usize, b: Bounds) {
         if self.len == 0 {
             self.restart(samples, j);
