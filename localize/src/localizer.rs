@@ -33,7 +33,9 @@ use std::time::{Duration, Instant};
 
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct LocalizerConfig {
-    /// How many of the best scan corners (eq. 4 order) are matched.
+    /// How many of the best scan corners (eq. 4 order) are matched. Corners of a kind the map
+    /// has none of (within the angle tolerance) are passed over and do not count: a wall end,
+    /// where the map lists none, as a map built from scans does not.
     pub corners_tried: usize,
     /// Inner angle tolerance of a match: three standard deviations of the scan corner's angle,
     /// clamped to [min, max] radians.
@@ -220,8 +222,8 @@ impl LocalizerConfig {
     }
 }
 
-/// A first, cheaper search, as the paper's: the best scan corner (or few best), fewer
-/// hypotheses screened and refined.
+/// A first, cheaper search, as the paper's: the best scan corner (or few best) the map has
+/// corners like, fewer hypotheses screened and refined.
 ///
 /// When its best pose is *confirmed* (at least `min_inliers` of the beams agree with the map
 /// and at most `max_through` see through its walls) the scan ends there, `ok` or `ambiguous`;
@@ -589,8 +591,13 @@ impl Localizer {
         let candidates = &mut self.candidates;
         match source {
             Source::Corners(corners) => {
-                for (ci, c) in seg.corners.iter().take(corners).enumerate() {
+                // a corner of a kind the map has none of (a wall end, where the map lists no
+                // wall ends) makes no candidate: the next best takes its place
+                let matchable = seg.corners.iter().enumerate().filter_map(|(ci, c)| {
                     let range = model.corners.similar_range(c.inner_angle, cfg.angle_tolerance(c));
+                    (!range.is_empty()).then_some((ci, c, range))
+                });
+                for (ci, c, range) in matchable.take(corners) {
                     for k in range {
                         let m = &model.corners.corners()[k];
                         if let (Some(p), Some(r)) = (self.prior, cfg.track_radius) {

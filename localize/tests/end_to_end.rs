@@ -195,6 +195,40 @@ fn a_laser_listing_its_beams_clockwise_is_localized_as_one_listing_them_counter_
     assert!(agree >= n * 9 / 10, "{agree}/{n} clockwise scans agree with the counter-clockwise ones");
 }
 
+/// A map that lists no wall ends (as a map built from scans does not: where its survey stopped
+/// seeing a wall is no end) cannot match a scan's wall end: when that is the scan's best corner,
+/// the next best is matched in its place instead of the scan making no candidate.
+#[test]
+fn a_best_corner_of_a_kind_the_map_lacks_gives_way_to_the_next() {
+    let map = procedural::apartment();
+    let no_ends =
+        Arc::new(MapModel::new(map.clone(), &MapCornerConfig { wall_ends: false, ..MapCornerConfig::default() }));
+    // one scan corner, no first look, no slide search: the corner alone decides
+    let config = LocalizerConfig {
+        corners_tried: 1,
+        first_look: localize::FirstLook { corners: 0, ..localize::FirstLook::default() },
+        slide: localize::SlideConfig { lines: 0, ..localize::SlideConfig::default() },
+        ..LocalizerConfig::default()
+    };
+    let mut gema2 = Gema2::new(no_ends, SegmenterConfig::default(), config);
+    let mut sim = Simulator::new(&map, SensorModel::urg04lx(), Scenario::Clean, 14);
+    let (mut led_by_an_end, mut right) = (0, 0);
+    for _ in 0..150 {
+        let scan = sim.next_scan();
+        let truth = scan.truth.unwrap();
+        let (seg, loc) = gema2.process(&scan.view());
+        let matchable = seg.corners.iter().filter(|c| c.inner_angle < 1.9 * std::f64::consts::PI).count();
+        if seg.corners.first().is_some_and(|c| c.inner_angle > 1.9 * std::f64::consts::PI) && matchable > 0 {
+            led_by_an_end += 1;
+            if loc.best().is_some_and(|h| same_pose(&h.pose, &truth, 0.3, 5f64.to_radians())) {
+                right += 1;
+            }
+        }
+    }
+    assert!(led_by_an_end >= 10, "only {led_by_an_end} scans led by a wall end");
+    assert!(right * 10 >= led_by_an_end * 7, "{right} of {led_by_an_end} scans led by a wall end right");
+}
+
 fn locate(map: &WallMap, ranges: Vec<f32>, geometry: ScanGeometry) -> Status {
     let mut gema2 = gema2(map, LocalizerConfig::default());
     let scan = LaserScan { geometry, ranges, stamp: 0.0, truth: None };
