@@ -40,7 +40,7 @@ impl DistanceField {
     pub fn new(walls: &[Wall], resolution: f64, cap: f64) -> Self {
         let (lo, hi) = crate::map::bounds_of(walls);
         let (w, h) = (hi.x - lo.x + 2.0 * cap, hi.y - lo.y + 2.0 * cap);
-        let resolution = resolution.max((w * h / MAX_CELLS).sqrt());
+        let resolution = crate::grid::coarsened(resolution, w, h, MAX_CELLS);
         let origin = Point2::new(lo.x - cap, lo.y - cap);
         let cols = (w / resolution).ceil().max(1.0) as usize;
         let rows = (h / resolution).ceil().max(1.0) as usize;

@@ -38,7 +38,7 @@ impl FreeSpace {
         let (w, h) = (hi.x - lo.x, hi.y - lo.y);
         // twice the field's resolution: a cell read through the field is off by at most
         // 0.71 field cells, which must not let two cells on either side of a wall pass
-        let cell = FINEST_CELL.max(2.0 * field.resolution()).max(((w + 0.4) * (h + 0.4) / MAX_CELLS).sqrt());
+        let cell = crate::grid::coarsened(FINEST_CELL.max(2.0 * field.resolution()), w + 0.4, h + 0.4, MAX_CELLS);
         let origin = Point2::new(lo.x - 2.0 * cell, lo.y - 2.0 * cell);
         let cols = (w / cell).ceil() as usize + 4;
         let rows = (h / cell).ceil() as usize + 4;

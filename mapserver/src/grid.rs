@@ -4,6 +4,16 @@
 use crate::map::Wall;
 use nalgebra::Point2;
 
+/// Most cells a [`WallGrid`] has: its cells are coarsened beyond that (a map kilometres
+/// across), which makes lists longer but keeps every query's answer.
+const MAX_CELLS: f64 = 4.0e6;
+
+/// `cell`, coarsened as needed so that a grid over `width` x `height` metres has at most about
+/// `max_cells` cells, and at most that many along either side whatever its shape.
+pub(crate) fn coarsened(cell: f64, width: f64, height: f64, max_cells: f64) -> f64 {
+    cell.max((width * height / max_cells).sqrt()).max(width.max(height) / max_cells)
+}
+
 #[derive(Clone, Debug)]
 pub struct WallGrid {
     origin: Point2<f64>,
@@ -26,6 +36,7 @@ impl WallGrid {
     /// beyond: lists of a long reach for points that lie among the walls.
     pub fn covering(walls: &[Wall], cell: f64, margin: f64, pad: f64) -> Self {
         let (lo, hi) = crate::map::bounds_of(walls);
+        let cell = coarsened(cell, hi.x - lo.x + 2.0 * pad, hi.y - lo.y + 2.0 * pad, MAX_CELLS);
         let origin = Point2::new(lo.x - pad, lo.y - pad);
         let cols = (((hi.x - lo.x) + 2.0 * pad) / cell).ceil().max(1.0) as usize;
         let rows = (((hi.y - lo.y) + 2.0 * pad) / cell).ceil().max(1.0) as usize;
@@ -149,4 +160,28 @@ impl WallGrid {
 #[inline]
 pub(crate) fn centre_of(origin: Point2<f64>, cell: f64, c: usize, r: usize) -> Point2<f64> {
     Point2::new(origin.x + (c as f64 + 0.5) * cell, origin.y + (r as f64 + 0.5) * cell)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::DistanceField;
+
+    /// A map kilometres across, even a long thin one, gets coarser cells instead of more: its
+    /// grids stay within their budget and still answer for every point.
+    #[test]
+    fn grids_over_a_map_kilometres_across_stay_within_their_cell_budget() {
+        for walls in [
+            vec![Wall::new(0.0, 0.0, 50_000.0, 0.0), Wall::new(0.0, 0.0, 0.0, 30_000.0)],
+            // a corridor 200 km long and 2 m wide
+            vec![Wall::new(0.0, 0.0, 200_000.0, 0.0), Wall::new(0.0, 2.0, 200_000.0, 2.0)],
+        ] {
+            let grid = WallGrid::new(&walls, 1.0, 0.5);
+            assert!(grid.cell_count() as f64 <= 1.01 * MAX_CELLS, "{} cells", grid.cell_count());
+            let p = Point2::new(20_000.0, 0.3);
+            assert!(grid.walls_near(p).contains(&0), "the wall 0.3 m away is not listed");
+            let field = DistanceField::new(&walls, 0.05, 1.0);
+            assert!((field.distance(p) - 0.3).abs() <= field.resolution(), "{}", field.distance(p));
+        }
+    }
 }

@@ -12,6 +12,10 @@ use crate::SeenFree;
 /// Walls shorter than this are rejected as degenerate, metres.
 pub const MIN_WALL_LENGTH: f64 = 1e-3;
 
+/// A map file whose walls span more than this, metres, in x or y is rejected: no indoor floor
+/// does, while a plan in millimetres or a stray wall far from the rest does.
+pub const MAX_EXTENT: f64 = 10_000.0;
+
 /// A wall: a segment in the map frame.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Wall {
@@ -60,6 +64,25 @@ impl Wall {
 }
 
 /// Axis-aligned bounds (min, max) of `walls`; the origin twice when there are none.
+/// A length for a message: whole metres, or in scientific notation when absurdly large.
+fn metres(v: f64) -> String {
+    if v < 1e7 {
+        format!("{v:.0}")
+    } else {
+        format!("{v:.1e}")
+    }
+}
+
+/// The median of `values` (the upper one of an even count; 0 for none).
+fn median(values: impl Iterator<Item = f64>) -> f64 {
+    let mut v: Vec<f64> = values.collect();
+    if v.is_empty() {
+        return 0.0;
+    }
+    let k = v.len() / 2;
+    *v.select_nth_unstable_by(k, f64::total_cmp).1
+}
+
 pub fn bounds_of(walls: &[Wall]) -> (Point2<f64>, Point2<f64>) {
     if walls.is_empty() {
         return (Point2::origin(), Point2::origin());
@@ -194,6 +217,28 @@ impl WallMap {
             }
             walls.push(wall);
         }
+        let (lo, hi) = bounds_of(&walls);
+        let span = hi - lo;
+        if span.x > MAX_EXTENT || span.y > MAX_EXTENT {
+            // the wall farthest from the middle of the others is the likeliest stray
+            let mid = Point2::new(median(walls.iter().map(|w| w.a.x)), median(walls.iter().map(|w| w.a.y)));
+            let (index, far) = walls
+                .iter()
+                .enumerate()
+                .map(|(k, w)| (k, w.closest(mid).0.max((w.a - mid).norm()).max((w.b - mid).norm())))
+                .fold((0, 0.0), |best, k| if k.1 > best.1 { k } else { best });
+            return Err(MapError::Shape {
+                path,
+                message: format!(
+                    "the walls span {} x {} m, more than the {MAX_EXTENT} m an indoor map may span: are the \
+                     coordinates in millimetres, or is a wall astray (walls[{index}] reaches {} m from the middle \
+                     of the others)?",
+                    metres(span.x),
+                    metres(span.y),
+                    metres(far)
+                ),
+            });
+        }
         Ok(WallMap { walls, sigma, seen_free })
     }
 
@@ -249,6 +294,12 @@ mod tests {
             (r#"{"walls": [[0,0,1,0], [1,0,"a",1]]}"#, "m.json: walls[1]"),
             (r#"{"walls": [[0,0,0,0]]}"#, "m.json: walls[0]: wall is shorter"),
             (r#"{"walls": []}"#, "m.json: \"walls\" is empty"),
+            (
+                r#"{"walls": [[0,0,5,0],[5,0,5,4],[5,4,0,4],[9000,20000,9001,20000]]}"#,
+                "m.json: the walls span 9001 x 20000 m, more than the 10000 m an indoor map may span: are the \
+                 coordinates in millimetres, or is a wall astray (walls[3] reaches",
+            ),
+            (r#"{"walls": [[0,0,1e300,0]]}"#, "m.json: the walls span"),
             (r#"{"wall": []}"#, "m.json: no \"walls\""),
             (r#"{"walls": 3}"#, "m.json: \"walls\" is not a list"),
             (r#"{"sigma": -1, "walls": [[0,0,1,0]]}"#, "m.json: \"sigma\" must be"),
