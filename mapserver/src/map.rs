@@ -63,7 +63,6 @@ impl Wall {
     }
 }
 
-/// Axis-aligned bounds (min, max) of `walls`; the origin twice when there are none.
 /// A length for a message: whole metres, or in scientific notation when absurdly large.
 fn metres(v: f64) -> String {
     if v < 1e7 {
@@ -83,6 +82,7 @@ fn median(values: impl Iterator<Item = f64>) -> f64 {
     *v.select_nth_unstable_by(k, f64::total_cmp).1
 }
 
+/// Axis-aligned bounds (min, max) of `walls`; the origin twice when there are none.
 pub fn bounds_of(walls: &[Wall]) -> (Point2<f64>, Point2<f64>) {
     if walls.is_empty() {
         return (Point2::origin(), Point2::origin());
@@ -225,7 +225,7 @@ impl WallMap {
             let (index, far) = walls
                 .iter()
                 .enumerate()
-                .map(|(k, w)| (k, w.closest(mid).0.max((w.a - mid).norm()).max((w.b - mid).norm())))
+                .map(|(k, w)| (k, (w.a - mid).norm().max((w.b - mid).norm())))
                 .fold((0, 0.0), |best, k| if k.1 > best.1 { k } else { best });
             return Err(MapError::Shape {
                 path,
