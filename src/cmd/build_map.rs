@@ -1,14 +1,17 @@
 //! `gema2 map build`: a wall map from the scans of a log whose poses are true (a
-//! SLAM-corrected log): every scan's lines are placed in the world, lines on the same wall are
-//! clustered (direction, then offset) and their extents merged; walls seen only once are
-//! clutter and dropped. Evaluate on scans the map was not built from (`--every 2` here,
-//! `locate --every 2 --offset 1` there).
+//! SLAM-corrected log). Every scan's lines are placed in the world; lines on the same wall are
+//! clustered (direction, then offset) and their extents merged into candidate walls. A second
+//! pass over the scans counts, per cell, the scans that hit it and the scans that saw through
+//! it ([`Occupancy`]); of each candidate, the best seen first, the map keeps the parts where
+//! something stayed and that no wall kept before covers. People and doors that moved are
+//! seen through and go; a door frame seen by one scan stays. Evaluate on scans the map was not
+//! built from (`--every 2` here, `locate --every 2 --offset 1` there).
 
 use acquire::{CarmenReader, FlaserLayout};
 use anyhow::{bail, Context, Result};
 use clap::Args;
 use laser::{LaserScan, Pose, Reading};
-use mapserver::{SeenFree, Wall, WallMap};
+use mapserver::{Occupancy, SeenFree, Wall, WallMap};
 use nalgebra::{Point2, Vector2};
 use segment::{LineVisibilitySegmenter, Segmenter, SegmenterConfig};
 use std::f64::consts::PI;
@@ -28,7 +31,14 @@ pub struct BuildArgs {
     /// Lines farther than this from the sensor are left out (metres).
     #[arg(long, default_value_t = 15.0)]
     pub max_range: f64,
-    /// Observations a wall needs to be kept.
+    /// Shortest line of a scan taken as a sighting of a wall, metres.
+    #[arg(long, default_value_t = 0.1)]
+    pub min_length: f64,
+    /// Cell of the occupancy grid that keeps of each wall the parts where something stayed,
+    /// metres. 0 turns it off: walls are then kept whole when `--min-support` lines saw them.
+    #[arg(long, default_value_t = 0.05)]
+    pub occupancy_cell: f64,
+    /// Without an occupancy grid, the lines a wall needs to be kept.
     #[arg(long, default_value_t = 2)]
     pub min_support: usize,
     /// The map's accuracy written into it, metres: the cost function expects no better.
@@ -61,7 +71,7 @@ pub fn run(a: BuildArgs) -> Result<()> {
         let (scan, truth) = item?;
         scans += 1;
         for l in &seg.segment(&scan.view()).lines {
-            if l.start.coords.norm().max(l.end.coords.norm()) > a.max_range || l.length() < 0.3 {
+            if l.start.coords.norm().max(l.end.coords.norm()) > a.max_range || l.length() < a.min_length {
                 continue;
             }
             let (p, q) = (truth * l.start, truth * l.end);
@@ -69,11 +79,11 @@ pub fn run(a: BuildArgs) -> Result<()> {
             seen.push(Observed { a: p, b: q, angle: d.y.atan2(d.x).rem_euclid(PI) });
         }
     }
-    let walls = merge(&mut seen, a.min_support);
+    let candidates = merge(&mut seen);
+    let (walls, seen_free) = second_pass(&a, &candidates)?;
     if walls.is_empty() {
         bail!("{}: no wall was seen twice", a.log.display());
     }
-    let seen_free = if a.seen_cell > 0.0 { seen_free(&a, &walls)? } else { None };
     // a map from scans is good to about a decimetre (pose corrections, merging)
     let map = WallMap { walls, sigma: a.sigma, seen_free };
     std::fs::write(&a.out, map.to_json("built")).with_context(|| format!("writing {}", a.out.display()))?;
@@ -101,35 +111,100 @@ fn survey(a: &BuildArgs) -> Result<impl Iterator<Item = Result<(LaserScan, Pose)
     }))
 }
 
-/// The cells the survey's valid beams crossed, from the sensor to a little short of what each
-/// hit, on a raster over the walls' bounds and a metre around them (a second pass over the
-/// log, so no beam is kept in memory); `None` when that raster would be too large.
-fn seen_free(a: &BuildArgs, walls: &[Wall]) -> Result<Option<SeenFree>> {
-    let (lo, hi) = mapserver::map::bounds_of(walls);
-    let margin = Vector2::new(1.0, 1.0);
-    let Some(mut seen) = SeenFree::covering(lo - margin, hi + margin, a.seen_cell) else {
-        return Ok(None);
-    };
+/// Gaps along a wall up to this long (metres) are bridged: a doorway is wider.
+const BRIDGE: f64 = 0.3;
+
+/// Shorter walls are left out of the map (metres): a few beams' worth, too short to give a
+/// corner a direction.
+const SHORTEST_WALL: f64 = 0.2;
+
+/// A wall merged from sightings, with how many scan lines saw it.
+struct Candidate {
+    wall: Wall,
+    support: usize,
+}
+
+/// The second pass over the survey (so no beam is kept in memory). It gives the walls kept of
+/// `candidates` and the cells the valid beams crossed, from the sensor to a little short of
+/// what each hit, on a raster over the candidates' bounds and a metre around them (`None`
+/// when that raster would be too large).
+///
+/// Of each candidate, the parts where something stayed are kept ([`Occupancy`]); without an
+/// occupancy grid, a candidate is kept whole when enough lines saw it and it is long enough
+/// not to be a fragment.
+fn second_pass(a: &BuildArgs, candidates: &[Candidate]) -> Result<(Vec<Wall>, Option<SeenFree>)> {
+    if !(a.occupancy_cell.is_finite() && a.occupancy_cell >= 0.0) {
+        bail!("--occupancy-cell must be a non-negative number of metres, not {}", a.occupancy_cell);
+    }
+    let all: Vec<Wall> = candidates.iter().map(|c| c.wall).collect();
+    if all.is_empty() {
+        return Ok((all, None));
+    }
+    let (lo, hi) = mapserver::map::bounds_of(&all);
+    let (lo, hi) = (lo - Vector2::new(1.0, 1.0), hi + Vector2::new(1.0, 1.0));
+    let mut seen = if a.seen_cell > 0.0 { SeenFree::covering(lo, hi, a.seen_cell) } else { None };
+    let mut occupancy = if a.occupancy_cell > 0.0 { Occupancy::covering(lo, hi, a.occupancy_cell) } else { None };
+    if a.occupancy_cell > 0.0 && occupancy.is_none() {
+        eprintln!("  no occupancy grid: it would exceed {} cells", mapserver::occupancy::MAX_CELLS);
+    }
     let short = 2.0 * a.sigma.max(0.05);
-    for item in survey(a)? {
-        let (scan, truth) = item?;
-        let view = scan.view();
-        let sensor = truth * Point2::origin();
-        for i in 0..view.len() {
-            if let Reading::Valid(d) = view.reading(i) {
-                if d > short {
-                    let angle = view.geometry.angle(i);
-                    seen.mark_ray(sensor, truth * (Point2::new(angle.cos(), angle.sin()) * (d - short)));
+    if seen.is_some() || occupancy.is_some() {
+        for item in survey(a)? {
+            let (scan, truth) = item?;
+            let view = scan.view();
+            let sensor = truth * Point2::origin();
+            if let Some(o) = occupancy.as_mut() {
+                o.next_scan();
+            }
+            for i in 0..view.len() {
+                let Reading::Valid(d) = view.reading(i) else { continue };
+                let angle = view.geometry.angle(i);
+                let along = |t: f64| truth * (Point2::new(angle.cos(), angle.sin()) * t);
+                if let Some(s) = seen.as_mut() {
+                    if d > short {
+                        s.mark_ray(sensor, along(d - short));
+                    }
+                }
+                if let Some(o) = occupancy.as_mut() {
+                    // far hits are too sparse and too blurred to count; the beam still saw
+                    // through everything before them
+                    if d <= a.max_range {
+                        o.add_beam(sensor, along(d), a.sigma);
+                    } else {
+                        o.pass_through(sensor, along(d - a.sigma));
+                    }
                 }
             }
         }
     }
-    Ok(Some(seen))
+    let walls = match occupancy.as_mut() {
+        Some(o) => {
+            // the best seen first: each wall then adds only what those before it left out
+            let mut order: Vec<&Candidate> = candidates.iter().collect();
+            order.sort_by(|p, q| q.support.cmp(&p.support).then(q.wall.length().total_cmp(&p.wall.length())));
+            let mut walls = Vec::new();
+            for c in order {
+                for part in o.static_parts(&c.wall, BRIDGE) {
+                    if part.length() >= SHORTEST_WALL {
+                        o.draw(&part);
+                        walls.push(part);
+                    }
+                }
+            }
+            walls
+        }
+        None => candidates
+            .iter()
+            .filter(|c| c.support >= a.min_support && c.wall.length() >= SHORTEST_WALL.max(0.3))
+            .map(|c| c.wall)
+            .collect(),
+    };
+    Ok((walls, seen))
 }
 
 /// Clusters lines by direction (within 2 degrees) and then offset (within 6 cm), and merges
 /// each cluster's extents along the line, bridging gaps up to 0.3 m.
-fn merge(seen: &mut [Observed], min_support: usize) -> Vec<Wall> {
+fn merge(seen: &mut [Observed]) -> Vec<Candidate> {
     // directions live on a circle of circumference pi: cut it at the widest empty gap, so a wall
     // seen at 0.1 and 179.9 degrees stays one cluster
     seen.sort_by(|p, q| p.angle.total_cmp(&q.angle));
@@ -184,11 +259,9 @@ fn merge(seen: &mut [Observed], min_support: usize) -> Vec<Wall> {
                 .collect();
             spans.sort_by(|p, q| p.0.total_cmp(&q.0));
             let (mut lo, mut hi, mut support) = (spans[0].0, spans[0].1, 1);
-            let flush = |lo: f64, hi: f64, support: usize, walls: &mut Vec<Wall>| {
-                if support >= min_support && hi - lo >= 0.3 {
-                    let (p, q) = (c + d * lo, c + d * hi);
-                    walls.push(Wall::new(p.x, p.y, q.x, q.y));
-                }
+            let flush = |lo: f64, hi: f64, support: usize, walls: &mut Vec<Candidate>| {
+                let (p, q) = (c + d * lo, c + d * hi);
+                walls.push(Candidate { wall: Wall::new(p.x, p.y, q.x, q.y), support });
             };
             for &(s0, s1) in spans.iter().skip(1) {
                 if s0 <= hi + 0.3 {
@@ -229,7 +302,7 @@ mod tests {
             obs(5.0, 1.0, 5.0, 3.0),
             obs(5.01, 2.5, 5.0, 4.0),
         ];
-        let walls = merge(&mut seen, 2);
+        let walls: Vec<Wall> = merge(&mut seen).into_iter().filter(|c| c.support >= 2).map(|c| c.wall).collect();
         assert_eq!(walls.len(), 2, "{walls:?}");
         let long = walls.iter().map(|w| w.length()).fold(0.0, f64::max);
         assert!((long - 5.0).abs() < 0.05, "{long}");
