@@ -238,4 +238,9 @@ fn a_map_built_among_people_draws_the_walls_and_not_the_people() {
         of_plan
     );
     assert!(on_plan > old_on_plan && of_plan > old_of_plan, "{shares:?}");
+    for (flag, value) in [("--occupancy-cell", "nan"), ("--occupancy-cell", "-1"), ("--min-length", "-0.1")] {
+        let out =
+            gema2(&["map", "build", "--log", log_s, &format!("{flag}={value}"), "--out", built.to_str().unwrap()]);
+        assert!(!out.status.success() && text(&out.stderr).contains(flag), "{flag} {value}: {}", text(&out.stderr));
+    }
 }

@@ -50,20 +50,29 @@ pub struct Occupancy {
 }
 
 impl Occupancy {
-    /// Cells of `cell` metres covering `lo`..`hi`, no scan yet. `None` when the cell is not a
-    /// positive finite size or more than [`MAX_CELLS`] cells would be needed.
+    /// Cells of `cell` metres covering `lo`..`hi`, no scan yet; over a survey so wide that
+    /// [`MAX_CELLS`] would not do, the cells grow until they do ([`cell`](Self::cell) says how
+    /// large they are). `None` when the cell is not a positive finite size or the bounds are
+    /// not finite.
     pub fn covering(lo: Point2<f64>, hi: Point2<f64>, cell: f64) -> Option<Self> {
-        if !(cell.is_finite() && cell > 0.0 && lo.x <= hi.x && lo.y <= hi.y) {
-            return None;
-        }
-        let cols = ((hi.x - lo.x) / cell).ceil().max(1.0);
-        let rows = ((hi.y - lo.y) / cell).ceil().max(1.0);
-        if cols * rows > MAX_CELLS as f64 || (cols * rows).is_nan() {
-            return None;
-        }
-        let grid = Grid { origin: lo, cell, cols: cols as usize, rows: rows as usize };
+        let grid = Self::grid_over(lo, hi, cell)?;
         let cells = grid.cells();
         Some(Occupancy { grid, cells: vec![Evidence::default(); cells], scan: 0, drawn: vec![f32::NAN; cells] })
+    }
+
+    /// The grid [`covering`](Self::covering) allocates.
+    fn grid_over(lo: Point2<f64>, hi: Point2<f64>, cell: f64) -> Option<Grid> {
+        let finite = [lo.x, lo.y, hi.x, hi.y].iter().all(|v| v.is_finite());
+        if !(finite && cell.is_finite() && cell > 0.0 && lo.x <= hi.x && lo.y <= hi.y) {
+            return None;
+        }
+        let (width, height) = (hi.x - lo.x, hi.y - lo.y);
+        // half the budget: rounding each side up adds a row and a column
+        let cell = crate::grid::coarsened(cell, width, height, (MAX_CELLS / 2) as f64);
+        let cols = (width / cell).ceil().max(1.0) as usize;
+        let rows = (height / cell).ceil().max(1.0) as usize;
+        let grid = Grid { origin: lo, cell, cols, rows };
+        (grid.cells() <= MAX_CELLS).then_some(grid)
     }
 
     pub fn cell(&self) -> f64 {
@@ -281,7 +290,13 @@ mod tests {
     fn bad_grids_and_segments_are_refused_or_harmless() {
         assert!(Occupancy::covering(p(0.0, 0.0), p(1.0, 1.0), 0.0).is_none());
         assert!(Occupancy::covering(p(0.0, 0.0), p(f64::NAN, 1.0), 0.1).is_none());
-        assert!(Occupancy::covering(p(0.0, 0.0), p(1e6, 1e6), 0.05).is_none());
+        // a survey 1000 km across gets cells of 250 m, within the budget
+        let wide = Occupancy::grid_over(p(0.0, 0.0), p(1e6, 1e6), 0.05).unwrap();
+        assert!(wide.cell > 100.0 && wide.cells() <= MAX_CELLS, "{}", wide.cell);
+        let corridor = Occupancy::grid_over(p(0.0, 0.0), p(2e8, 2.0), 0.05).unwrap();
+        assert!(corridor.cells() <= MAX_CELLS, "{}", corridor.cell);
+        // a building keeps its 5 cm cells
+        assert_eq!(Occupancy::grid_over(p(0.0, 0.0), p(200.0, 100.0), 0.05).unwrap().cell, 0.05);
         let mut o = Occupancy::covering(p(0.0, 0.0), p(1.0, 1.0), 0.1).unwrap();
         o.next_scan();
         o.add_beam(p(0.5, 0.5), p(f64::NAN, 0.5), 0.1);

@@ -61,6 +61,9 @@ struct Observed {
 }
 
 pub fn run(a: BuildArgs) -> Result<()> {
+    if !(a.min_length.is_finite() && a.min_length >= 0.0) {
+        bail!("--min-length must be a non-negative number of metres, not {}", a.min_length);
+    }
     if !(a.seen_cell.is_finite() && a.seen_cell >= 0.0) {
         bail!("--seen-cell must be a non-negative number of metres, not {}", a.seen_cell);
     }
@@ -82,7 +85,7 @@ pub fn run(a: BuildArgs) -> Result<()> {
     let candidates = merge(&mut seen);
     let (walls, seen_free) = second_pass(&a, &candidates)?;
     if walls.is_empty() {
-        bail!("{}: no wall was seen twice", a.log.display());
+        bail!("{}: no wall was seen (seen twice, with --occupancy-cell 0)", a.log.display());
     }
     // a map from scans is good to about a decimetre (pose corrections, merging)
     let map = WallMap { walls, sigma: a.sigma, seen_free };
@@ -144,8 +147,12 @@ fn second_pass(a: &BuildArgs, candidates: &[Candidate]) -> Result<(Vec<Wall>, Op
     let (lo, hi) = (lo - Vector2::new(1.0, 1.0), hi + Vector2::new(1.0, 1.0));
     let mut seen = if a.seen_cell > 0.0 { SeenFree::covering(lo, hi, a.seen_cell) } else { None };
     let mut occupancy = if a.occupancy_cell > 0.0 { Occupancy::covering(lo, hi, a.occupancy_cell) } else { None };
-    if a.occupancy_cell > 0.0 && occupancy.is_none() {
-        eprintln!("  no occupancy grid: it would exceed {} cells", mapserver::occupancy::MAX_CELLS);
+    if let Some(o) = occupancy.as_ref().filter(|o| o.cell() > a.occupancy_cell) {
+        eprintln!(
+            "  occupancy cells of {:.3} m instead of {} m: the survey spans too much",
+            o.cell(),
+            a.occupancy_cell
+        );
     }
     let short = 2.0 * a.sigma.max(0.05);
     if seen.is_some() || occupancy.is_some() {
