@@ -32,6 +32,25 @@ impl Grid {
     pub fn cells(&self) -> usize {
         self.cols * self.rows
     }
+
+    /// Points from `from` to `to` every half cell or less, both ends included: no cell the
+    /// segment crosses is missed by more than a corner. Just `from` for a segment of no
+    /// length; none when the segment is not finite.
+    pub fn points_along(&self, from: Point2<f64>, to: Point2<f64>) -> impl Iterator<Item = Point2<f64>> {
+        let d = to - from;
+        let steps = (d.norm() / (0.5 * self.cell)).ceil();
+        // a segment of 10^9 half cells is no beam or wall of a map; stop there
+        let steps = steps.is_finite().then(|| steps.min(1e9) as usize);
+        steps
+            .into_iter()
+            .flat_map(move |n| (0..=n).map(move |k| if n == 0 { from } else { from + d * (k as f64 / n as f64) }))
+    }
+
+    /// The cells of [`points_along`](Self::points_along) that lie on the grid (a cell may come
+    /// more than once).
+    pub fn cells_along(&self, from: Point2<f64>, to: Point2<f64>) -> impl Iterator<Item = usize> + '_ {
+        self.points_along(from, to).filter_map(|q| self.index(q))
+    }
 }
 
 /// One bit per cell of a [`Grid`]: bit i of word i / 64 for cell i; the bits past the last

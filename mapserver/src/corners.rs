@@ -232,8 +232,7 @@ const OFFSET_BUCKET: f64 = 0.05;
 
 impl CollinearWalls {
     fn key(w: &Wall) -> (i64, i64) {
-        let d = w.b - w.a;
-        let mut angle = d.y.atan2(d.x).rem_euclid(PI);
+        let mut angle = w.direction();
         if angle >= PI - ANGLE_BUCKET / 2.0 {
             angle -= PI;
         }

@@ -37,6 +37,12 @@ impl Wall {
         (self.b - self.a).norm()
     }
 
+    /// The wall's direction, either way along it: radians in [0, pi).
+    pub fn direction(&self) -> f64 {
+        let d = self.b - self.a;
+        d.y.atan2(d.x).rem_euclid(std::f64::consts::PI)
+    }
+
     /// Distance from `from` along `dir` at which the ray meets the wall (its ends included,
     /// with 1e-12 of slack), if strictly ahead; `None` when it misses or runs parallel.
     #[inline]

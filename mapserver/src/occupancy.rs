@@ -106,13 +106,11 @@ impl Occupancy {
     /// The current scan saw through the cells from `from` to `to`.
     pub fn pass_through(&mut self, from: Point2<f64>, to: Point2<f64>) {
         let scan = self.scan.max(1);
-        for q in samples(from, to, self.grid.cell) {
-            if let Some(i) = self.grid.index(q) {
-                let e = &mut self.cells[i];
-                if e.last_pass != scan {
-                    e.last_pass = scan;
-                    e.pass_scans += 1;
-                }
+        for i in self.grid.cells_along(from, to) {
+            let e = &mut self.cells[i];
+            if e.last_pass != scan {
+                e.last_pass = scan;
+                e.pass_scans += 1;
             }
         }
     }
@@ -132,9 +130,9 @@ impl Occupancy {
     /// ([`draw`](Self::draw)) already covers, sampled every half cell; gaps up to `bridge`
     /// metres are bridged (a beam that missed a cell, a door frame's shadow).
     pub fn static_parts(&self, wall: &Wall, bridge: f64) -> Vec<Wall> {
-        let direction = direction_of(wall);
-        let points: Vec<Point2<f64>> = samples(wall.a, wall.b, self.grid.cell).collect();
-        let spacing = wall.length() / (points.len() - 1).max(1) as f64;
+        let direction = wall.direction();
+        let points: Vec<Point2<f64>> = self.grid.points_along(wall.a, wall.b).collect();
+        let spacing = wall.length() / points.len().saturating_sub(1).max(1) as f64;
         let mut parts = Vec::new();
         // the current part's first and last sample
         let mut part: Option<(usize, usize)> = None;
@@ -160,11 +158,9 @@ impl Occupancy {
     /// Marks `wall` as drawn on the cells it crosses: [`static_parts`](Self::static_parts)
     /// leaves out what it covers.
     pub fn draw(&mut self, wall: &Wall) {
-        let direction = direction_of(wall) as f32;
-        for q in samples(wall.a, wall.b, self.grid.cell) {
-            if let Some(i) = self.grid.index(q) {
-                self.drawn[i] = direction;
-            }
+        let direction = wall.direction() as f32;
+        for i in self.grid.cells_along(wall.a, wall.b) {
+            self.drawn[i] = direction;
         }
     }
 
@@ -184,21 +180,6 @@ impl Occupancy {
             (-1..=1).filter_map(move |dy| self.grid.index(q + Vector2::new(dx as f64 * c, dy as f64 * c)))
         })
     }
-}
-
-/// Points from `from` to `to` every half `cell` or less, both ends included: no cell the
-/// segment crosses is missed by more than a corner. Just `from` for a degenerate segment.
-fn samples(from: Point2<f64>, to: Point2<f64>, cell: f64) -> impl Iterator<Item = Point2<f64>> {
-    let d = to - from;
-    let steps = (d.norm() / (0.5 * cell)).ceil();
-    let steps = if steps.is_finite() { steps.min(1e9) as usize } else { 0 };
-    (0..=steps).map(move |k| if steps == 0 { from } else { from + d * (k as f64 / steps as f64) })
-}
-
-/// A wall's direction in [0, pi).
-fn direction_of(w: &Wall) -> f64 {
-    let d = w.b - w.a;
-    d.y.atan2(d.x).rem_euclid(PI)
 }
 
 #[cfg(test)]

@@ -100,17 +100,9 @@ impl SeenFree {
     /// Marks the cells a beam from `from` to `to` crosses (sampled every half cell, both ends
     /// included); cells off the raster are skipped.
     pub fn mark_ray(&mut self, from: Point2<f64>, to: Point2<f64>) {
-        let d = to - from;
-        let steps = (d.norm() / (0.5 * self.cell())).ceil();
-        if !steps.is_finite() {
-            return;
-        }
-        let steps = steps as usize;
-        for k in 0..=steps {
-            let t = if steps == 0 { 0.0 } else { k as f64 / steps as f64 };
-            if let Some(i) = self.raster.grid.index(from + d * t) {
-                self.raster.set(i);
-            }
+        let grid = self.raster.grid;
+        for i in grid.cells_along(from, to) {
+            self.raster.set(i);
         }
     }
 

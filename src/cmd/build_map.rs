@@ -52,12 +52,18 @@ pub struct BuildArgs {
     pub out: PathBuf,
 }
 
-/// A line in the world, with how many scans saw it.
+/// A scan's line in the world, with its direction either way along it.
 #[derive(Clone, Copy)]
 struct Observed {
     a: Point2<f64>,
     b: Point2<f64>,
     angle: f64,
+}
+
+impl Observed {
+    fn new(a: Point2<f64>, b: Point2<f64>) -> Self {
+        Observed { a, b, angle: Wall { a, b }.direction() }
+    }
 }
 
 pub fn run(a: BuildArgs) -> Result<()> {
@@ -77,9 +83,7 @@ pub fn run(a: BuildArgs) -> Result<()> {
             if l.start.coords.norm().max(l.end.coords.norm()) > a.max_range || l.length() < a.min_length {
                 continue;
             }
-            let (p, q) = (truth * l.start, truth * l.end);
-            let d = q - p;
-            seen.push(Observed { a: p, b: q, angle: d.y.atan2(d.x).rem_euclid(PI) });
+            seen.push(Observed::new(truth * l.start, truth * l.end));
         }
     }
     let candidates = merge(&mut seen);
@@ -292,9 +296,7 @@ mod tests {
     use super::*;
 
     fn obs(x1: f64, y1: f64, x2: f64, y2: f64) -> Observed {
-        let (a, b) = (Point2::new(x1, y1), Point2::new(x2, y2));
-        let d = b - a;
-        Observed { a, b, angle: d.y.atan2(d.x).rem_euclid(PI) }
+        Observed::new(Point2::new(x1, y1), Point2::new(x2, y2))
     }
 
     #[test]
