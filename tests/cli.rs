@@ -101,6 +101,29 @@ fn unknown_maps_and_missing_logs_are_clear_errors() {
     assert!(text(&out.stderr).contains("/no/such.log"));
 }
 
+/// `map info` takes what `locate` takes: a bundled map's name or a file.
+#[test]
+fn map_info_reads_a_bundled_map_or_a_file() {
+    let out = gema2(&["map", "info", "apartment"]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let walls = mapserver::bundled("apartment").unwrap().unwrap().walls.len();
+    assert!(text(&out.stdout).starts_with(&format!("apartment: {walls} walls, ")), "{}", text(&out.stdout));
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("radial.json");
+    let out = gema2(&["map", "generate", "radial", "--out", file.to_str().unwrap()]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let out = gema2(&["map", "info", file.to_str().unwrap()]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    assert!(text(&out.stdout).contains("corners"), "{}", text(&out.stdout));
+    let out = gema2(&["map", "info", "apartmnt"]);
+    assert!(!out.status.success());
+    assert!(
+        text(&out.stderr).contains("\"apartmnt\"") && text(&out.stderr).contains("apartment"),
+        "{}",
+        text(&out.stderr)
+    );
+}
+
 /// `--set` is one vocabulary for `locate` and the pipeline's stages; a typo or a bad value is
 /// refused before any work, naming the setting (and, for a typo, the known ones).
 #[test]

@@ -19,7 +19,10 @@ pub enum MapCommand {
         out: PathBuf,
     },
     /// Print a map's size and corner counts.
-    Info { map: PathBuf },
+    Info {
+        /// A bundled map's name or a map file.
+        map: String,
+    },
     /// Build a wall map from a log whose poses are true (a SLAM-corrected log).
     Build(super::build_map::BuildArgs),
     /// Draw a centre-line map's walls with thickness, as a floor plan does: two faces per wall
@@ -71,12 +74,12 @@ pub fn run(c: MapCommand) -> Result<()> {
         }
         MapCommand::Info { map } => {
             // what the localizer prepares from the map: its corners and what it rules out
-            let model = localize::model::MapModel::new(mapserver::WallMap::load(&map)?, &MapCornerConfig::default());
+            let model = localize::model::MapModel::new(mapserver::load_map(&map)?, &MapCornerConfig::default());
             let m = &model.map;
             let (lo, hi) = m.bounds();
             println!(
                 "{}: {} walls, {} corners, {:.1} x {:.1} m",
-                map.display(),
+                map,
                 m.walls.len(),
                 model.corners.corners().len(),
                 hi.x - lo.x,
