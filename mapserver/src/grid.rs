@@ -2,7 +2,7 @@
 //! index behind ray casting and nearest-wall queries.
 
 use crate::map::Wall;
-use nalgebra::Point2;
+use nalgebra::{Point2, Vector2};
 
 /// Most cells a [`WallGrid`] has: its cells are coarsened beyond that (a map kilometres
 /// across), which makes lists longer but keeps every query's answer.
@@ -61,7 +61,11 @@ impl WallGrid {
             for r in r0..=r1 {
                 for c in c0..=c1 {
                     let centre = centre_of(origin, cell, c, r);
-                    if w.closest(centre).0 <= margin + half_diag {
+                    let near = w.closest(centre).0;
+                    // within the circle round the cell; then exactly, for those it may miss
+                    if near <= margin + half_diag
+                        && (near <= margin + 0.5 * cell || distance_to_square(w, centre, 0.5 * cell) <= margin)
+                    {
                         per_cell[r * cols + c].push(k as u32);
                     }
                 }
@@ -154,6 +158,109 @@ impl WallGrid {
     pub fn entries(&self) -> usize {
         self.items.len()
     }
+
+    /// Total length of the lists of the cells from `(c0, r0)` to `(c1, r1)` inclusive: a wall
+    /// in several of them counts in each.
+    pub fn entries_within(&self, (c0, r0): (usize, usize), (c1, r1): (usize, usize)) -> usize {
+        (r0..=r1)
+            .map(|r| (self.starts[self.cell_index(c1, r) + 1] - self.starts[self.cell_index(c0, r)]) as usize)
+            .sum()
+    }
+
+    /// Visits, in order, the cells the ray `from + t dir` (t >= 0) crosses within the grid,
+    /// each with the `t` at which the ray leaves it, until `visit` returns false or the ray has
+    /// gone past `max_t` or out of the grid (Amanatides and Woo's traversal).
+    pub fn march(
+        &self,
+        from: Point2<f64>,
+        dir: Vector2<f64>,
+        max_t: f64,
+        mut visit: impl FnMut(usize, usize, f64) -> bool,
+    ) {
+        let size = Vector2::new(self.cols as f64, self.rows as f64) * self.cell;
+        // where the ray is inside the grid's box: [enter, leave]
+        let (mut enter, mut leave) = (0.0f64, max_t);
+        for axis in 0..2 {
+            let (o, d, lo) = (from[axis], dir[axis], self.origin[axis]);
+            if d == 0.0 {
+                if o < lo || o >= lo + size[axis] {
+                    return;
+                }
+            } else {
+                let (t0, t1) = ((lo - o) / d, (lo + size[axis] - o) / d);
+                enter = enter.max(t0.min(t1));
+                leave = leave.min(t0.max(t1));
+            }
+        }
+        let finite = from.coords.iter().chain(dir.iter()).all(|v| v.is_finite());
+        if !finite || max_t.is_nan() || enter > leave {
+            return;
+        }
+        let start = from + dir * enter;
+        let cell_at = |axis: usize, count: usize| {
+            (((start[axis] - self.origin[axis]) / self.cell).floor().max(0.0) as usize).min(count - 1)
+        };
+        let mut at = [cell_at(0, self.cols), cell_at(1, self.rows)];
+        let counts = [self.cols, self.rows];
+        let mut next = [f64::INFINITY; 2];
+        let mut delta = [f64::INFINITY; 2];
+        for axis in 0..2 {
+            let d = dir[axis];
+            if d != 0.0 {
+                let boundary = self.origin[axis] + (at[axis] as f64 + if d > 0.0 { 1.0 } else { 0.0 }) * self.cell;
+                next[axis] = (boundary - from[axis]) / d;
+                delta[axis] = self.cell / d.abs();
+            }
+        }
+        loop {
+            let axis = usize::from(next[1] < next[0]);
+            let exit = next[axis];
+            if !visit(at[0], at[1], exit) || exit > max_t {
+                return;
+            }
+            // a step out of the grid ends the ray
+            match (dir[axis] > 0.0, at[axis]) {
+                (true, k) if k + 1 < counts[axis] => at[axis] = k + 1,
+                (false, k) if k > 0 => at[axis] = k - 1,
+                _ => return,
+            }
+            next[axis] += delta[axis];
+        }
+    }
+}
+
+/// Distance from wall `w` to the square of centre `centre` and half side `half`: 0 when they
+/// meet.
+fn distance_to_square(w: &Wall, centre: Point2<f64>, half: f64) -> f64 {
+    let inside = |p: Point2<f64>| (p.x - centre.x).abs() <= half && (p.y - centre.y).abs() <= half;
+    if inside(w.a) || inside(w.b) {
+        return 0.0;
+    }
+    let corners = [
+        Point2::new(centre.x - half, centre.y - half),
+        Point2::new(centre.x + half, centre.y - half),
+        Point2::new(centre.x + half, centre.y + half),
+        Point2::new(centre.x - half, centre.y + half),
+    ];
+    let mut best = f64::INFINITY;
+    for k in 0..4 {
+        let side = Wall::new(corners[k].x, corners[k].y, corners[(k + 1) % 4].x, corners[(k + 1) % 4].y);
+        if segments_cross(w, &side) {
+            return 0.0;
+        }
+        // apart, the nearest points include an end of one of them
+        best = best.min(side.closest(w.a).0).min(side.closest(w.b).0).min(w.closest(corners[k]).0);
+    }
+    best
+}
+
+/// Whether two segments meet (touching counts).
+fn segments_cross(p: &Wall, q: &Wall) -> bool {
+    let (d, e) = (p.b - p.a, q.b - q.a);
+    let side = |o: Point2<f64>, v: Vector2<f64>, x: Point2<f64>| v.perp(&(x - o));
+    let (s1, s2) = (side(p.a, d, q.a), side(p.a, d, q.b));
+    let (t1, t2) = (side(q.a, e, p.a), side(q.a, e, p.b));
+    s1 * s2 <= 0.0 && t1 * t2 <= 0.0
 }
 
 /// Centre of cell (c, r) of a grid of cells of side `cell` whose first cell starts at `origin`.
@@ -166,6 +273,97 @@ pub(crate) fn centre_of(origin: Point2<f64>, cell: f64, c: usize, r: usize) -> P
 mod tests {
     use super::*;
     use crate::DistanceField;
+    use proptest::prelude::*;
+
+    fn walls_of(seed: &[(f64, f64, f64, f64)]) -> Vec<Wall> {
+        seed.iter().map(|&(x, y, a, l)| Wall::new(x, y, x + l * a.cos(), y + l * a.sin())).collect()
+    }
+
+    proptest! {
+        /// A cell lists every wall within the margin of it, and no wall farther than that.
+        #[test]
+        fn a_cell_lists_exactly_the_walls_within_its_margin(
+            seed in proptest::collection::vec((-5.0f64..5.0, -5.0f64..5.0, -3.2f64..3.2, 0.01f64..4.0), 1..12),
+            cell in 0.3f64..1.5, margin in prop_oneof![Just(0.0), 0.0f64..1.0],
+        ) {
+            let walls = walls_of(&seed);
+            let grid = WallGrid::new(&walls, cell, margin);
+            for r in 0..grid.rows() {
+                for c in 0..grid.cols() {
+                    let centre = grid.cell_centre(c, r);
+                    let listed = grid.walls_in(c, r);
+                    for (k, w) in walls.iter().enumerate() {
+                        // the distance from the wall to the cell, sampled finely over the cell
+                        let mut near = f64::INFINITY;
+                        for i in 0..=20 {
+                            for j in 0..=20 {
+                                let q = centre + Vector2::new((i as f64 / 20.0 - 0.5) * cell, (j as f64 / 20.0 - 0.5) * cell);
+                                near = near.min(w.closest(q).0);
+                            }
+                        }
+                        let sampling = cell / 20.0;
+                        if near <= margin - 1e-9 {
+                            prop_assert!(listed.contains(&(k as u32)), "wall {} at {} of cell ({}, {}) not listed", k, near, c, r);
+                        }
+                        if near > margin + sampling {
+                            prop_assert!(!listed.contains(&(k as u32)), "wall {} at {} of cell ({}, {}) listed", k, near, c, r);
+                        }
+                    }
+                }
+            }
+        }
+
+        /// A march visits, in order, every cell the ray crosses up to its end, each with the
+        /// distance at which the ray leaves it, from inside the grid or from outside it.
+        #[test]
+        fn a_march_visits_the_cells_along_the_ray_in_order(
+            seed in proptest::collection::vec((-5.0f64..5.0, -5.0f64..5.0, -3.2f64..3.2, 0.01f64..4.0), 1..6),
+            x in -12.0f64..12.0, y in -12.0f64..12.0, angle in -3.2f64..3.2, max_t in 0.0f64..30.0,
+        ) {
+            let walls = walls_of(&seed);
+            let grid = WallGrid::new(&walls, 0.7, 0.0);
+            let (from, dir) = (Point2::new(x, y), Vector2::new(angle.cos(), angle.sin()));
+            let mut visited: Vec<(usize, usize, f64)> = Vec::new();
+            grid.march(from, dir, max_t, |c, r, exit| {
+                visited.push((c, r, exit));
+                true
+            });
+            for pair in visited.windows(2) {
+                prop_assert!(pair[1].2 >= pair[0].2 - 1e-12, "{:?}", pair);
+            }
+            // every point of the ray inside the grid, up to max_t, lies in a visited cell
+            for i in 0..=400 {
+                let t = max_t * i as f64 / 400.0;
+                let q = from + dir * t;
+                if let Some((c, r)) = grid.cell_of(q) {
+                    let centre = grid.cell_centre(c, r);
+                    // points within rounding of a cell border may be found in the neighbour
+                    let border = (q.x - centre.x).abs().max((q.y - centre.y).abs()) > 0.35 - 1e-9;
+                    prop_assert!(border || visited.iter().any(|v| (v.0, v.1) == (c, r)), "t {} in cell ({}, {}) not visited", t, c, r);
+                }
+            }
+        }
+    }
+
+    /// A ray with a NaN or infinite start, direction or length visits no cell.
+    #[test]
+    fn a_march_of_a_bad_ray_visits_nothing() {
+        let grid = WallGrid::new(&[Wall::new(0.0, 0.0, 4.0, 0.0)], 1.0, 0.0);
+        let (p, d) = (Point2::new(1.0, 0.5), Vector2::new(1.0, 0.0));
+        for (from, dir, max_t) in [
+            (Point2::new(f64::NAN, 0.5), d, 5.0),
+            (p, Vector2::new(f64::NAN, 0.0), 5.0),
+            (p, Vector2::new(f64::INFINITY, 0.0), 5.0),
+            (p, d, f64::NAN),
+        ] {
+            let mut visited = 0;
+            grid.march(from, dir, max_t, |_, _, _| {
+                visited += 1;
+                true
+            });
+            assert_eq!(visited, 0, "{from} {dir} {max_t}");
+        }
+    }
 
     /// A map kilometres across, even a long thin one, gets coarser cells instead of more: its
     /// grids stay within their budget and still answer for every point.
