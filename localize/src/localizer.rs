@@ -357,6 +357,8 @@ pub struct Localizer {
     screen_pts: Vec<Point2<f64>>,
     /// One in `prescreen_step` screening points: the first screening pass.
     screen_few: Vec<Point2<f64>>,
+    /// `screen_few` in the order the first pass reads them for one scan corner or slid line.
+    screen_order: Vec<Point2<f64>>,
     /// The first screening pass's best sums (a max-heap of their bit patterns).
     best_sums: BinaryHeap<u64>,
     refine_pts: Vec<Point2<f64>>,
@@ -386,6 +388,7 @@ impl Localizer {
             config,
             screen_pts: Vec::new(),
             screen_few: Vec::new(),
+            screen_order: Vec::new(),
             best_sums: BinaryHeap::new(),
             refine_pts: Vec::new(),
             polish_pts: Vec::new(),
@@ -587,7 +590,9 @@ impl Localizer {
         self.screen_few.clear();
         self.screen_few.extend(self.screen_pts.iter().step_by(cfg.prescreen_step.max(1)));
         let screen = Screen::new(&model, cfg.screen_cap);
-        let mut pass = FirstPass::new(screen, &self.screen_few, keep, &mut self.best_sums);
+        let few = &self.screen_few;
+        let order = &mut self.screen_order;
+        let mut pass = FirstPass::new(screen, few.len(), keep, &mut self.best_sums);
         let candidates = &mut self.candidates;
         match source {
             Source::Corners(corners) => {
@@ -598,6 +603,10 @@ impl Localizer {
                     (!range.is_empty()).then_some((ci, c, range))
                 });
                 for (ci, c, range) in matchable.take(corners) {
+                    // points on the corner's arms fit every match of it: they go last
+                    order_by_telling(few, order, |q| {
+                        c.arms.iter().map(|a| a.direction.perp(&(q - c.position)).abs()).fold(f64::INFINITY, f64::min)
+                    });
                     for k in range {
                         let m = &model.corners.corners()[k];
                         if let (Some(p), Some(r)) = (self.prior, cfg.track_radius) {
@@ -609,7 +618,7 @@ impl Localizer {
                             continue;
                         }
                         let pose = pose_from_corners(c, m);
-                        if let Some(score) = pass.score(&pose) {
+                        if let Some(score) = pass.score(&pose, order) {
                             candidates.push(Candidate { pose, score, scan_corner: ci as u16, map_corner: k as u32 });
                         }
                     }
@@ -632,8 +641,11 @@ impl Localizer {
                 );
                 self.out.slide_step = Some(step);
                 for &li in &self.slide_lines {
+                    // points on the slid line fit every pose along the wall: they go last
+                    let line = &self.lines[li];
+                    order_by_telling(few, order, |q| line.direction().perp(&(q - line.start)).abs());
                     let mut offer = |pose, map_corner| {
-                        if let Some(score) = pass.score(&pose) {
+                        if let Some(score) = pass.score(&pose, order) {
                             candidates.push(Candidate { pose, score, scan_corner: FROM_SLIDE, map_corner });
                         }
                     };
@@ -816,7 +828,8 @@ pub struct Judgement {
 /// pose that puts every point far from the walls is never worth more work.
 struct FirstPass<'a> {
     screen: Screen<'a>,
-    points: &'a [Point2<f64>],
+    /// How many points each pose is screened over.
+    points: usize,
     keep: usize,
     limit: f64,
     /// The best sums so far, as a max-heap of their bit patterns.
@@ -824,16 +837,18 @@ struct FirstPass<'a> {
 }
 
 impl<'a> FirstPass<'a> {
-    fn new(screen: Screen<'a>, points: &'a [Point2<f64>], keep: usize, best: &'a mut BinaryHeap<u64>) -> Self {
+    fn new(screen: Screen<'a>, points: usize, keep: usize, best: &'a mut BinaryHeap<u64>) -> Self {
         best.clear();
-        let limit = screen.cap * screen.cap * 0.95 * points.len().max(1) as f64;
+        let limit = screen.cap * screen.cap * 0.95 * points.max(1) as f64;
         FirstPass { screen, points, keep, limit, best }
     }
 
-    /// The pose's mean screen cost over the points, or `None` when it cannot be among the
-    /// `keep` best.
-    fn score(&mut self, pose: &Pose) -> Option<f64> {
-        let sum = self.screen.sum(pose, self.points, self.limit)?;
+    /// The pose's mean screen cost over `points` (the pass's points, in any order), or `None`
+    /// when it cannot be among the `keep` best. The kept set does not depend on the order;
+    /// the time does: the sooner a wrong pose's large misses come, the sooner it is dropped.
+    fn score(&mut self, pose: &Pose, points: &[Point2<f64>]) -> Option<f64> {
+        debug_assert_eq!(points.len(), self.points);
+        let sum = self.screen.sum(pose, points, self.limit)?;
         let best = &mut *self.best;
         // sums are non-negative, so their bit patterns order as the sums do
         if best.len() < self.keep {
@@ -845,7 +860,7 @@ impl<'a> FirstPass<'a> {
         if best.len() == self.keep {
             self.limit = self.limit.min(best.peek().map_or(self.limit, |&top| f64::from_bits(top)));
         }
-        Some(sum / self.points.len().max(1) as f64)
+        Some(sum / self.points.max(1) as f64)
     }
 }
 
@@ -946,6 +961,14 @@ pub fn same_pose(a: &Pose, b: &Pose, position: f64, heading: f64) -> bool {
 }
 
 /// Up to `count` sample points spread evenly over the scan.
+/// `points` into `out`, those that tell poses apart first: by `telling` (how far a point lies
+/// from where every candidate of one match puts it on a wall), largest first.
+fn order_by_telling(points: &[Point2<f64>], out: &mut Vec<Point2<f64>>, telling: impl Fn(Point2<f64>) -> f64) {
+    out.clear();
+    out.extend_from_slice(points);
+    out.sort_by(|a, b| telling(*b).total_cmp(&telling(*a)));
+}
+
 fn subsample(seg: &Segmentation, count: usize, out: &mut Vec<Point2<f64>>) {
     out.clear();
     let n = seg.samples.len();
@@ -1136,6 +1159,41 @@ mod tests {
         // a pose a cell beside what was seen is within the slack
         assert!(!model.off_limits(Point2::new(5.0, 2.25)));
         assert!(model.off_limits(Point2::new(5.0, 3.0)));
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(64))]
+        /// The first screening pass keeps the same poses, with the same sums, whatever order it
+        /// reads the points in: the order only decides how soon a pose is dropped.
+        #[test]
+        fn the_first_pass_keeps_the_same_poses_in_any_point_order(
+            poses in proptest::collection::vec((0.0f64..12.0, -1.0f64..9.0, -3.2f64..3.2), 1..120),
+            points in proptest::collection::vec((-4.0f64..4.0, -4.0f64..4.0), 1..12),
+            keep in 1usize..40,
+        ) {
+            let model = MapModel::new(mapserver::load_map("apartment").unwrap(), &mapserver::MapCornerConfig::default());
+            let points: Vec<Point2<f64>> = points.iter().map(|&(x, y)| Point2::new(x, y)).collect();
+            let mut reversed = points.clone();
+            reversed.reverse();
+            let kept = |order: &[Point2<f64>]| {
+                let mut best = BinaryHeap::new();
+                let mut pass = FirstPass::new(Screen::new(&model, 0.12), order.len(), keep, &mut best);
+                let mut scored: Vec<(usize, f64)> = poses
+                    .iter()
+                    .enumerate()
+                    .filter_map(|(k, &(x, y, t))| pass.score(&Pose::new(nalgebra::Vector2::new(x, y), t), order).map(|s| (k, s)))
+                    .collect();
+                scored.sort_by(|a, b| a.1.total_cmp(&b.1).then(a.0.cmp(&b.0)));
+                scored.truncate(keep);
+                scored
+            };
+            let (a, b) = (kept(&points), kept(&reversed));
+            prop_assert_eq!(a.len(), b.len());
+            for (x, y) in a.iter().zip(&b) {
+                // the same sums up to rounding; poses whose sums tie within it may swap
+                prop_assert!((x.1 - y.1).abs() < 1e-12, "{:?} {:?}", x, y);
+            }
+        }
     }
 
     proptest! {
