@@ -2,6 +2,8 @@
 //! turned into the arc of beams it covers, and only those beams are intersected with it (a
 //! z-buffer over beams). Cost: the walls near the pose (found through a [`WallGrid`]) times the
 //! beams each covers, so it grows with the beams and the depth of the scene, not with the map.
+//! Where a cast has few beams and the sweep many walls (a sparse cost at a long reach), each
+//! beam instead marches through the wall grid to its first wall; both give the same ranges.
 
 use crate::grid::WallGrid;
 use crate::map::Wall;
