@@ -960,7 +960,6 @@ pub fn same_pose(a: &Pose, b: &Pose, position: f64, heading: f64) -> bool {
         && angle_diff(pose_theta(a), pose_theta(b)).abs() <= heading
 }
 
-/// Up to `count` sample points spread evenly over the scan.
 /// `points` into `out`, those that tell poses apart first: by `telling` (how far a point lies
 /// from where every candidate of one match puts it on a wall), largest first.
 fn order_by_telling(points: &[Point2<f64>], out: &mut Vec<Point2<f64>>, telling: impl Fn(Point2<f64>) -> f64) {
@@ -969,6 +968,7 @@ fn order_by_telling(points: &[Point2<f64>], out: &mut Vec<Point2<f64>>, telling:
     out.sort_by(|a, b| telling(*b).total_cmp(&telling(*a)));
 }
 
+/// Up to `count` sample points spread evenly over the scan.
 fn subsample(seg: &Segmentation, count: usize, out: &mut Vec<Point2<f64>>) {
     out.clear();
     let n = seg.samples.len();
