@@ -321,18 +321,12 @@ impl RayCaster {
             self.grid.march(p, dir, range, |c, r, exit| {
                 for &k in self.grid.walls_in(c, r) {
                     let w = &self.walls[k as usize];
-                    let e = w.b - w.a;
-                    let to_a = w.a - p;
-                    let cross = to_a.perp(&e);
-                    let den = dir.perp(&e);
-                    // edge-on walls and walls through the sensor are skipped, as the sweep does
-                    if cross.abs() < 1e-12 || den.abs() < 1e-300 {
+                    // a wall whose line passes through the sensor is skipped, as the sweep does
+                    if (w.a - p).perp(&(w.b - w.a)).abs() < 1e-12 {
                         continue;
                     }
-                    let t = cross / den;
-                    let s = to_a.perp(&dir) / den;
-                    if t > 0.0 && (0.0..=1.0).contains(&s) && t < best {
-                        best = t;
+                    if let Some(t) = w.ray_hit(p, dir) {
+                        best = best.min(t);
                     }
                 }
                 best > exit
