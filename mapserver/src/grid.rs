@@ -272,12 +272,9 @@ pub(crate) fn centre_of(origin: Point2<f64>, cell: f64, c: usize, r: usize) -> P
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::map::walls_from_seed as walls_of;
     use crate::DistanceField;
     use proptest::prelude::*;
-
-    fn walls_of(seed: &[(f64, f64, f64, f64)]) -> Vec<Wall> {
-        seed.iter().map(|&(x, y, a, l)| Wall::new(x, y, x + l * a.cos(), y + l * a.sin())).collect()
-    }
 
     proptest! {
         /// A cell lists every wall within the margin of it, and no wall farther than that.

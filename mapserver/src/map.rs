@@ -102,6 +102,12 @@ pub fn bounds_of(walls: &[Wall]) -> (Point2<f64>, Point2<f64>) {
     (lo, hi)
 }
 
+/// Walls from `(x, y, direction, length)` tuples: how the property tests draw random maps.
+#[cfg(test)]
+pub(crate) fn walls_from_seed(seed: &[(f64, f64, f64, f64)]) -> Vec<Wall> {
+    seed.iter().map(|&(x, y, a, l)| Wall::new(x, y, x + l * a.cos(), y + l * a.sin())).collect()
+}
+
 /// A map of walls.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct WallMap {

@@ -601,8 +601,40 @@ mod tests {
     use laser::pose;
     use proptest::prelude::*;
 
-    fn random_walls(seed: &[(f64, f64, f64, f64)]) -> Vec<Wall> {
-        seed.iter().map(|&(x, y, a, l)| Wall::new(x, y, x + l * a.cos(), y + l * a.sin())).collect()
+    use crate::map::walls_from_seed as random_walls;
+
+    /// Whether each of `out` (beams `0, stride, ...` of `g` cast from `from` at heading `theta`)
+    /// is brute force's range, both counted as +inf from `reach` on. Beams grazing a wall's end
+    /// may see it or not; both are right.
+    fn agrees_with_brute_force(
+        caster: &RayCaster,
+        (from, theta): (Point2<f64>, f64),
+        g: &ScanGeometry,
+        stride: usize,
+        out: &[f64],
+        reach: f64,
+    ) -> Result<(), TestCaseError> {
+        for (k, &got) in out.iter().enumerate() {
+            let i = k * stride;
+            let want = caster.cast_ray_brute(from, theta + g.angle(i));
+            let [got, want] = [got, want].map(|d| if d < reach { d } else { f64::INFINITY });
+            let grazing = caster.walls().iter().any(|w| {
+                let a = theta + g.angle(i);
+                let d = Vector2::new(a.cos(), a.sin());
+                [w.a, w.b].iter().any(|q| {
+                    let v = q - from;
+                    (v.perp(&d) / v.norm().max(1e-9)).abs() < 1e-7
+                })
+            });
+            prop_assert!(
+                grazing || (got - want).abs() < 1e-7 || (got.is_infinite() && want.is_infinite()),
+                "beam {}: cast {} brute {}",
+                i,
+                got,
+                want
+            );
+        }
+        Ok(())
     }
 
     proptest! {
@@ -632,23 +664,7 @@ mod tests {
             }
             let p = pose(x, y, theta);
             caster.cast(&p, &g, beams, stride, &mut scratch, &mut out);
-            for (k, &got) in out.iter().enumerate() {
-                let i = k * stride;
-                let want = caster.cast_ray_brute(Point2::new(x, y), theta + g.angle(i));
-                let want = if want < 7.0 + 1e-9 { want } else { f64::INFINITY };
-                let got = if got < 7.0 + 1e-9 { got } else { f64::INFINITY };
-                // beams grazing a wall's end may see it or not; both are right
-                let grazing = walls.iter().any(|w| {
-                    let a = theta + g.angle(i);
-                    let d = Vector2::new(a.cos(), a.sin());
-                    [w.a, w.b].iter().any(|q| {
-                        let v = q - Point2::new(x, y);
-                        (v.perp(&d) / v.norm().max(1e-9)).abs() < 1e-7
-                    })
-                });
-                prop_assert!(grazing || (got - want).abs() < 1e-7 || (got.is_infinite() && want.is_infinite()),
-                    "beam {}: sweep {} brute {}", i, got, want);
-            }
+            agrees_with_brute_force(&caster, (Point2::new(x, y), theta), &g, stride, &out, 7.0 + 1e-9)?;
         }
     }
 
@@ -685,21 +701,7 @@ mod tests {
             scratch.prepare(&g, beams, walls.len());
             let mut out = vec![f64::INFINITY; beams.div_ceil(stride)];
             caster.march(Point2::new(x, y), (theta.sin(), theta.cos()), range, stride, &scratch, &mut out);
-            for (k, &got) in out.iter().enumerate() {
-                let i = k * stride;
-                let want = caster.cast_ray_brute(Point2::new(x, y), theta + g.angle(i));
-                let (got, want) = [got, want].map(|d| if d < range { d } else { f64::INFINITY }).into();
-                let grazing = walls.iter().any(|w| {
-                    let a = theta + g.angle(i);
-                    let d = Vector2::new(a.cos(), a.sin());
-                    [w.a, w.b].iter().any(|q| {
-                        let v = q - Point2::new(x, y);
-                        (v.perp(&d) / v.norm().max(1e-9)).abs() < 1e-7
-                    })
-                });
-                prop_assert!(grazing || (got - want).abs() < 1e-7 || (got.is_infinite() && want.is_infinite()),
-                    "beam {}: march {} brute {}", i, got, want);
-            }
+            agrees_with_brute_force(&caster, (Point2::new(x, y), theta), &g, stride, &out, range)?;
         }
     }
 
