@@ -47,9 +47,11 @@ pub struct LocalizerConfig {
     /// candidate uses one in `prescreen_step` of them and keeps the `prescreened` best. With
     /// furniture in view its few points often land on boxes, so the right pose can rank low
     /// here: keeping 512 instead of 256 took the furnished office log from 82.7 to 83.7 %, and
-    /// a step of 2 instead of 4 (20 points, not 10) won 28 scans over the 13 furnished
-    /// simulated logs (3900 scans) and 35 over all 42, losing one people scan; the 12
-    /// thick-walled logs gained 3 and lost 3. Keeping 1024 instead won as many for more time.
+    /// 1024 instead of 512 won 28 scans over the 13 furnished simulated logs (3900 scans) and
+    /// 29 over all 42 (12600). Reading 20 points instead (a step of 2) won as many, but took
+    /// the matching on a 5000-wall map from 1.1 to 1.5-1.7 ms a scan, where keeping more did
+    /// not move it: the same instructions, but each pose's extra points are distance-field
+    /// lookups that miss the cache once the field outgrows it.
     pub screen_points: usize,
     pub prescreen_step: usize,
     pub prescreened: usize,
@@ -179,8 +181,8 @@ impl Default for LocalizerConfig {
             max_angle_tolerance: 8f64.to_radians(),
             arm_slack: 0.3,
             screen_points: 40,
-            prescreen_step: 2,
-            prescreened: 512,
+            prescreen_step: 4,
+            prescreened: 1024,
             screen_cap: 0.12,
             screened: 384,
             coarse_beams: 64,
