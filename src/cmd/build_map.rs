@@ -66,13 +66,19 @@ impl Observed {
     }
 }
 
+/// Refuses a length flag that is not a non-negative number of metres.
+fn check_metres(flag: &str, value: f64) -> Result<()> {
+    if !(value.is_finite() && value >= 0.0) {
+        bail!("{flag} must be a non-negative number of metres, not {value}");
+    }
+    Ok(())
+}
+
 pub fn run(a: BuildArgs) -> Result<()> {
-    if !(a.min_length.is_finite() && a.min_length >= 0.0) {
-        bail!("--min-length must be a non-negative number of metres, not {}", a.min_length);
-    }
-    if !(a.seen_cell.is_finite() && a.seen_cell >= 0.0) {
-        bail!("--seen-cell must be a non-negative number of metres, not {}", a.seen_cell);
-    }
+    // before the first pass over the log, which may be long
+    check_metres("--min-length", a.min_length)?;
+    check_metres("--seen-cell", a.seen_cell)?;
+    check_metres("--occupancy-cell", a.occupancy_cell)?;
     let mut seg = LineVisibilitySegmenter::new(SegmenterConfig::default());
     let mut seen = Vec::new();
     let mut scans = 0;
@@ -118,7 +124,8 @@ fn survey(a: &BuildArgs) -> Result<impl Iterator<Item = Result<(LaserScan, Pose)
     }))
 }
 
-/// Gaps along a wall up to this long (metres) are bridged: a doorway is wider.
+/// Gaps along a wall up to this long (metres) are bridged, between sightings and along the
+/// occupancy grid: a doorway is wider.
 const BRIDGE: f64 = 0.3;
 
 /// Shorter walls are left out of the map (metres): a few beams' worth, too short to give a
@@ -140,9 +147,6 @@ struct Candidate {
 /// occupancy grid, a candidate is kept whole when enough lines saw it and it is long enough
 /// not to be a fragment.
 fn second_pass(a: &BuildArgs, candidates: &[Candidate]) -> Result<(Vec<Wall>, Option<SeenFree>)> {
-    if !(a.occupancy_cell.is_finite() && a.occupancy_cell >= 0.0) {
-        bail!("--occupancy-cell must be a non-negative number of metres, not {}", a.occupancy_cell);
-    }
     let all: Vec<Wall> = candidates.iter().map(|c| c.wall).collect();
     if all.is_empty() {
         return Ok((all, None));
@@ -214,7 +218,7 @@ fn second_pass(a: &BuildArgs, candidates: &[Candidate]) -> Result<(Vec<Wall>, Op
 }
 
 /// Clusters lines by direction (within 2 degrees) and then offset (within 6 cm), and merges
-/// each cluster's extents along the line, bridging gaps up to 0.3 m.
+/// each cluster's extents along the line, bridging gaps up to [`BRIDGE`].
 fn merge(seen: &mut [Observed]) -> Vec<Candidate> {
     // directions live on a circle of circumference pi: cut it at the widest empty gap, so a wall
     // seen at 0.1 and 179.9 degrees stays one cluster
@@ -275,7 +279,7 @@ fn merge(seen: &mut [Observed]) -> Vec<Candidate> {
                 walls.push(Candidate { wall: Wall::new(p.x, p.y, q.x, q.y), support });
             };
             for &(s0, s1) in spans.iter().skip(1) {
-                if s0 <= hi + 0.3 {
+                if s0 <= hi + BRIDGE {
                     hi = hi.max(s1);
                     support += 1;
                 } else {
