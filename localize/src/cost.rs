@@ -102,70 +102,144 @@ pub fn cost(
     scratch: &mut RayScratch,
     expected: &mut Vec<f64>,
 ) -> Cost {
+    cost_below(scan, pose, caster, error, cfg, f64::INFINITY, scratch, expected)
+}
+
+/// Beams cast at a time by [`cost_below`] when it can stop early.
+const PART: usize = 8;
+
+/// [`cost`], stopping as soon as the pose is known to cost more than `bound` (a mean per beam):
+/// then `value` is +inf. Every beam's term is non-negative, and with the one-sided form the
+/// beams counted do not depend on the pose, so the sum so far over the beams the pose will be
+/// judged on bounds its cost from below. A pose that is not stopped gets exactly [`cost`]'s
+/// value. Only casts that march their beams one by one can stop early (a long reach in a large
+/// map); a sweep casts every beam at once. The paper's form counts only the beams the map
+/// puts in range, so its poses are never stopped.
+#[allow(clippy::too_many_arguments)]
+pub fn cost_below(
+    scan: &ScanView<'_>,
+    pose: &Pose,
+    caster: &RayCaster,
+    error: &ErrorModel,
+    cfg: &CostConfig,
+    bound: f64,
+    scratch: &mut RayScratch,
+    expected: &mut Vec<f64>,
+) -> Cost {
     let g = scan.geometry;
     let stride = cfg.stride.max(1);
-    caster.cast(pose, &g, scan.len(), stride, scratch, expected);
-    let (mut sum, mut inliers, mut through, mut beams) = (0.0, 0u32, 0u32, 0u32);
     let step = g.angle_increment.abs() * stride as f64;
-    for (k, &d_map) in expected.iter().enumerate() {
-        // the sensor's sigma at this range, and the floor across the wall: agreement and seeing
-        // through are judged against it
-        let sensor = error.at(d_map) / 3.0;
-        let across = sensor.max(cfg.sigma_floor);
-        let in_range = d_map < g.range_max;
-        let c = match (scan.reading(k * stride), cfg.kind) {
-            (Reading::Unknown, _) => continue,
-            (Reading::NoReturn, _) if cfg.skip_no_returns => continue,
-            (Reading::Valid(d), CostKind::Paper) => {
-                if !in_range {
-                    continue;
-                }
-                if ((d - d_map) / across).abs() <= 3.0 {
-                    inliers += 1;
-                }
-                (d - d_map).powi(2)
-            }
-            (_, CostKind::Paper) => continue,
-            (Reading::Valid(d), CostKind::OneSided) => {
-                if !in_range {
-                    cfg.front_cap
-                } else {
-                    let residual_sq = (d - d_map) * (d - d_map);
-                    let across_sq = across * across;
-                    if residual_sq <= 9.0 * across_sq {
-                        inliers += 1;
-                    } else if d > d_map {
-                        through += 1;
-                    }
-                    // the floor along this beam, which the cost uses (squared: no root)
-                    let along_sq = if cfg.sigma_floor > sensor && cfg.grazing_cap > 1.0 {
-                        let secant_sq = incidence_secant_sq(expected, k, step).min(cfg.grazing_cap.powi(2));
-                        (sensor * sensor).max(cfg.sigma_floor * cfg.sigma_floor * secant_sq)
-                    } else {
-                        across_sq
-                    };
-                    let z_sq = residual_sq / along_sq;
-                    z_sq.min(if d > d_map { cfg.through_cap } else { cfg.front_cap })
+    let judged = |k: usize| match scan.reading(k * stride) {
+        Reading::Unknown => false,
+        Reading::NoReturn => !cfg.skip_no_returns,
+        Reading::Valid(_) => true,
+    };
+    let stoppable = cfg.kind == CostKind::OneSided && bound < f64::INFINITY;
+    // the sum the pose may reach before it is stopped: bound times the beams the mean is taken
+    // over, which the pose does not change; counted only for a cast in parts
+    let mut limit = None;
+    let (mut sum, mut inliers, mut through, mut beams) = (0.0, 0u32, 0u32, 0u32);
+    let mut done = 0;
+    let mut over = false;
+    let part = if stoppable { PART } else { usize::MAX };
+    caster.cast_while(pose, &g, scan.len(), stride, part, scratch, expected, |expected, cast| {
+        // a beam's term reads its neighbours' expected ranges: the last one cast waits for the next
+        let ready = if cast == expected.len() { cast } else { cast.saturating_sub(1) };
+        for (k, &d_map) in expected.iter().enumerate().take(ready).skip(done) {
+            if let Some((c, verdict)) = beam_term(scan.reading(k * stride), d_map, expected, k, step, error, cfg, &g) {
+                sum += c;
+                beams += 1;
+                match verdict {
+                    Verdict::Inlier => inliers += 1,
+                    Verdict::Through => through += 1,
+                    Verdict::Other => {}
                 }
             }
-            (Reading::NoReturn, CostKind::OneSided) => {
-                if in_range && d_map < g.range_max - 3.0 * across {
-                    through += 1;
-                    cfg.through_cap
-                } else {
-                    inliers += 1;
-                    0.0
-                }
-            }
-        };
-        sum += c;
-        beams += 1;
-    }
-    if beams == 0 {
-        return Cost { value: f64::INFINITY, inliers: 0.0, through: 0.0, beams: 0 };
+        }
+        done = done.max(ready);
+        if stoppable && cast < expected.len() {
+            let limit = *limit.get_or_insert_with(|| bound * (0..expected.len()).filter(|&k| judged(k)).count() as f64);
+            over = sum > limit;
+        }
+        !over
+    });
+    if over || beams == 0 {
+        return Cost { value: f64::INFINITY, inliers: 0.0, through: 0.0, beams };
     }
     let n = beams as f64;
     Cost { value: sum / n, inliers: inliers as f64 / n, through: through as f64 / n, beams }
+}
+
+/// How one beam's reading stands against the map.
+enum Verdict {
+    /// Within three standard deviations of the map.
+    Inlier,
+    /// Seeing through a mapped wall, or missing a wall the map puts in range.
+    Through,
+    Other,
+}
+
+/// The term of eq. 7 for beam `k` (the `k`-th cast), reading `reading` where the map predicts
+/// `d_map`; `None` for a beam the cost skips.
+#[allow(clippy::too_many_arguments)]
+#[inline]
+fn beam_term(
+    reading: Reading,
+    d_map: f64,
+    expected: &[f64],
+    k: usize,
+    step: f64,
+    error: &ErrorModel,
+    cfg: &CostConfig,
+    g: &laser::ScanGeometry,
+) -> Option<(f64, Verdict)> {
+    // the sensor's sigma at this range, and the floor across the wall: agreement and seeing
+    // through are judged against it
+    let sensor = error.at(d_map) / 3.0;
+    let across = sensor.max(cfg.sigma_floor);
+    let in_range = d_map < g.range_max;
+    match (reading, cfg.kind) {
+        (Reading::Unknown, _) => None,
+        (Reading::NoReturn, _) if cfg.skip_no_returns => None,
+        (Reading::Valid(d), CostKind::Paper) => {
+            if !in_range {
+                return None;
+            }
+            let verdict = if ((d - d_map) / across).abs() <= 3.0 { Verdict::Inlier } else { Verdict::Other };
+            Some(((d - d_map).powi(2), verdict))
+        }
+        (_, CostKind::Paper) => None,
+        (Reading::Valid(d), CostKind::OneSided) => {
+            if !in_range {
+                return Some((cfg.front_cap, Verdict::Other));
+            }
+            let residual_sq = (d - d_map) * (d - d_map);
+            let across_sq = across * across;
+            let verdict = if residual_sq <= 9.0 * across_sq {
+                Verdict::Inlier
+            } else if d > d_map {
+                Verdict::Through
+            } else {
+                Verdict::Other
+            };
+            // the floor along this beam, which the cost uses (squared: no root)
+            let along_sq = if cfg.sigma_floor > sensor && cfg.grazing_cap > 1.0 {
+                let secant_sq = incidence_secant_sq(expected, k, step).min(cfg.grazing_cap.powi(2));
+                (sensor * sensor).max(cfg.sigma_floor * cfg.sigma_floor * secant_sq)
+            } else {
+                across_sq
+            };
+            let z_sq = residual_sq / along_sq;
+            Some((z_sq.min(if d > d_map { cfg.through_cap } else { cfg.front_cap }), verdict))
+        }
+        (Reading::NoReturn, CostKind::OneSided) => {
+            if in_range && d_map < g.range_max - 3.0 * across {
+                Some((cfg.through_cap, Verdict::Through))
+            } else {
+                Some((0.0, Verdict::Inlier))
+            }
+        }
+    }
 }
 
 /// 1 / cos^2 of the incidence of beam `k` on the wall it meets, from how fast the expected
@@ -340,5 +414,58 @@ mod tests {
         assert_eq!(skipped.beams, all.beams - 3);
         assert_eq!(skipped.through, 0.0);
         assert!((skipped.value - all.value).abs() < 0.05, "{skipped:?} vs {all:?}");
+    }
+
+    /// A pose stopped by [`cost_below`] costs more than the bound by [`cost`]; one not stopped
+    /// gets exactly [`cost`]'s result. A 60 m reach in a 1000-wall office makes the sparse casts
+    /// march, so poses are stopped part way.
+    #[test]
+    fn a_pose_stopped_early_costs_more_than_the_bound_and_the_others_cost_the_same() {
+        let map = mapserver::procedural::office_with_walls(3, 1000);
+        let caster = RayCaster::new(&map.walls);
+        let g = ScanGeometry::centred(361, 180f64.to_radians(), 60.0);
+        let (lo, hi) = mapserver::map::bounds_of(&map.walls);
+        let truth = pose(lo.x + 0.37 * (hi.x - lo.x), lo.y + 0.41 * (hi.y - lo.y), 0.3);
+        let (mut scratch, mut expected) = (RayScratch::default(), Vec::new());
+        caster.cast(&truth, &g, 361, 1, &mut scratch, &mut expected);
+        let ranges: Vec<f32> =
+            expected.iter().enumerate().map(|(i, &d)| (d.min(60.0) + 0.01 * ((i % 5) as f64 - 2.0)) as f32).collect();
+        let scan = ScanView { geometry: g, ranges: &ranges };
+        let cfg = CostConfig { stride: 11, sigma_floor: 0.08, ..CostConfig::default() };
+        let e = ErrorModel::default();
+        let poses: Vec<Pose> = (0..40)
+            .map(|k| {
+                let k = k as f64;
+                pose(
+                    truth.translation.x + 0.7 * (k * 0.61).sin() * k / 10.0,
+                    truth.translation.y + 0.5 * (k * 1.3).cos(),
+                    0.3 + 0.05 * k,
+                )
+            })
+            .collect();
+        let mut full: Vec<Cost> =
+            poses.iter().map(|p| cost(&scan, p, &caster, &e, &cfg, &mut scratch, &mut expected)).collect();
+        let mut values: Vec<f64> = full.iter().map(|c| c.value).collect();
+        values.sort_by(f64::total_cmp);
+        let bound = values[10];
+        let mut stopped = 0;
+        for (p, whole) in poses.iter().zip(full.iter_mut()) {
+            let below = cost_below(&scan, p, &caster, &e, &cfg, bound, &mut scratch, &mut expected);
+            if below.value.is_finite() {
+                assert_eq!(below, *whole);
+            } else {
+                assert!(whole.value > bound, "stopped at {} <= {bound}", whole.value);
+                // stopped before its last part
+                assert!(below.beams < whole.beams, "{} of {}", below.beams, whole.beams);
+                stopped += 1;
+            }
+        }
+        assert!(stopped >= 10, "only {stopped} of 40 poses stopped early");
+        // the paper's form counts beams by pose: never stopped
+        let paper = CostConfig { kind: CostKind::Paper, ..cfg };
+        for p in &poses {
+            let whole = cost(&scan, p, &caster, &e, &paper, &mut scratch, &mut expected);
+            assert_eq!(cost_below(&scan, p, &caster, &e, &paper, 0.0, &mut scratch, &mut expected), whole);
+        }
     }
 }

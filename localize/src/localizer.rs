@@ -17,7 +17,7 @@
 //! that is not confirmed either, the scan's longest lines are laid along the map's walls
 //! ([`crate::slide`]) and those poses go through the same steps, ranked with the others.
 
-use crate::cost::{cost, Cost, CostConfig};
+use crate::cost::{cost, cost_below, Cost, CostConfig};
 use crate::matching::{arms_fit, pose_from_corners};
 use crate::model::{MapModel, WallFrame, FIELD_CAP};
 use crate::refine::{refine, RefineConfig};
@@ -366,6 +366,8 @@ pub struct Localizer {
     screen_order: Vec<Point2<f64>>,
     /// The first screening pass's best sums (a max-heap of their bit patterns).
     best_sums: BinaryHeap<u64>,
+    /// The lowest coarse costs so far, as bits ([`Localizer::coarse_cost`]).
+    coarse_lowest: BinaryHeap<u64>,
     refine_pts: Vec<Point2<f64>>,
     polish_pts: Vec<Point2<f64>>,
     candidates: Vec<Candidate>,
@@ -395,6 +397,7 @@ impl Localizer {
             screen_few: Vec::new(),
             screen_order: Vec::new(),
             best_sums: BinaryHeap::new(),
+            coarse_lowest: BinaryHeap::new(),
             refine_pts: Vec::new(),
             polish_pts: Vec::new(),
             candidates: Vec::new(),
@@ -549,10 +552,10 @@ impl Localizer {
         if screened > refined {
             let cfg = self.config;
             if self.candidates.len() > cfg.sparse_kept.max(refined) {
-                self.coarse_cost(scan, cfg.sparse_beams);
+                self.coarse_cost(scan, cfg.sparse_beams, cfg.sparse_kept);
                 self.keep_best(cfg.sparse_kept);
             }
-            self.coarse_cost(scan, cfg.coarse_beams);
+            self.coarse_cost(scan, cfg.coarse_beams, refined);
             self.keep_best(refined);
         }
         let t2 = Instant::now();
@@ -718,16 +721,46 @@ impl Localizer {
     }
 
     /// Scores each candidate by eq. 7 over about `beams` equispaced beams, tolerant of
-    /// misalignment.
-    fn coarse_cost(&mut self, scan: &ScanView<'_>, beams: usize) {
+    /// misalignment, for [`keep_best`](Self::keep_best) to keep the `keep` best. The candidates
+    /// are distinct already (this keeps the poses a keep before it made distinct), so those are
+    /// the `keep` lowest costs: a candidate known to cost more than `keep` others is stopped
+    /// early ([`cost_below`]) and scores +inf. The candidates come best first by the previous
+    /// step's score, so the bound is tight early.
+    fn coarse_cost(&mut self, scan: &ScanView<'_>, beams: usize, keep: usize) {
         let cfg = CostConfig {
             stride: (scan.len() / beams.max(1)).max(1),
             sigma_floor: self.config.coarse_sigma.max(self.model.map.sigma),
             ..self.cost
         };
+        // the `keep` lowest costs so far (non-negative, so their bits order as the numbers do)
+        let lowest = &mut self.coarse_lowest;
+        lowest.clear();
         for c in self.candidates.iter_mut() {
-            c.score =
-                cost(scan, &c.pose, &self.model.caster, &self.error, &cfg, &mut self.scratch, &mut self.expected).value;
+            let bound = if lowest.len() == keep {
+                lowest.peek().map_or(f64::INFINITY, |&b| f64::from_bits(b))
+            } else {
+                f64::INFINITY
+            };
+            c.score = cost_below(
+                scan,
+                &c.pose,
+                &self.model.caster,
+                &self.error,
+                &cfg,
+                bound,
+                &mut self.scratch,
+                &mut self.expected,
+            )
+            .value;
+            if !c.score.is_finite() || keep == 0 {
+                continue;
+            }
+            if lowest.len() < keep {
+                lowest.push(c.score.to_bits());
+            } else if lowest.peek().is_some_and(|&b| c.score < f64::from_bits(b)) {
+                lowest.pop();
+                lowest.push(c.score.to_bits());
+            }
         }
     }
 

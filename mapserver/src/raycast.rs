@@ -240,11 +240,32 @@ impl RayCaster {
         scratch: &mut RayScratch,
         out: &mut Vec<f64>,
     ) {
+        self.cast_while(pose, g, beams, stride, usize::MAX, scratch, out, |_, _| true);
+    }
+
+    /// [`cast`](Self::cast), showing the ranges to `go_on` as they come: `go_on(out, cast)`
+    /// sees the first `cast` of them final (the rest +inf) and says whether to cast more. A cast
+    /// that marches its beams marches them `part` at a time, so a caller that can judge a pose
+    /// on some of its beams stops early; a sweep casts every beam at once and shows them once.
+    /// The way of casting is chosen as for the whole cast.
+    #[allow(clippy::too_many_arguments)]
+    pub fn cast_while(
+        &self,
+        pose: &Pose,
+        g: &ScanGeometry,
+        beams: usize,
+        stride: usize,
+        part: usize,
+        scratch: &mut RayScratch,
+        out: &mut Vec<f64>,
+        mut go_on: impl FnMut(&[f64], usize) -> bool,
+    ) {
         let stride = stride.max(1);
         scratch.prepare(g, beams, self.walls.len());
         out.clear();
         out.resize(beams.div_ceil(stride), f64::INFINITY);
         if beams == 0 || g.angle_increment == 0.0 {
+            go_on(out, out.len());
             return;
         }
         let p = Point2::from(pose.translation.vector);
@@ -272,16 +293,17 @@ impl RayCaster {
                 for &k in near {
                     visit(k as usize, scratch, out);
                 }
+                go_on(out, out.len());
                 return;
             }
-            Some(Plan::March) => return self.march(p, (sin, cos), range, stride, scratch, out),
+            Some(Plan::March) => return self.march_in_parts(p, (sin, cos), range, stride, part, scratch, out, go_on),
             None => {}
         }
         let ((c0, r0), (c1, r1)) = self.grid.cell_range(lo, hi);
         let visit_all = (c1 - c0 + 1) * (r1 - r0 + 1) * 2 > self.grid.cell_count();
         let swept = if visit_all { self.walls.len() } else { self.grid.entries_within((c0, r0), (c1, r1)) };
         if Plan::march_pays(swept, cast_beams) {
-            return self.march(p, (sin, cos), range, stride, scratch, out);
+            return self.march_in_parts(p, (sin, cos), range, stride, part, scratch, out, go_on);
         }
         let epoch = scratch.epoch;
         if visit_all {
@@ -301,21 +323,50 @@ impl RayCaster {
                 }
             }
         }
+        go_on(out, out.len());
+    }
+
+    /// [`march`](Self::march)es the beams `part` at a time while `go_on` says so (see
+    /// [`cast_while`](Self::cast_while)).
+    #[allow(clippy::too_many_arguments)]
+    fn march_in_parts(
+        &self,
+        p: Point2<f64>,
+        (sin, cos): (f64, f64),
+        range: f64,
+        stride: usize,
+        part: usize,
+        scratch: &RayScratch,
+        out: &mut [f64],
+        mut go_on: impl FnMut(&[f64], usize) -> bool,
+    ) {
+        let mut cast = 0;
+        while cast < out.len() {
+            let end = cast.saturating_add(part.max(1)).min(out.len());
+            self.march(p, (sin, cos), range, stride, cast, scratch, &mut out[cast..end]);
+            cast = end;
+            if !go_on(out, cast) {
+                return;
+            }
+        }
     }
 
     /// Casts each beam on its own through the wall grid, nearest cells first, stopping at the
     /// first cell that holds a hit: cheaper than a sweep when few beams are cast among many
     /// walls (a sparse cost over a large map at a long range).
+    /// `out` takes the cast beams from the `first`-th on.
+    #[allow(clippy::too_many_arguments)]
     fn march(
         &self,
         p: Point2<f64>,
         (sin, cos): (f64, f64),
         range: f64,
         stride: usize,
+        first: usize,
         scratch: &RayScratch,
         out: &mut [f64],
     ) {
-        for (d, o) in scratch.dirs.iter().step_by(stride).zip(out.iter_mut()) {
+        for (d, o) in scratch.dirs.iter().step_by(stride).skip(first).zip(out.iter_mut()) {
             let dir = Vector2::new(cos * d.x - sin * d.y, sin * d.x + cos * d.y);
             let mut best = f64::INFINITY;
             self.grid.march(p, dir, range, |c, r, exit| {
@@ -700,8 +751,43 @@ mod tests {
             let mut scratch = RayScratch::default();
             scratch.prepare(&g, beams, walls.len());
             let mut out = vec![f64::INFINITY; beams.div_ceil(stride)];
-            caster.march(Point2::new(x, y), (theta.sin(), theta.cos()), range, stride, &scratch, &mut out);
+            caster.march(Point2::new(x, y), (theta.sin(), theta.cos()), range, stride, 0, &scratch, &mut out);
             agrees_with_brute_force(&caster, (Point2::new(x, y), theta), &g, stride, &out, range)?;
+        }
+
+        /// Marching in parts casts what one march does, part by part, shows each part as it is
+        /// cast, and casts nothing after `go_on` says stop.
+        #[test]
+        fn marching_in_parts_casts_the_same_and_stops_when_told(
+            seed in proptest::collection::vec((-8.0f64..8.0, -8.0f64..8.0, -3.2f64..3.2, 0.05f64..6.0), 1..40),
+            x in -6.0f64..6.0, y in -6.0f64..6.0, theta in -3.2f64..3.2,
+            beams in 2usize..200, stride in 1usize..4, part in 1usize..20, parts_wanted in 1usize..10,
+        ) {
+            let walls = random_walls(&seed);
+            let caster = RayCaster::new(&walls);
+            let g = ScanGeometry::centred(beams, 4.0, 20.0);
+            let mut scratch = RayScratch::default();
+            scratch.prepare(&g, beams, walls.len());
+            let cast_beams = beams.div_ceil(stride);
+            let (p, sc) = (Point2::new(x, y), (theta.sin(), theta.cos()));
+            let mut whole = vec![f64::INFINITY; cast_beams];
+            caster.march(p, sc, 20.0, stride, 0, &scratch, &mut whole);
+            let mut parts = vec![f64::INFINITY; cast_beams];
+            // each time it is shown: how many are cast, whether those are the whole march's
+            // and the rest still +inf
+            let mut shown = Vec::new();
+            caster.march_in_parts(p, sc, 20.0, stride, part, &scratch, &mut parts, |out, cast| {
+                shown.push((cast, out[..cast] == whole[..cast], out[cast..].iter().all(|d| d.is_infinite())));
+                shown.len() < parts_wanted
+            });
+            for (k, &(cast, same, rest)) in shown.iter().enumerate() {
+                prop_assert_eq!(cast, ((k + 1) * part).min(cast_beams));
+                prop_assert!(same && rest, "part {}", k);
+            }
+            let last = shown.last().map_or(0, |s| s.0);
+            prop_assert_eq!(last, (parts_wanted * part).min(cast_beams));
+            prop_assert_eq!(&parts[..last], &whole[..last]);
+            prop_assert!(parts[last..].iter().all(|d| d.is_infinite()));
         }
     }
 
