@@ -200,31 +200,42 @@ impl WallGrid {
         let cell_at = |axis: usize, count: usize| {
             (((start[axis] - self.origin[axis]) / self.cell).floor().max(0.0) as usize).min(count - 1)
         };
-        let mut at = [cell_at(0, self.cols), cell_at(1, self.rows)];
-        let counts = [self.cols, self.rows];
-        let mut next = [f64::INFINITY; 2];
-        let mut delta = [f64::INFINITY; 2];
-        for axis in 0..2 {
-            let d = dir[axis];
-            if d != 0.0 {
-                let boundary = self.origin[axis] + (at[axis] as f64 + if d > 0.0 { 1.0 } else { 0.0 }) * self.cell;
-                next[axis] = (boundary - from[axis]) / d;
-                delta[axis] = self.cell / d.abs();
+        let at = [cell_at(0, self.cols), cell_at(1, self.rows)];
+        // per axis: the t of the next cell boundary, the t between boundaries, and the cell
+        // index (as a signed number) and its step; the ray leaves the grid at index `end`
+        let axis = |k: usize, count: usize| {
+            let d = dir[k];
+            if d == 0.0 {
+                // never crossed, unless neither is: then the ray steps back out of the grid
+                return (f64::INFINITY, f64::INFINITY, at[k] as isize, -1, -1);
             }
-        }
+            let boundary = self.origin[k] + (at[k] as f64 + if d > 0.0 { 1.0 } else { 0.0 }) * self.cell;
+            let (step, end) = if d > 0.0 { (1, count as isize) } else { (-1, -1) };
+            ((boundary - from[k]) / d, self.cell / d.abs(), at[k] as isize, step, end)
+        };
+        let (mut next_x, delta_x, mut c, step_c, end_c) = axis(0, self.cols);
+        let (mut next_y, delta_y, mut r, step_r, end_r) = axis(1, self.rows);
         loop {
-            let axis = usize::from(next[1] < next[0]);
-            let exit = next[axis];
-            if !visit(at[0], at[1], exit) || exit > max_t {
+            // the boundary crossed first: x on a tie
+            let across_y = next_y < next_x;
+            let exit = if across_y { next_y } else { next_x };
+            if !visit(c as usize, r as usize, exit) || exit > max_t {
                 return;
             }
             // a step out of the grid ends the ray
-            match (dir[axis] > 0.0, at[axis]) {
-                (true, k) if k + 1 < counts[axis] => at[axis] = k + 1,
-                (false, k) if k > 0 => at[axis] = k - 1,
-                _ => return,
+            if across_y {
+                r += step_r;
+                next_y += delta_y;
+                if r == end_r {
+                    return;
+                }
+            } else {
+                c += step_c;
+                next_x += delta_x;
+                if c == end_c {
+                    return;
+                }
             }
-            next[axis] += delta[axis];
         }
     }
 }
@@ -360,6 +371,41 @@ mod tests {
             });
             assert_eq!(visited, 0, "{from} {dir} {max_t}");
         }
+    }
+
+    /// A ray along an axis visits the cells of its row or column in order, up to the grid's
+    /// edge; one with no direction ends too, even with no length limit.
+    #[test]
+    fn a_march_along_an_axis_or_of_no_direction_ends() {
+        let grid = WallGrid::new(&[Wall::new(0.0, 0.0, 4.0, 3.0)], 1.0, 0.0);
+        let (cols, rows) = (grid.cols(), grid.rows());
+        let from = grid.cell_centre(1, 1);
+        for (dir, along) in [((1.0, 0.0), cols - 2), ((-1.0, 0.0), 1), ((0.0, 1.0), rows - 2), ((0.0, -1.0), 1)] {
+            let mut visited = Vec::new();
+            grid.march(from, Vector2::new(dir.0, dir.1), f64::INFINITY, |c, r, _| {
+                visited.push((c, r));
+                true
+            });
+            assert_eq!(visited.len(), along + 1, "{dir:?}: {visited:?}");
+            for (k, &(c, r)) in visited.iter().enumerate() {
+                let step = |d: f64| {
+                    if d > 0.0 {
+                        1 + k
+                    } else if d < 0.0 {
+                        1 - k
+                    } else {
+                        1
+                    }
+                };
+                assert_eq!((c, r), (step(dir.0), step(dir.1)), "{dir:?}");
+            }
+        }
+        let mut visited = 0;
+        grid.march(from, Vector2::zeros(), f64::INFINITY, |_, _, _| {
+            visited += 1;
+            visited < 1000
+        });
+        assert!(visited < 1000, "a march with no direction did not end");
     }
 
     /// A map kilometres across, even a long thin one, gets coarser cells instead of more: its
