@@ -17,6 +17,11 @@ pub struct DistanceField {
     /// Distance in units of `cap / 255` (one byte, so the field of a whole floor stays in
     /// cache: screening thousands of poses is bound by these lookups).
     cells: Vec<u8>,
+    /// The least of `cells` over each block of [`POOL`] x [`POOL`] cells (the last row and
+    /// column of blocks may be partial): a lower bound of the distance from a table a
+    /// `POOL * POOL`-th of the size, which stays in cache where `cells` of a large map do not.
+    pooled: Vec<u8>,
+    pooled_cols: usize,
     /// Nearest wall of each cell's centre.
     nearest: NearestWalls,
 }
@@ -30,6 +35,9 @@ enum NearestWalls {
     /// `u32::MAX`: no wall within the cap.
     Wide(Vec<u32>),
 }
+
+/// Side of the blocks of cells [`DistanceField::lower_bound`] reads, in cells.
+pub const POOL: usize = 4;
 
 /// Largest number of cells a field may have before its resolution is coarsened.
 const MAX_CELLS: f64 = 16.0e6;
@@ -73,7 +81,39 @@ impl DistanceField {
         } else {
             NearestWalls::Wide(nearest)
         };
-        DistanceField { origin, resolution, inverse_resolution: 1.0 / resolution, cols, rows, cap, cells, nearest }
+        let pooled_cols = cols.div_ceil(POOL);
+        let mut pooled = vec![u8::MAX; pooled_cols * rows.div_ceil(POOL)];
+        for r in 0..rows {
+            for c in 0..cols {
+                let b = (r / POOL) * pooled_cols + c / POOL;
+                pooled[b] = pooled[b].min(cells[r * cols + c]);
+            }
+        }
+        DistanceField {
+            origin,
+            resolution,
+            inverse_resolution: 1.0 / resolution,
+            cols,
+            rows,
+            cap,
+            cells,
+            pooled,
+            pooled_cols,
+            nearest,
+        }
+    }
+
+    /// A lower bound of [`distance`](Self::distance) at `p`: the least distance over the
+    /// [`POOL`] x [`POOL`] block of cells holding `p` (`cap` outside the field, as there).
+    #[inline]
+    pub fn lower_bound(&self, p: Point2<f64>) -> f64 {
+        let c = ((p.x - self.origin.x) * self.inverse_resolution) as isize;
+        let r = ((p.y - self.origin.y) * self.inverse_resolution) as isize;
+        if p.x < self.origin.x || p.y < self.origin.y || c as usize >= self.cols || r as usize >= self.rows {
+            return self.cap;
+        }
+        let b = (r as usize / POOL) * self.pooled_cols + c as usize / POOL;
+        self.pooled[b] as f64 * (self.cap / 255.0)
     }
 
     #[inline]
@@ -128,6 +168,32 @@ mod tests {
             let p = Point2::new(x, y);
             let exact = walls.iter().map(|w| w.closest(p).0).fold(f64::INFINITY, f64::min).min(1.0);
             prop_assert!((f.distance(p) - exact).abs() <= 0.05 * std::f64::consts::SQRT_2 / 2.0 + 1.0 / 255.0 + 1e-9);
+        }
+
+        #[test]
+        /// The lower bound never exceeds the distance, and is the least distance over the
+        /// points of the block of cells around: what the distance reads somewhere within
+        /// `POOL` cells.
+        fn the_lower_bound_is_the_least_distance_of_the_block(x in -3.5f64..3.5, y in -3.5f64..3.5) {
+            let walls = vec![Wall::new(-1.0, 0.0, 1.0, 0.5), Wall::new(0.0, -2.0, 0.0, -1.0)];
+            let f = DistanceField::new(&walls, 0.05, 1.0);
+            let p = Point2::new(x, y);
+            let bound = f.lower_bound(p);
+            prop_assert!(bound <= f.distance(p));
+            // some cell within the block reads the bound
+            let step = f.resolution();
+            let reach = (POOL as f64) * step;
+            let mut least = f64::INFINITY;
+            let n = 2 * POOL as i64;
+            for i in -n..=n {
+                for j in -n..=n {
+                    let q = Point2::new(x + i as f64 * step, y + j as f64 * step);
+                    if (q.x - x).abs() <= reach && (q.y - y).abs() <= reach {
+                        least = least.min(f.distance(q));
+                    }
+                }
+            }
+            prop_assert!(least <= bound + 1e-12, "least {} bound {}", least, bound);
         }
 
         #[test]
