@@ -962,6 +962,10 @@ impl<'a> Screen<'a> {
         let Some((frames, closed)) = self.sides else {
             return false;
         };
+        // a nearest wall with no closed side (most of them): no need to look it up
+        if !self.field.is_marked(p) {
+            return false;
+        }
         let Some(k) = self.field.nearest_wall(p) else {
             return false;
         };

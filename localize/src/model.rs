@@ -64,7 +64,13 @@ impl MapModel {
     pub fn new(map: WallMap, corners: &MapCornerConfig) -> Self {
         // the cost, screening and refinement read the drawn geometry, in as few walls as hold it
         let walls = map.joined_walls();
-        let field = DistanceField::new(&walls, FIELD_RESOLUTION, FIELD_CAP);
+        let mut field = DistanceField::new(&walls, FIELD_RESOLUTION, FIELD_CAP);
+        let closed_sides = mapserver::view::closed_sides(&walls);
+        // the screen asks the field which points' nearest wall has a closed side before it
+        // looks the wall up (few walls have one: a building's outer walls)
+        if let Some(closed) = &closed_sides {
+            field.mark_nearest(|k| closed.get(k as usize).is_some_and(|s| s[0] || s[1]));
+        }
         let chains = map.chains_of_runs();
         let runs: Vec<Wall> = chains.iter().flat_map(RunChain::runs).collect();
         MapModel {
@@ -76,7 +82,7 @@ impl MapModel {
             unseen: map.seen_free.as_ref().map(|seen| seen.unseen(1)),
             field,
             frames: walls.iter().map(WallFrame::of).collect(),
-            closed_sides: mapserver::view::closed_sides(&walls),
+            closed_sides,
             map,
         }
     }

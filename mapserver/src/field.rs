@@ -22,6 +22,9 @@ pub struct DistanceField {
     /// `POOL * POOL`-th of the size, which stays in cache where `cells` of a large map do not.
     pooled: Vec<u8>,
     pooled_cols: usize,
+    /// One bit a cell: whether its nearest wall is one [`mark_nearest`](Self::mark_nearest)
+    /// marked. Empty until then.
+    marked: Vec<u64>,
     /// Nearest wall of each cell's centre.
     nearest: NearestWalls,
 }
@@ -99,8 +102,37 @@ impl DistanceField {
             cells,
             pooled,
             pooled_cols,
+            marked: Vec::new(),
             nearest,
         }
+    }
+
+    /// Marks the cells whose nearest wall (if any within the cap) `marked` says yes to, for
+    /// [`is_marked`](Self::is_marked): a table of one bit a cell, where the nearest walls take
+    /// two or four bytes. A caller that only needs the nearest wall when it has some property
+    /// most walls lack asks this first, and skips most lookups of a large map's nearest walls.
+    pub fn mark_nearest(&mut self, marked: impl Fn(u32) -> bool) {
+        let cells = self.cols * self.rows;
+        let mut bits = vec![0u64; cells.div_ceil(64)];
+        for i in 0..cells {
+            let wall = match &self.nearest {
+                NearestWalls::Narrow(n) => Some(n[i]).filter(|&w| w != u16::MAX).map(u32::from),
+                NearestWalls::Wide(n) => Some(n[i]).filter(|&w| w != u32::MAX),
+            };
+            if wall.is_some_and(&marked) {
+                bits[i / 64] |= 1 << (i % 64);
+            }
+        }
+        self.marked = bits;
+    }
+
+    /// Whether the nearest wall of the cell holding `p` is marked ([`mark_nearest`]); false
+    /// outside the field, and before any marking.
+    ///
+    /// [`mark_nearest`]: Self::mark_nearest
+    #[inline]
+    pub fn is_marked(&self, p: Point2<f64>) -> bool {
+        self.index(p).is_some_and(|i| self.marked.get(i / 64).is_some_and(|b| b >> (i % 64) & 1 == 1))
     }
 
     /// A lower bound of [`distance`](Self::distance) at `p`: the least distance over the
@@ -194,6 +226,19 @@ mod tests {
                 }
             }
             prop_assert!(least <= bound + 1e-12, "least {} bound {}", least, bound);
+        }
+
+        #[test]
+        /// A cell is marked exactly when its nearest wall is one the caller marked; nothing is
+        /// marked before marking, or outside the field.
+        fn a_cell_is_marked_when_its_nearest_wall_is(x in -3.5f64..3.5, y in -3.5f64..3.5) {
+            let walls = vec![Wall::new(-1.0, 0.0, 1.0, 0.5), Wall::new(0.0, -2.0, 0.0, -1.0)];
+            let mut f = DistanceField::new(&walls, 0.05, 1.0);
+            let p = Point2::new(x, y);
+            prop_assert!(!f.is_marked(p));
+            f.mark_nearest(|k| k == 1);
+            prop_assert_eq!(f.is_marked(p), f.nearest_wall(p) == Some(1));
+            prop_assert!(!f.is_marked(Point2::new(x + 100.0, y)));
         }
 
         #[test]
