@@ -158,7 +158,10 @@ pub fn cost_below(
         }
         done = done.max(ready);
         if stoppable && cast < expected.len() {
-            let limit = *limit.get_or_insert_with(|| bound * (0..expected.len()).filter(|&k| judged(k)).count() as f64);
+            // a hair above, so that rounding never stops a pose whose mean would not pass `bound`
+            let limit = *limit.get_or_insert_with(|| {
+                bound * (0..expected.len()).filter(|&k| judged(k)).count() as f64 * (1.0 + 1e-12)
+            });
             over = sum > limit;
         }
         !over
