@@ -115,11 +115,7 @@ impl DistanceField {
         let cells = self.cols * self.rows;
         let mut bits = vec![0u64; cells.div_ceil(64)];
         for i in 0..cells {
-            let wall = match &self.nearest {
-                NearestWalls::Narrow(n) => Some(n[i]).filter(|&w| w != u16::MAX).map(u32::from),
-                NearestWalls::Wide(n) => Some(n[i]).filter(|&w| w != u32::MAX),
-            };
-            if wall.is_some_and(&marked) {
+            if self.nearest_of(i).is_some_and(&marked) {
                 bits[i / 64] |= 1 << (i % 64);
             }
         }
@@ -139,33 +135,41 @@ impl DistanceField {
     /// [`POOL`] x [`POOL`] block of cells holding `p` (`cap` outside the field, as there).
     #[inline]
     pub fn lower_bound(&self, p: Point2<f64>) -> f64 {
-        let c = ((p.x - self.origin.x) * self.inverse_resolution) as isize;
-        let r = ((p.y - self.origin.y) * self.inverse_resolution) as isize;
-        if p.x < self.origin.x || p.y < self.origin.y || c as usize >= self.cols || r as usize >= self.rows {
-            return self.cap;
+        match self.cell(p) {
+            Some((c, r)) => self.pooled[(r / POOL) * self.pooled_cols + c / POOL] as f64 * (self.cap / 255.0),
+            None => self.cap,
         }
-        let b = (r as usize / POOL) * self.pooled_cols + c as usize / POOL;
-        self.pooled[b] as f64 * (self.cap / 255.0)
     }
 
+    /// The column and row of the cell holding `p`, if it lies in the field.
     #[inline]
-    fn index(&self, p: Point2<f64>) -> Option<usize> {
+    fn cell(&self, p: Point2<f64>) -> Option<(usize, usize)> {
         let c = ((p.x - self.origin.x) * self.inverse_resolution) as isize;
         let r = ((p.y - self.origin.y) * self.inverse_resolution) as isize;
         if p.x < self.origin.x || p.y < self.origin.y || c as usize >= self.cols || r as usize >= self.rows {
             return None;
         }
-        Some(r as usize * self.cols + c as usize)
+        Some((c as usize, r as usize))
+    }
+
+    #[inline]
+    fn index(&self, p: Point2<f64>) -> Option<usize> {
+        self.cell(p).map(|(c, r)| r * self.cols + c)
+    }
+
+    /// The wall nearest to the centre of cell `i`, if any lies within the cap.
+    #[inline]
+    fn nearest_of(&self, i: usize) -> Option<u32> {
+        match &self.nearest {
+            NearestWalls::Narrow(n) => Some(n[i]).filter(|&w| w != u16::MAX).map(u32::from),
+            NearestWalls::Wide(n) => Some(n[i]).filter(|&w| w != u32::MAX),
+        }
     }
 
     /// The wall nearest to the centre of the cell holding `p`, if any lies within the cap.
     #[inline]
     pub fn nearest_wall(&self, p: Point2<f64>) -> Option<u32> {
-        let i = self.index(p)?;
-        match &self.nearest {
-            NearestWalls::Narrow(n) => Some(n[i]).filter(|&w| w != u16::MAX).map(u32::from),
-            NearestWalls::Wide(n) => Some(n[i]).filter(|&w| w != u32::MAX),
-        }
+        self.nearest_of(self.index(p)?)
     }
 
     /// Distance from `p` to the nearest wall, capped (and `cap` outside the field).
