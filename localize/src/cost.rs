@@ -129,11 +129,6 @@ pub fn cost_below(
     let g = scan.geometry;
     let stride = cfg.stride.max(1);
     let step = g.angle_increment.abs() * stride as f64;
-    let judged = |k: usize| match scan.reading(k * stride) {
-        Reading::Unknown => false,
-        Reading::NoReturn => !cfg.skip_no_returns,
-        Reading::Valid(_) => true,
-    };
     let stoppable = cfg.kind == CostKind::OneSided && bound < f64::INFINITY;
     // the sum the pose may reach before it is stopped: bound times the beams the mean is taken
     // over, which the pose does not change; counted only for a cast in parts
@@ -160,7 +155,8 @@ pub fn cost_below(
         if stoppable && cast < expected.len() {
             // a hair above, so that rounding never stops a pose whose mean would not pass `bound`
             let limit = *limit.get_or_insert_with(|| {
-                bound * (0..expected.len()).filter(|&k| judged(k)).count() as f64 * (1.0 + 1e-12)
+                let judged = (0..expected.len()).filter(|&k| !skipped(scan.reading(k * stride), cfg)).count();
+                bound * judged as f64 * (1.0 + 1e-12)
             });
             over = sum > limit;
         }
@@ -171,6 +167,17 @@ pub fn cost_below(
     }
     let n = beams as f64;
     Cost { value: sum / n, inliers: inliers as f64 / n, through: through as f64 / n, beams }
+}
+
+/// Whether the cost leaves out a beam reading `reading`, whatever the map predicts: an
+/// unknown reading always, a lost return when configured so.
+#[inline]
+fn skipped(reading: Reading, cfg: &CostConfig) -> bool {
+    match reading {
+        Reading::Unknown => true,
+        Reading::NoReturn => cfg.skip_no_returns,
+        Reading::Valid(_) => false,
+    }
 }
 
 /// How one beam's reading stands against the map.
@@ -196,14 +203,16 @@ fn beam_term(
     cfg: &CostConfig,
     g: &laser::ScanGeometry,
 ) -> Option<(f64, Verdict)> {
+    if skipped(reading, cfg) {
+        return None;
+    }
     // the sensor's sigma at this range, and the floor across the wall: agreement and seeing
     // through are judged against it
     let sensor = error.at(d_map) / 3.0;
     let across = sensor.max(cfg.sigma_floor);
     let in_range = d_map < g.range_max;
     match (reading, cfg.kind) {
-        (Reading::Unknown, _) => None,
-        (Reading::NoReturn, _) if cfg.skip_no_returns => None,
+        (Reading::Unknown, _) => None, // skipped above
         (Reading::Valid(d), CostKind::Paper) => {
             if !in_range {
                 return None;
