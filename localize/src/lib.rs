@@ -4,6 +4,7 @@
 pub mod cost;
 pub mod gema2;
 pub mod localizer;
+mod lowest;
 pub mod matching;
 pub mod model;
 pub mod node;

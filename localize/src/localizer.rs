@@ -18,6 +18,7 @@
 //! ([`crate::slide`]) and those poses go through the same steps, ranked with the others.
 
 use crate::cost::{cost, cost_below, Cost, CostConfig};
+use crate::lowest::Lowest;
 use crate::matching::{arms_fit, pose_from_corners};
 use crate::model::{MapModel, WallFrame, FIELD_CAP};
 use crate::refine::{refine, RefineConfig};
@@ -27,7 +28,6 @@ use mapserver::runs::RunChain;
 use mapserver::{DistanceField, RayScratch, Wall};
 use nalgebra::Point2;
 use segment::{ErrorModel, Segmentation};
-use std::collections::BinaryHeap;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
@@ -364,10 +364,10 @@ pub struct Localizer {
     screen_few: Vec<Point2<f64>>,
     /// `screen_few` in the order the first pass reads them for one scan corner or slid line.
     screen_order: Vec<Point2<f64>>,
-    /// The first screening pass's best sums (a max-heap of their bit patterns).
-    best_sums: BinaryHeap<u64>,
-    /// The lowest coarse costs so far, as bits ([`Localizer::coarse_cost`]).
-    coarse_lowest: BinaryHeap<u64>,
+    /// The first screening pass's best sums.
+    best_sums: Lowest,
+    /// The lowest coarse costs so far ([`Localizer::coarse_cost`]).
+    coarse_lowest: Lowest,
     refine_pts: Vec<Point2<f64>>,
     polish_pts: Vec<Point2<f64>>,
     candidates: Vec<Candidate>,
@@ -396,8 +396,8 @@ impl Localizer {
             screen_pts: Vec::new(),
             screen_few: Vec::new(),
             screen_order: Vec::new(),
-            best_sums: BinaryHeap::new(),
-            coarse_lowest: BinaryHeap::new(),
+            best_sums: Lowest::default(),
+            coarse_lowest: Lowest::default(),
             refine_pts: Vec::new(),
             polish_pts: Vec::new(),
             candidates: Vec::new(),
@@ -732,15 +732,10 @@ impl Localizer {
             sigma_floor: self.config.coarse_sigma.max(self.model.map.sigma),
             ..self.cost
         };
-        // the `keep` lowest costs so far (non-negative, so their bits order as the numbers do)
         let lowest = &mut self.coarse_lowest;
         lowest.clear();
         for c in self.candidates.iter_mut() {
-            let bound = if lowest.len() == keep {
-                lowest.peek().map_or(f64::INFINITY, |&b| f64::from_bits(b))
-            } else {
-                f64::INFINITY
-            };
+            let bound = lowest.kth(keep);
             c.score = cost_below(
                 scan,
                 &c.pose,
@@ -752,14 +747,8 @@ impl Localizer {
                 &mut self.expected,
             )
             .value;
-            if !c.score.is_finite() || keep == 0 {
-                continue;
-            }
-            if lowest.len() < keep {
-                lowest.push(c.score.to_bits());
-            } else if lowest.peek().is_some_and(|&b| c.score < f64::from_bits(b)) {
-                lowest.pop();
-                lowest.push(c.score.to_bits());
+            if c.score.is_finite() {
+                lowest.offer(c.score, keep);
             }
         }
     }
@@ -870,12 +859,12 @@ struct FirstPass<'a> {
     points: usize,
     keep: usize,
     limit: f64,
-    /// The best sums so far, as a max-heap of their bit patterns.
-    best: &'a mut BinaryHeap<u64>,
+    /// The best sums so far.
+    best: &'a mut Lowest,
 }
 
 impl<'a> FirstPass<'a> {
-    fn new(screen: Screen<'a>, points: usize, keep: usize, best: &'a mut BinaryHeap<u64>) -> Self {
+    fn new(screen: Screen<'a>, points: usize, keep: usize, best: &'a mut Lowest) -> Self {
         best.clear();
         let limit = screen.cap * screen.cap * 0.95 * points.max(1) as f64;
         FirstPass { screen, points, keep, limit, best }
@@ -887,17 +876,8 @@ impl<'a> FirstPass<'a> {
     fn score(&mut self, pose: &Pose, points: &[Point2<f64>]) -> Option<f64> {
         debug_assert_eq!(points.len(), self.points);
         let sum = self.screen.sum(pose, points, self.limit)?;
-        let best = &mut *self.best;
-        // sums are non-negative, so their bit patterns order as the sums do
-        if best.len() < self.keep {
-            best.push(sum.to_bits());
-        } else if best.peek().is_some_and(|&top| sum.to_bits() < top) {
-            best.pop();
-            best.push(sum.to_bits());
-        }
-        if best.len() == self.keep {
-            self.limit = self.limit.min(best.peek().map_or(self.limit, |&top| f64::from_bits(top)));
-        }
+        self.best.offer(sum, self.keep);
+        self.limit = self.limit.min(self.best.kth(self.keep));
         Some(sum / self.points.max(1) as f64)
     }
 }
@@ -1230,7 +1210,7 @@ mod tests {
             let mut reversed = points.clone();
             reversed.reverse();
             let kept = |order: &[Point2<f64>]| {
-                let mut best = BinaryHeap::new();
+                let mut best = Lowest::default();
                 let mut pass = FirstPass::new(Screen::new(&model, 0.12), order.len(), keep, &mut best);
                 let mut scored: Vec<(usize, f64)> = poses
                     .iter()
