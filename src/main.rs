@@ -40,6 +40,9 @@ enum Command {
     Demo(cmd::demo::DemoArgs),
     /// Time each stage per scan and print how locate scales with beams and map walls.
     Bench(cmd::bench::BenchArgs),
+    /// Success over a suite of simulated logs (bundled and generated maps, every scenario) and
+    /// optionally real logs: the README's accuracy figures from one command.
+    Evaluate(cmd::evaluate::EvaluateArgs),
 }
 
 #[derive(Subcommand)]
@@ -58,6 +61,7 @@ fn main() -> anyhow::Result<()> {
         Some(Command::Locate(a)) => cmd::locate::run(a),
         Some(Command::Bench(a)) => cmd::bench::run_bench(a),
         Some(Command::Demo(a)) => cmd::demo::run(a),
+        Some(Command::Evaluate(a)) => cmd::evaluate::run(a),
         Some(Command::Run(a)) => supervisor::run(a),
         Some(Command::EmulateUrg(a)) => cmd::emulate::run(a),
         Some(Command::Lines(a)) => cmd::lines::run(a),

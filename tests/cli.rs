@@ -267,3 +267,56 @@ fn a_map_built_among_people_draws_the_walls_and_not_the_people() {
         assert!(!out.status.success() && text(&out.stderr).contains(flag), "{flag} {value}: {}", text(&out.stderr));
     }
 }
+
+/// The first number after `label` in `text`.
+fn number_after(text: &str, label: &str) -> f64 {
+    let rest = &text[text.find(label).unwrap_or_else(|| panic!("no {label:?} in {text}")) + label.len()..];
+    rest.split_whitespace().next().and_then(|w| w.trim_end_matches(',').parse().ok()).unwrap_or_else(|| panic!("no number after {label:?}"))
+}
+
+#[test]
+fn evaluate_gives_what_sim_then_locate_gives() {
+    let dir = tempfile::tempdir().unwrap();
+    let log = dir.path().join("a.log");
+    let log_s = log.to_str().unwrap();
+    // furnished warehouse: the hardest log, where a difference would show
+    let sim = ["sim", "--map", "warehouse", "--scenario", "furniture", "--scans", "20", "--seed", "4", "--out", log_s];
+    let out = gema2(&sim);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let out = gema2(&["locate", "--map", "warehouse", "--log", log_s]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let located = text(&out.stderr);
+    let out = gema2(&["evaluate", "--scans", "20", "--seed", "4", "--map-seeds"]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let table = text(&out.stdout);
+    // four bundled maps, three scenarios each
+    assert!(table.contains("total: 12 logs, 240 scans"), "{table}");
+    let row: Vec<&str> =
+        table.lines().find(|l| l.starts_with("warehouse furniture")).unwrap().split_whitespace().collect();
+    assert_eq!(row[2], "20", "{row:?}");
+    assert_eq!(row[3].parse::<f64>().ok(), Some(number_after(&located, "success")), "{row:?} {located}");
+    assert_eq!(row[5].parse::<f64>().ok(), Some(number_after(&located, "status: ok")), "{row:?} {located}");
+}
+
+#[test]
+fn evaluate_locates_each_half_of_a_real_log_against_a_map_of_the_other() {
+    let dir = tempfile::tempdir().unwrap();
+    let log = dir.path().join("hall.log");
+    let out = gema2(&["sim", "--map", "radial", "--scans", "40", "--seed", "2", "--out", log.to_str().unwrap()]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let out = gema2(&["evaluate", "--no-sim", "--carmen", dir.path().to_str().unwrap()]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let table = text(&out.stdout);
+    assert!(table.contains("hall odd") && table.contains("hall even"), "{table}");
+    assert!(table.contains("total: 2 logs, 40 scans"), "{table}");
+    // 20 scans of a room map well enough to find most of the other 20 in it
+    assert!(number_after(&table, "successes (") >= 50.0, "{table}");
+
+    let empty = tempfile::tempdir().unwrap();
+    let out = gema2(&["evaluate", "--no-sim", "--carmen", empty.path().to_str().unwrap()]);
+    assert!(!out.status.success());
+    assert!(text(&out.stderr).contains("no CARMEN log"), "{}", text(&out.stderr));
+    let out = gema2(&["evaluate", "--no-sim"]);
+    assert!(!out.status.success());
+    assert!(text(&out.stderr).contains("nothing to evaluate"), "{}", text(&out.stderr));
+}

@@ -74,7 +74,39 @@ fn check_metres(flag: &str, value: f64) -> Result<()> {
     Ok(())
 }
 
+impl BuildArgs {
+    /// `gema2 map build`'s defaults for every other scan of `log` from `offset` (its `out`
+    /// is "-", unused: for a caller that keeps the map).
+    pub fn every_other(log: &std::path::Path, offset: usize) -> Result<Self> {
+        #[derive(clap::Parser)]
+        struct Command {
+            #[command(flatten)]
+            args: BuildArgs,
+        }
+        let offset = offset.to_string();
+        let argv = ["build", "--out", "-", "--every", "2", "--offset", &offset, "--log"];
+        let log = log.as_os_str();
+        let parsed = <Command as clap::Parser>::try_parse_from(argv.iter().map(std::ffi::OsStr::new).chain([log]))?;
+        Ok(parsed.args)
+    }
+}
+
 pub fn run(a: BuildArgs) -> Result<()> {
+    let (map, scans, lines) = build(&a)?;
+    std::fs::write(&a.out, map.to_json("built")).with_context(|| format!("writing {}", a.out.display()))?;
+    eprintln!("{}: {} walls from {lines} lines of {scans} scans", a.out.display(), map.walls.len());
+    match &map.seen_free {
+        Some(s) => eprintln!("  free space seen on {} cells of {} m", s.seen_cells(), s.cell()),
+        None if a.seen_cell > 0.0 => {
+            eprintln!("  no free space kept: the raster would exceed {} cells", mapserver::seen::MAX_CELLS)
+        }
+        None => {}
+    }
+    Ok(())
+}
+
+/// The map of `a`'s scans, with how many scans and scan lines it was built from.
+pub fn build(a: &BuildArgs) -> Result<(WallMap, usize, usize)> {
     // before the first pass over the log, which may be long
     check_metres("--min-length", a.min_length)?;
     check_metres("--seen-cell", a.seen_cell)?;
@@ -82,7 +114,7 @@ pub fn run(a: BuildArgs) -> Result<()> {
     let mut seg = LineVisibilitySegmenter::new(SegmenterConfig::default());
     let mut seen = Vec::new();
     let mut scans = 0;
-    for item in survey(&a)? {
+    for item in survey(a)? {
         let (scan, truth) = item?;
         scans += 1;
         for l in &seg.segment(&scan.view()).lines {
@@ -93,22 +125,12 @@ pub fn run(a: BuildArgs) -> Result<()> {
         }
     }
     let candidates = merge(&mut seen);
-    let (walls, seen_free) = second_pass(&a, &candidates)?;
+    let (walls, seen_free) = second_pass(a, &candidates)?;
     if walls.is_empty() {
         bail!("{}: no wall was seen (seen twice, with --occupancy-cell 0)", a.log.display());
     }
     // a map from scans is good to about a decimetre (pose corrections, merging)
-    let map = WallMap { walls, sigma: a.sigma, seen_free };
-    std::fs::write(&a.out, map.to_json("built")).with_context(|| format!("writing {}", a.out.display()))?;
-    eprintln!("{}: {} walls from {} lines of {scans} scans", a.out.display(), map.walls.len(), seen.len());
-    match &map.seen_free {
-        Some(s) => eprintln!("  free space seen on {} cells of {} m", s.seen_cells(), s.cell()),
-        None if a.seen_cell > 0.0 => {
-            eprintln!("  no free space kept: the raster would exceed {} cells", mapserver::seen::MAX_CELLS)
-        }
-        None => {}
-    }
-    Ok(())
+    Ok((WallMap { walls, sigma: a.sigma, seen_free }, scans, seen.len()))
 }
 
 /// The scans the map is built from (every `every`-th from `offset`), each with its true pose.

@@ -4,6 +4,7 @@ pub mod bench;
 pub mod build_map;
 pub mod demo;
 pub mod emulate;
+pub mod evaluate;
 pub mod inspect;
 pub mod lines;
 pub mod locate;

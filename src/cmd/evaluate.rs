@@ -1,0 +1,224 @@
+//! `gema2 evaluate`: the accuracy figures the README reports, from one command. A suite of
+//! simulated logs (the bundled maps and generated ones never tuned on, each scenario), and
+//! optionally real logs located against maps built from their other half.
+//!
+//! Each simulated log goes through the ROBOTLASER1 text that `gema2 sim` writes and is read
+//! back as `gema2 locate` reads it, so a log's line here equals `gema2 sim` then `gema2 locate`
+//! on the same map, scenario and seeds.
+
+use super::build_map::{self, BuildArgs};
+use crate::report::{quantile, Outcome, Summary};
+use acquire::{write_robotlaser1, CarmenReader, FlaserLayout, Scenario, SensorModel, Simulator};
+use anyhow::{bail, Context, Result};
+use clap::Args;
+use laser::LaserScan;
+use localize::{Gema2, Gema2Config, MapModel, Status};
+use mapserver::{procedural, WallMap};
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::time::Instant;
+
+#[derive(Args)]
+pub struct EvaluateArgs {
+    /// Scans per simulated log.
+    #[arg(long, default_value_t = 300)]
+    pub scans: usize,
+    /// The simulator's seed for every log.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Seeds of the generated office, radial and warehouse maps located besides the bundled
+    /// four (`--map-seeds` alone: the bundled maps only).
+    #[arg(long, value_delimiter = ',', num_args = 0.., default_value = "2,3,4")]
+    pub map_seeds: Vec<u64>,
+    /// Leave out the simulated suite.
+    #[arg(long)]
+    pub no_sim: bool,
+    /// A folder of SLAM-corrected CARMEN logs (`*.log`, `*.log.gz`, e.g.
+    /// ../shared/datasets/carmen): each is located twice, its odd scans against a map built
+    /// from its even ones (`gema2 map build` defaults) and the other way round.
+    #[arg(long)]
+    pub carmen: Option<PathBuf>,
+    /// Override a localizer or segmenter parameter, KEY=VALUE (repeatable), as `gema2 locate`.
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    pub set: Vec<String>,
+}
+
+/// One located log's figures.
+struct Row {
+    name: String,
+    scans: usize,
+    successes: usize,
+    ok: usize,
+    wrong_ok: usize,
+    median_us: f64,
+    p99_us: f64,
+}
+
+impl Row {
+    fn of(name: String, summary: &Summary) -> Row {
+        let outcomes = &summary.outcomes;
+        let mut micros: Vec<f64> = outcomes.iter().map(|o| o.micros).collect();
+        Row {
+            name,
+            scans: outcomes.len(),
+            successes: outcomes.iter().filter(|o| o.success()).count(),
+            ok: summary.count(Status::Ok),
+            wrong_ok: outcomes.iter().filter(|o| o.status == Status::Ok && !o.success()).count(),
+            median_us: quantile(&mut micros, 0.5),
+            p99_us: quantile(&mut micros, 0.99),
+        }
+    }
+
+    fn print(&self) {
+        println!(
+            "{:<28} {:>6} {:>7.1} % {:>6} {:>6} {:>10.0} {:>10.0}",
+            self.name,
+            self.scans,
+            100.0 * self.successes as f64 / self.scans.max(1) as f64,
+            self.ok,
+            self.wrong_ok,
+            self.median_us,
+            self.p99_us
+        );
+    }
+}
+
+fn header(title: &str) {
+    println!("\n{title}");
+    println!(
+        "{:<28} {:>6} {:>9} {:>6} {:>6} {:>10} {:>10}",
+        "log", "scans", "success", "ok", "wrong", "median us", "p99 us"
+    );
+}
+
+/// The sums over `rows`; the time is the mean of the logs' medians.
+fn total(rows: &[Row]) {
+    let sum = |f: fn(&Row) -> usize| rows.iter().map(f).sum::<usize>();
+    let (scans, successes) = (sum(|r| r.scans), sum(|r| r.successes));
+    println!(
+        "total: {} logs, {scans} scans, {successes} successes ({:.1} %), ok {}, wrong ok {}, mean of the medians {:.0} us",
+        rows.len(),
+        100.0 * successes as f64 / scans.max(1) as f64,
+        sum(|r| r.ok),
+        sum(|r| r.wrong_ok),
+        rows.iter().map(|r| r.median_us).sum::<f64>() / rows.len().max(1) as f64
+    );
+}
+
+pub fn run(a: EvaluateArgs) -> Result<()> {
+    let mut config = Gema2Config::default();
+    config.apply(&a.set).context("--set")?;
+    if a.no_sim && a.carmen.is_none() {
+        bail!("nothing to evaluate: --no-sim without --carmen");
+    }
+    if !a.no_sim {
+        header(&format!("simulated URG-04LX, {} scans a log, seed {}", a.scans, a.seed));
+        let mut rows = Vec::new();
+        for (name, map) in suite_maps(&a.map_seeds)? {
+            for scenario in [Scenario::Clean, Scenario::People, Scenario::Furniture] {
+                let scans = simulated_log(&map, scenario, a.seed, a.scans)?;
+                let row = Row::of(format!("{name} {scenario}"), &locate_all(&map, &config, &scans));
+                row.print();
+                rows.push(row);
+            }
+        }
+        total(&rows);
+    }
+    if let Some(dir) = &a.carmen {
+        header(&format!("{}: odd scans against a map of the even ones, and the other way round", dir.display()));
+        let mut rows = Vec::new();
+        for log in carmen_logs(dir)? {
+            let scans: Vec<LaserScan> = CarmenReader::open(&log, FlaserLayout::default())?
+                .map(|item| item.map(|i| i.scan))
+                .collect::<Result<_, _>>()?;
+            let stem = log_stem(&log);
+            for (built_from, located) in [(0, 1), (1, 0)] {
+                let map = built_map(&log, built_from)?;
+                let half: Vec<LaserScan> = scans.iter().skip(located).step_by(2).cloned().collect();
+                let name = format!("{stem} {}", if built_from == 0 { "odd" } else { "even" });
+                let row = Row::of(name, &locate_all(&map, &config, &half));
+                row.print();
+                rows.push(row);
+            }
+        }
+        total(&rows);
+    }
+    Ok(())
+}
+
+/// The bundled maps, then each generated kind at each seed, as `gema2 map generate` writes
+/// them (through JSON, so coordinates are as a map file holds them).
+fn suite_maps(seeds: &[u64]) -> Result<Vec<(String, WallMap)>> {
+    let mut maps = Vec::new();
+    for name in ["apartment", "radial", "office", "warehouse"] {
+        maps.push((name.to_string(), mapserver::load_map(name)?));
+    }
+    for kind in ["office", "radial", "warehouse"] {
+        for &seed in seeds {
+            let map = procedural::by_name_seeded(kind, seed).with_context(|| format!("no generated {kind}"))?;
+            let name = format!("{kind} seed {seed}");
+            maps.push((name.clone(), WallMap::parse(&map.to_json(kind), Path::new(&name))?));
+        }
+    }
+    Ok(maps)
+}
+
+/// `scans` simulated scans of `map`, written as `gema2 sim` writes them and read back.
+fn simulated_log(map: &WallMap, scenario: Scenario, seed: u64, scans: usize) -> Result<Vec<LaserScan>> {
+    let mut sim = Simulator::new(map, SensorModel::urg04lx(), scenario, seed);
+    let mut text = Vec::new();
+    for _ in 0..scans {
+        write_robotlaser1(&mut text, &sim.next_scan())?;
+    }
+    let reader = CarmenReader::from_reader(
+        Box::new(std::io::Cursor::new(text)),
+        Path::new("simulated"),
+        FlaserLayout::default(),
+    );
+    Ok(reader.map(|item| item.map(|i| i.scan)).collect::<Result<_, _>>()?)
+}
+
+/// Every scan of `scans` located in `map`, judged as `gema2 locate` judges it.
+fn locate_all(map: &WallMap, config: &Gema2Config, scans: &[LaserScan]) -> Summary {
+    let model = Arc::new(MapModel::new(map.clone(), &config.map_corners));
+    let mut gema2 = Gema2::new(model, config.segmenter, config.localizer);
+    let mut summary = Summary::default();
+    for scan in scans {
+        let start = Instant::now();
+        let (seg, loc) = gema2.process(&scan.view());
+        let micros = start.elapsed().as_secs_f64() * 1e6;
+        let best = loc.best().map(|h| h.pose);
+        summary.add(Outcome::of(loc.status, best, scan.truth, micros).with_steps(&seg.times, &loc.times));
+    }
+    summary
+}
+
+/// The CARMEN logs in `dir`, by name.
+fn carmen_logs(dir: &Path) -> Result<Vec<PathBuf>> {
+    let mut logs: Vec<PathBuf> = std::fs::read_dir(dir)
+        .with_context(|| format!("reading {}", dir.display()))?
+        .map(|e| e.map(|e| e.path()))
+        .collect::<Result<_, _>>()
+        .with_context(|| format!("reading {}", dir.display()))?;
+    logs.retain(|p| {
+        let name = p.file_name().and_then(|n| n.to_str()).unwrap_or("");
+        name.ends_with(".log") || name.ends_with(".log.gz")
+    });
+    logs.sort();
+    if logs.is_empty() {
+        bail!("{}: no CARMEN log (*.log, *.log.gz)", dir.display());
+    }
+    Ok(logs)
+}
+
+fn log_stem(log: &Path) -> String {
+    let name = log.file_name().and_then(|n| n.to_str()).unwrap_or("log");
+    name.trim_end_matches(".gz").trim_end_matches(".log").to_string()
+}
+
+/// The map `gema2 map build` makes of every other scan of `log` from `offset`, as its file
+/// reads back.
+fn built_map(log: &Path, offset: usize) -> Result<WallMap> {
+    let (map, _, _) = build_map::build(&BuildArgs::every_other(log, offset)?)?;
+    Ok(WallMap::parse(&map.to_json("built"), log)?)
+}
