@@ -271,7 +271,10 @@ fn a_map_built_among_people_draws_the_walls_and_not_the_people() {
 /// The first number after `label` in `text`.
 fn number_after(text: &str, label: &str) -> f64 {
     let rest = &text[text.find(label).unwrap_or_else(|| panic!("no {label:?} in {text}")) + label.len()..];
-    rest.split_whitespace().next().and_then(|w| w.trim_end_matches(',').parse().ok()).unwrap_or_else(|| panic!("no number after {label:?}"))
+    rest.split_whitespace()
+        .next()
+        .and_then(|w| w.trim_end_matches(',').parse().ok())
+        .unwrap_or_else(|| panic!("no number after {label:?}"))
 }
 
 #[test]
