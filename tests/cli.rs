@@ -322,4 +322,7 @@ fn evaluate_locates_each_half_of_a_real_log_against_a_map_of_the_other() {
     let out = gema2(&["evaluate", "--no-sim"]);
     assert!(!out.status.success());
     assert!(text(&out.stderr).contains("nothing to evaluate"), "{}", text(&out.stderr));
+    let out = gema2(&["evaluate", "--scans", "0"]);
+    assert!(!out.status.success());
+    assert!(text(&out.stderr).contains("--scans must be at least 1"), "{}", text(&out.stderr));
 }

@@ -111,6 +111,9 @@ pub fn run(a: EvaluateArgs) -> Result<()> {
     if a.no_sim && a.carmen.is_none() {
         bail!("nothing to evaluate: --no-sim without --carmen");
     }
+    if a.scans == 0 && !a.no_sim {
+        bail!("--scans must be at least 1");
+    }
     if !a.no_sim {
         header(&format!("simulated URG-04LX, {} scans a log, seed {}", a.scans, a.seed));
         let mut rows = Vec::new();
