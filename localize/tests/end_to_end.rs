@@ -647,3 +647,34 @@ fn a_round_hall_is_localized_from_chords_of_its_curved_wall() {
     assert!(right >= 20, "{right}/40 scans in the hall right");
     assert_eq!(wrong_ok, 0);
 }
+
+/// A map that declares itself approximate (built from scans) charges a reading short of it
+/// `front_cap_approximate` instead of the drawn map's cap: at the true pose of a furnished scan
+/// the boxes' beams cost more, and a drawn map is unaffected by that setting.
+#[test]
+fn an_approximate_map_charges_short_readings_its_own_cap() {
+    let drawn = procedural::apartment();
+    let approximate = WallMap { sigma: 0.1, ..drawn.clone() };
+    let mut sim = Simulator::new(&drawn, SensorModel::urg04lx(), Scenario::Furniture, 3);
+    let cap = |front_cap_approximate: f64| LocalizerConfig { front_cap_approximate, ..LocalizerConfig::default() };
+    let default_cap = LocalizerConfig::default().cost.front_cap;
+    let (mut drawn_low, mut drawn_high) = (gema2(&drawn, cap(default_cap)), gema2(&drawn, cap(3.0 * default_cap)));
+    let (mut approx_low, mut approx_high) =
+        (gema2(&approximate, cap(default_cap)), gema2(&approximate, cap(3.0 * default_cap)));
+    let mut raised = 0;
+    for _ in 0..10 {
+        let scan = sim.next_scan();
+        let truth = scan.truth.unwrap();
+        let at_truth = |g: &mut Gema2| {
+            g.process(&scan.view());
+            g.localizer.judge(&scan.view(), &truth).cost
+        };
+        let (low, high) = (at_truth(&mut approx_low), at_truth(&mut approx_high));
+        assert!(high.value >= low.value, "a higher cap lowered the cost: {low:?} -> {high:?}");
+        assert_eq!((low.inliers, low.through), (high.inliers, high.through));
+        raised += (high.value > low.value + 0.01) as usize;
+        assert_eq!(at_truth(&mut drawn_low), at_truth(&mut drawn_high), "a drawn map followed the setting");
+    }
+    // most furnished scans have a box in view
+    assert!(raised >= 5, "only {raised} of 10 furnished scans cost more with the higher cap");
+}
