@@ -177,10 +177,11 @@ pub struct LocalizerConfig {
     /// Hypotheses from scan lines laid along map walls, tried when neither look's best pose is
     /// confirmed; see [`crate::slide`].
     pub slide: SlideConfig,
-    /// Tracking (section 5.1): after an `ok` scan, only map corners within this many metres of
-    /// the last pose are matched, and only walls within it are slid along; any other outcome
-    /// returns to global search. `None`: always
-    /// global.
+    /// Tracking (section 5.1): after an `ok` scan, only poses within this many metres of it
+    /// are made, the most the robot moves between two located scans. A map corner is matched
+    /// only within this plus the scan corner's own range of the last pose, and only walls
+    /// within this plus the slid lines' reach are slid along. Any other outcome returns to
+    /// global search. `None`: always global.
     pub track_radius: Option<f64>,
 }
 
@@ -632,6 +633,9 @@ impl Localizer {
                     let range = model.corners.similar_range(c.inner_angle, cfg.angle_tolerance(c));
                     (!range.is_empty()).then_some((ci, c, range))
                 });
+                // tracking: the robot is within r of its last pose, so a map corner it sees lies
+                // within r plus the scan corner's own range of that pose
+                let track = self.prior.zip(cfg.track_radius);
                 for (ci, c, range) in matchable.take(corners) {
                     // points on the corner's arms fit every match of it: they go last
                     order_by_telling(few, order, |q| {
@@ -639,15 +643,16 @@ impl Localizer {
                     });
                     for k in range {
                         let m = &model.corners.corners()[k];
-                        if let (Some(p), Some(r)) = (self.prior, cfg.track_radius) {
-                            if (m.position - p).norm() > r {
-                                continue;
-                            }
+                        if track.is_some_and(|(p, r)| (m.position - p).norm() > r + c.position.coords.norm()) {
+                            continue;
                         }
                         if !arms_fit(c, m, cfg.arm_slack) {
                             continue;
                         }
                         let pose = pose_from_corners(c, m);
+                        if track.is_some_and(|(p, r)| !within(&pose, p, r)) {
+                            continue;
+                        }
                         if let Some(score) = pass.score(&pose, order) {
                             candidates.push(Candidate { pose, score, scan_corner: ci as u16, map_corner: k as u32 });
                         }
@@ -656,11 +661,19 @@ impl Localizer {
             }
             Source::Slides => {
                 slide_lines(&self.lines, &cfg.slide, &mut self.slide_lines);
-                // tracking: only the walls near the last pose, as with map corners; the step is
-                // sized for those walls alone
+                // tracking: only poses within r of the last one, so only the walls within r plus
+                // the slid lines' reach of it, as with map corners; the step is sized for those
+                // walls alone
                 let prior = self.prior.zip(cfg.track_radius);
-                let near = |w: &&Wall| prior.is_none_or(|(p, r)| w.closest(p).0 <= r);
-                let bent_near = |c: &&RunChain| prior.is_none_or(|(p, r)| c.runs().any(|w| w.closest(p).0 <= r));
+                let lines = &self.lines;
+                let reach = self
+                    .slide_lines
+                    .iter()
+                    .map(|&li| lines[li].start.coords.norm().max(lines[li].end.coords.norm()))
+                    .fold(0.0, f64::max);
+                let near = |w: &&Wall| prior.is_none_or(|(p, r)| w.closest(p).0 <= r + reach);
+                let bent_near =
+                    |c: &&RunChain| prior.is_none_or(|(p, r)| c.runs().any(|w| w.closest(p).0 <= r + reach));
                 let bends = model.bends.iter().filter(bent_near);
                 let step = slide_step(
                     &self.lines,
@@ -674,7 +687,10 @@ impl Localizer {
                     // points on the slid line fit every pose along the wall: they go last
                     let line = &self.lines[li];
                     order_by_telling(few, order, |q| line.direction().perp(&(q - line.start)).abs());
-                    let mut offer = |pose, map_corner| {
+                    let mut offer = |pose: Pose, map_corner| {
+                        if prior.is_some_and(|(p, r)| !within(&pose, p, r)) {
+                            return;
+                        }
                         if let Some(score) = pass.score(&pose, order) {
                             candidates.push(Candidate { pose, score, scan_corner: FROM_SLIDE, map_corner });
                         }
@@ -902,6 +918,11 @@ impl<'a> FirstPass<'a> {
         self.limit = self.limit.min(self.best.kth(self.keep));
         Some(sum / self.points.max(1) as f64)
     }
+}
+
+/// Whether `pose` places the sensor within `r` of `p`.
+fn within(pose: &Pose, p: Point2<f64>, r: f64) -> bool {
+    (Point2::from(pose.translation.vector) - p).norm() <= r
 }
 
 /// Eq. 7's cheap stand-in for screening: scan points placed at a pose cost their squared

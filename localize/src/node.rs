@@ -24,7 +24,8 @@ use std::sync::Arc;
 pub struct LocalizeArgs {
     #[command(flatten)]
     pub stage: messages::StageArgs,
-    /// Track: after an ok scan, match only map corners within this radius (metres) of it.
+    /// Track: after an ok scan, make only poses within this radius (metres) of it: the most the
+    /// robot moves between two located scans.
     #[arg(long)]
     pub track: Option<f64>,
     /// Override a parameter, KEY=VALUE (repeatable), as `gema2 locate --set`. Settings of the

@@ -312,6 +312,39 @@ fn tracking_restricts_matching_to_the_last_pose() {
     assert!(checked >= 20, "{checked}");
 }
 
+/// Tracking bounds how far the robot moved, not how far the corners it sees are: with a radius
+/// of half a metre the same scan again is placed from corners metres away, and the search makes
+/// only poses within the radius of the last one.
+#[test]
+fn tracking_finds_the_pose_from_corners_beyond_its_radius() {
+    let map = procedural::office(2024, 3, 8);
+    let mut sim = Simulator::new(&map, SensorModel::urg04lx(), Scenario::Clean, 8);
+    let radius = 0.5;
+    let mut g = gema2(&map, LocalizerConfig { track_radius: Some(radius), ..LocalizerConfig::default() });
+    let mut checked = 0;
+    for _ in 0..40 {
+        let scan = sim.next_scan();
+        let truth = scan.truth.unwrap();
+        let (seg, first) = g.process(&scan.view());
+        let Some(last) = first.best().filter(|_| first.status == Status::Ok).map(|h| h.pose) else {
+            continue;
+        };
+        // the scan's corners all lie farther from the sensor than the radius
+        if seg.corners.iter().any(|c| c.position.coords.norm() <= radius) {
+            continue;
+        }
+        let (_, again) = g.process(&scan.view());
+        let best = again.best().expect("a pose within the radius");
+        assert!(same_pose(&best.pose, &truth, 0.3, 0.1), "tracked to {:?}, truth {truth:?}", best.pose);
+        for h in &again.hypotheses {
+            let moved = (h.pose.translation.vector - last.translation.vector).norm();
+            assert!(moved <= radius + 0.3, "a hypothesis {moved} m from the last pose");
+        }
+        checked += 1;
+    }
+    assert!(checked >= 15, "{checked}");
+}
+
 /// Simulates 40 clean scans in `map`; each that `tracked` places `ok` goes to `check` stripped of
 /// its corners (only the slide search can place it), with the tracker's last pose still that
 /// `ok` one. Returns how many scans `check` counted.

@@ -37,7 +37,8 @@ pub struct LocateArgs {
     /// Use the paper's e(d) = 2 cm instead of 3 cm + 1.5 % of range.
     #[arg(long)]
     pub paper_error: bool,
-    /// Track: after an ok scan, match only map corners within this radius (metres) of it.
+    /// Track: after an ok scan, make only poses within this radius (metres) of it: the most the
+    /// robot moves between two located scans.
     #[arg(long)]
     pub track: Option<f64>,
     /// With truth in the log: print at which stage each scan's right pose was lost.
