@@ -18,11 +18,8 @@ impl Grid {
     /// The number of the cell holding `q`, `None` off the grid (or for NaN coordinates).
     #[inline]
     pub fn index(&self, q: Point2<f64>) -> Option<usize> {
-        // from 0 up, truncation is the floor; below 0 (or NaN) the point is off the grid either way
-        let c = (q.x - self.origin.x) / self.cell;
-        let r = (q.y - self.origin.y) / self.cell;
-        (c >= 0.0 && r >= 0.0 && (c as usize) < self.cols && (r as usize) < self.rows)
-            .then(|| r as usize * self.cols + c as usize)
+        let (c, r) = crate::grid::cell_holding(self.origin, self.cell, (self.cols, self.rows), q)?;
+        Some(r * self.cols + c)
     }
 
     /// Centre of cell (c, r).

@@ -92,11 +92,7 @@ impl WallGrid {
     /// The cell holding `p`, if inside the grid.
     #[inline]
     pub fn cell_of(&self, p: Point2<f64>) -> Option<(usize, usize)> {
-        // from 0 up, truncation is the floor; below 0 (or NaN) the point is outside either way
-        let c = (p.x - self.origin.x) / self.cell;
-        let r = (p.y - self.origin.y) / self.cell;
-        (c >= 0.0 && r >= 0.0 && (c as usize) < self.cols && (r as usize) < self.rows)
-            .then_some((c as usize, r as usize))
+        cell_holding(self.origin, self.cell, (self.cols, self.rows), p)
     }
 
     /// Walls listed in cell (c, r).
@@ -275,6 +271,22 @@ fn segments_cross(p: &Wall, q: &Wall) -> bool {
     let (s1, s2) = (side(p.a, d, q.a), side(p.a, d, q.b));
     let (t1, t2) = (side(q.a, e, p.a), side(q.a, e, p.b));
     s1 * s2 <= 0.0 && t1 * t2 <= 0.0
+}
+
+/// Column and row of the cell holding `p` in a grid of `cols` x `rows` cells of side `cell`
+/// whose first cell starts at `origin`; `None` off the grid (or for NaN coordinates).
+#[inline]
+pub(crate) fn cell_holding(
+    origin: Point2<f64>,
+    cell: f64,
+    (cols, rows): (usize, usize),
+    p: Point2<f64>,
+) -> Option<(usize, usize)> {
+    // from 0 up, truncation is the floor (no library floor, which baseline x86-64 calls out of
+    // line); below 0 (or NaN) the point is off the grid either way
+    let c = (p.x - origin.x) / cell;
+    let r = (p.y - origin.y) / cell;
+    (c >= 0.0 && r >= 0.0 && (c as usize) < cols && (r as usize) < rows).then_some((c as usize, r as usize))
 }
 
 /// Centre of cell (c, r) of a grid of cells of side `cell` whose first cell starts at `origin`.
