@@ -81,6 +81,14 @@ impl Outcome {
         self
     }
 
+    /// Locates `scan` with `gema2`, timed, and judges the answer against the scan's truth.
+    pub fn located(gema2: &mut localize::Gema2, scan: &laser::LaserScan) -> Self {
+        let start = std::time::Instant::now();
+        let (seg, loc) = gema2.process(&scan.view());
+        let micros = start.elapsed().as_secs_f64() * 1e6;
+        Outcome::of(loc.status, loc.best().map(|h| h.pose), scan.truth, micros).with_steps(&seg.times, &loc.times)
+    }
+
     pub fn success(&self) -> bool {
         self.error.is_some_and(|(d, a)| d <= SUCCESS_POSITION && a <= SUCCESS_HEADING_DEG)
     }

@@ -9,7 +9,6 @@ use localize::{Gema2, LocalizerConfig, MapModel};
 use mapserver::MapCornerConfig;
 use segment::SegmenterConfig;
 use std::sync::Arc;
-use std::time::Instant;
 
 #[derive(Args)]
 pub struct DemoArgs {
@@ -44,12 +43,7 @@ pub fn run(a: DemoArgs) -> Result<()> {
         let mut gema2 = Gema2::new(Arc::clone(&model), SegmenterConfig::default(), LocalizerConfig::default());
         let mut summary = Summary::default();
         for _ in 0..a.scans {
-            let scan = sim.next_scan();
-            let start = Instant::now();
-            let (seg, loc) = gema2.process(&scan.view());
-            let micros = start.elapsed().as_secs_f64() * 1e6;
-            let outcome = Outcome::of(loc.status, loc.best().map(|h| h.pose), scan.truth, micros);
-            summary.add(outcome.with_steps(&seg.times, &loc.times));
+            summary.add(Outcome::located(&mut gema2, &sim.next_scan()));
         }
         println!("\n== {scenario}");
         print!("{}", summary.render());

@@ -16,7 +16,6 @@ use localize::{Gema2, Gema2Config, MapModel, Status};
 use mapserver::{procedural, WallMap};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
-use std::time::Instant;
 
 #[derive(Args)]
 pub struct EvaluateArgs {
@@ -187,11 +186,7 @@ fn locate_all(map: &WallMap, config: &Gema2Config, scans: &[LaserScan]) -> Summa
     let mut gema2 = Gema2::new(model, config.segmenter, config.localizer);
     let mut summary = Summary::default();
     for scan in scans {
-        let start = Instant::now();
-        let (seg, loc) = gema2.process(&scan.view());
-        let micros = start.elapsed().as_secs_f64() * 1e6;
-        let best = loc.best().map(|h| h.pose);
-        summary.add(Outcome::of(loc.status, best, scan.truth, micros).with_steps(&seg.times, &loc.times));
+        summary.add(Outcome::located(&mut gema2, scan));
     }
     summary
 }
