@@ -226,6 +226,141 @@ pub fn apartment() -> WallMap {
     p.done()
 }
 
+/// A flat of another layout drawn with `seed`, of the bundled [`apartment`]'s character: 9-15 x
+/// 7-11 m, day rooms south of a hall and bedrooms and a bathroom north of it, each with its
+/// door, some rooms opening wide into the next; and, each by chance, an L-shaped outline, a bay
+/// window, a cut corner at the entry, wardrobes, a chimney breast, a kitchen island or counter
+/// and a shower box.
+pub fn flat(seed: u64) -> WallMap {
+    let mut rng = Rng::new(seed);
+    let mut p = Plan::default();
+    let (w, h) = (rng.range(9.0, 15.0), rng.range(7.0, 11.0));
+    let hall_y = rng.range(0.38, 0.52) * h;
+    let hall_top = hall_y + rng.range(1.1, 1.6);
+    // rooms along each side of the hall, as the x of the walls between them
+    let bounds = |rng: &mut Rng, lo: f64, hi: f64| {
+        let mut xs = vec![0.0];
+        for width in partition(rng, w, lo, hi) {
+            xs.push(xs[xs.len() - 1] + width);
+        }
+        xs
+    };
+    let south = bounds(&mut rng, 3.0, 6.0);
+    let north = bounds(&mut rng, 2.3, 4.5);
+    // an L-shaped outline: the north-east room ends short of the north wall
+    let cut = (north.len() > 3 && h - hall_top > 4.6 && rng.chance(0.5))
+        .then(|| (north[north.len() - 2], h - rng.range(1.2, (h - hall_top - 2.6).min(2.5))));
+    let chamfer = rng.chance(0.4).then(|| rng.range(0.8, 1.5));
+    // south wall, with a bay window in the first day room by chance
+    let bay = (south[1] > 3.2 && rng.chance(0.6)).then(|| {
+        let (bw, depth) = (rng.range(1.8, (south[1] - 1.0).min(3.0)), rng.range(0.5, 0.9));
+        let bx = rng.range(0.5, south[1] - bw - 0.5);
+        (bx, bw, depth)
+    });
+    let south_end = w - chamfer.unwrap_or(0.0);
+    match bay {
+        Some((bx, bw, depth)) => {
+            let slope = rng.range(0.4, 0.9);
+            p.wall((0.0, 0.0), (bx, 0.0));
+            p.wall((bx, 0.0), (bx + slope * depth, -depth));
+            p.wall((bx + slope * depth, -depth), (bx + bw - slope * depth, -depth));
+            p.wall((bx + bw - slope * depth, -depth), (bx + bw, 0.0));
+            p.wall((bx + bw, 0.0), (south_end, 0.0));
+        }
+        None => p.wall((0.0, 0.0), (south_end, 0.0)),
+    }
+    if let Some(c) = chamfer {
+        p.wall((south_end, 0.0), (w, c));
+    }
+    let east_from = chamfer.unwrap_or(0.0);
+    // the entry: a door in the east wall at the hall
+    let east_to = cut.map_or(h, |(_, cy)| cy);
+    p.wall_with_doors((w, east_from), (w, east_to), &[(hall_y - east_from + 0.15, hall_top - hall_y - 0.3)]);
+    if let Some((cx, cy)) = cut {
+        p.wall((w, cy), (cx, cy));
+        p.wall((cx, cy), (cx, h));
+    }
+    let north_end = cut.map_or(w, |(cx, _)| cx);
+    p.wall((north_end, h), (0.0, h));
+    p.wall((0.0, h), (0.0, 0.0));
+    // the hall's walls, with each room's door; the first day room opens wide
+    let doors = |rng: &mut Rng, xs: &[f64], wide: bool| {
+        xs.windows(2)
+            .enumerate()
+            .map(|(k, r)| {
+                let width = if wide && k == 0 { rng.range(1.6, (r[1] - r[0] - 0.8).max(1.7)) } else { 0.85 };
+                (rng.range(r[0] + 0.3, (r[1] - width - 0.3).max(r[0] + 0.35)), width)
+            })
+            .collect::<Vec<_>>()
+    };
+    let d = doors(&mut rng, &south, true);
+    p.wall_with_doors((0.0, hall_y), (w, hall_y), &d);
+    let d = doors(&mut rng, &north, false);
+    p.wall_with_doors((0.0, hall_top), (w, hall_top), &d);
+    // walls between rooms; day rooms open into each other by chance
+    for &x in &south[1..south.len() - 1] {
+        if rng.chance(0.4) {
+            let gap = rng.range(1.2, (hall_y - 1.4).max(1.3));
+            p.wall_with_doors((x, 0.0), (x, hall_y), &[(rng.range(0.3, (hall_y - gap - 0.3).max(0.35)), gap)]);
+        } else {
+            p.wall((x, 0.0), (x, hall_y));
+        }
+    }
+    for &x in &north[1..north.len() - 1] {
+        let top = match cut {
+            Some((cx, cy)) if x > cx + 1e-9 => cy,
+            _ => h,
+        };
+        p.wall((x, hall_top), (x, top));
+    }
+    // bedrooms: wardrobes in corners, by chance
+    for r in north.windows(2) {
+        let top = match cut {
+            Some((cx, cy)) if r[0] >= cx - 1e-9 => cy,
+            _ => h,
+        };
+        if rng.chance(0.45) && r[1] - r[0] > 2.4 {
+            let (len, depth) = (rng.range(1.0, (r[1] - r[0] - 1.2).min(2.2)), rng.range(0.55, 0.7));
+            let (x0, x1) = if rng.chance(0.5) { (r[0], r[0] + len) } else { (r[1] - len, r[1]) };
+            let inner = if x0 == r[0] { x1 } else { x0 };
+            p.wall((x0, top - depth), (x1, top - depth));
+            p.wall((inner, top - depth), (inner, top));
+        }
+    }
+    // a shower box in the narrowest north room
+    if let Some(r) = north.windows(2).min_by(|a, b| (a[1] - a[0]).total_cmp(&(b[1] - b[0]))) {
+        if rng.chance(0.7) {
+            let top = match cut {
+                Some((cx, cy)) if r[0] >= cx - 1e-9 => cy,
+                _ => h,
+            };
+            let s = rng.range(0.8, 1.0);
+            p.wall((r[0], top - s), (r[0] + s, top - s));
+            p.wall((r[0] + s, top - s), (r[0] + s, top));
+        }
+    }
+    // a chimney breast on the west wall of the first day room
+    if rng.chance(0.5) && hall_y > 3.0 {
+        let (y0, depth) = (rng.range(0.8, hall_y - 2.0), rng.range(0.35, 0.6));
+        let y1 = y0 + rng.range(0.9, 1.4);
+        p.wall((0.0, y0), (depth, y0));
+        p.wall((depth, y0), (depth, y1));
+        p.wall((depth, y1), (0.0, y1));
+    }
+    // the kitchen: the last day room, with an island or a counter
+    let (kx0, kx1) = (south[south.len() - 2], south_end.min(south[south.len() - 1]));
+    if kx1 - kx0 > 3.2 && hall_y > 3.2 && rng.chance(0.5) {
+        let size = (rng.range(1.2, 2.0), rng.range(0.7, 1.0));
+        p.block(((kx0 + kx1) / 2.0 + rng.range(-0.3, 0.3), hall_y / 2.0 + rng.range(-0.3, 0.3)), size, 0.0);
+    } else if kx1 - kx0 > 2.0 {
+        let (len, depth) = (rng.range(1.5, (hall_y - 0.6).min(3.0)), rng.range(0.55, 0.65));
+        let x = kx0 + depth;
+        p.wall((kx0, len), (x, len));
+        p.wall((x, len), (x, 0.0));
+    }
+    p.done()
+}
+
 /// A 34 x 22 m hall: racks of different lengths in staggered rows, pillars, three loading docks
 /// and an office block in one corner.
 pub fn warehouse(seed: u64) -> WallMap {
@@ -323,7 +458,8 @@ pub fn by_name(name: &str) -> Option<WallMap> {
     }
 }
 
-/// The seed the bundled map called `name` was drawn with (the apartment is a fixed plan).
+/// The seed the bundled map called `name` was drawn with (the bundled apartment is a fixed
+/// plan).
 pub fn bundled_seed(name: &str) -> Option<u64> {
     Some(match name {
         "office" => 2024,
@@ -334,11 +470,12 @@ pub fn bundled_seed(name: &str) -> Option<u64> {
 }
 
 /// Another map of the same character as the bundled one called `name`, drawn with `seed`:
-/// the office, warehouse and radial generators are random in their layout, so other seeds
-/// give maps the bundled defaults were never tuned on. `None` for an unknown name and for
-/// the apartment, which is one fixed plan.
+/// the generators are random in their layout, so other seeds give maps the bundled defaults
+/// were never tuned on (for the apartment, a [`flat`], since the bundled one is a fixed
+/// plan). `None` for an unknown name.
 pub fn by_name_seeded(name: &str, seed: u64) -> Option<WallMap> {
     Some(match name {
+        "apartment" => flat(seed),
         "office" => office(seed, 3, 8),
         "warehouse" => warehouse(seed),
         "radial" => radial(seed),
@@ -368,6 +505,23 @@ mod tests {
     }
 
     #[test]
+    fn flats_of_other_seeds_are_other_closed_plans() {
+        let bundled = apartment();
+        for seed in 1..=12 {
+            let m = flat(seed);
+            assert_eq!(m, flat(seed));
+            assert_ne!(m, bundled);
+            let idx = CornerIndex::build(&m.walls, &MapCornerConfig::default());
+            assert!(m.walls.len() >= 20 && idx.corners().len() >= 20, "seed {seed}: {} walls", m.walls.len());
+            let (lo, hi) = m.bounds();
+            let size = hi - lo;
+            assert!((9.0..=15.1).contains(&size.x) && (7.0..=12.0).contains(&size.y), "seed {seed}: {size:?}");
+            assert!(m.walls.iter().all(|w| w.length() > 0.05 && w.a.x.is_finite() && w.b.y.is_finite()));
+        }
+        assert_ne!(flat(1), flat(2));
+    }
+
+    #[test]
     fn other_seeds_draw_other_layouts_of_the_same_kind() {
         for name in ["office", "warehouse", "radial"] {
             let bundled = by_name(name).unwrap();
@@ -377,6 +531,6 @@ mod tests {
             let (n, m) = (other.walls.len(), bundled.walls.len());
             assert!(n * 3 > m * 2 && n * 2 < m * 3, "{name}: {n} walls against {m}");
         }
-        assert!(by_name_seeded("apartment", 3).is_none() && by_name_seeded("nope", 3).is_none());
+        assert!(by_name_seeded("nope", 3).is_none());
     }
 }

@@ -25,7 +25,8 @@ pub struct EvaluateArgs {
     /// The simulator's seed for every log.
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
-    /// Seeds of the generated office, radial and warehouse maps located besides the bundled
+    /// Seeds of the generated apartment (a flat of another plan), office, radial and warehouse
+    /// maps located besides the bundled
     /// four (`--map-seeds` alone: the bundled maps only).
     #[arg(long, value_delimiter = ',', num_args = 0.., default_value = "2,3,4")]
     pub map_seeds: Vec<u64>,
@@ -155,7 +156,7 @@ fn suite_maps(seeds: &[u64]) -> Result<Vec<(String, WallMap)>> {
     for name in ["apartment", "radial", "office", "warehouse"] {
         maps.push((name.to_string(), mapserver::load_map(name)?));
     }
-    for kind in ["office", "radial", "warehouse"] {
+    for kind in ["apartment", "office", "radial", "warehouse"] {
         for &seed in seeds {
             let map = procedural::by_name_seeded(kind, seed).with_context(|| format!("no generated {kind}"))?;
             let name = format!("{kind} seed {seed}");

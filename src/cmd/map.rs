@@ -11,8 +11,8 @@ pub enum MapCommand {
     /// (an office of about N walls). Without --seed, the bundled map of that name.
     Generate {
         kind: String,
-        /// Draw another layout of the same kind (office, warehouse, radial, office-N); the
-        /// apartment is one fixed plan.
+        /// Draw another layout of the same kind (for the apartment, whose bundled plan is
+        /// fixed, a flat of another layout)
         #[arg(long)]
         seed: Option<u64>,
         #[arg(long)]
@@ -50,9 +50,6 @@ pub fn run(c: MapCommand) -> Result<()> {
                 };
                 match map {
                     Some(m) => m,
-                    None if seed.is_some() && procedural::by_name(&kind).is_some() => {
-                        bail!("{kind} is one fixed plan and takes no --seed")
-                    }
                     None => bail!("unknown map kind {kind:?}: office, apartment, warehouse, radial or office-N"),
                 }
             };
