@@ -248,8 +248,8 @@ pub fn flat(seed: u64) -> WallMap {
     let south = bounds(&mut rng, 3.0, 6.0);
     let north = bounds(&mut rng, 2.3, 4.5);
     // an L-shaped outline: the north-east room ends short of the north wall
-    let cut = (north.len() > 3 && h - hall_top > 4.6 && rng.chance(0.5))
-        .then(|| (north[north.len() - 2], h - rng.range(1.2, (h - hall_top - 2.6).min(2.5))));
+    let cut = (north.len() > 3 && h - hall_top > 3.6 && rng.chance(0.5))
+        .then(|| (north[north.len() - 2], h - rng.range(1.0, (h - hall_top - 2.4).min(2.2))));
     let chamfer = rng.chance(0.4).then(|| rng.range(0.8, 1.5));
     // south wall, with a bay window in the first day room by chance
     let bay = (south[1] > 3.2 && rng.chance(0.6)).then(|| {
@@ -306,19 +306,17 @@ pub fn flat(seed: u64) -> WallMap {
             p.wall((x, 0.0), (x, hall_y));
         }
     }
+    // the north wall of the rooms from `x` on: short of the outline's at the L's cut
+    let top_from = |x: f64| match cut {
+        Some((cx, cy)) if x >= cx - 1e-9 => cy,
+        _ => h,
+    };
     for &x in &north[1..north.len() - 1] {
-        let top = match cut {
-            Some((cx, cy)) if x > cx + 1e-9 => cy,
-            _ => h,
-        };
-        p.wall((x, hall_top), (x, top));
+        p.wall((x, hall_top), (x, top_from(x)));
     }
     // bedrooms: wardrobes in corners, by chance
     for r in north.windows(2) {
-        let top = match cut {
-            Some((cx, cy)) if r[0] >= cx - 1e-9 => cy,
-            _ => h,
-        };
+        let top = top_from(r[0]);
         if rng.chance(0.45) && r[1] - r[0] > 2.4 {
             let (len, depth) = (rng.range(1.0, (r[1] - r[0] - 1.2).min(2.2)), rng.range(0.55, 0.7));
             let (x0, x1) = if rng.chance(0.5) { (r[0], r[0] + len) } else { (r[1] - len, r[1]) };
@@ -330,10 +328,7 @@ pub fn flat(seed: u64) -> WallMap {
     // a shower box in the narrowest north room
     if let Some(r) = north.windows(2).min_by(|a, b| (a[1] - a[0]).total_cmp(&(b[1] - b[0]))) {
         if rng.chance(0.7) {
-            let top = match cut {
-                Some((cx, cy)) if r[0] >= cx - 1e-9 => cy,
-                _ => h,
-            };
+            let top = top_from(r[0]);
             let s = rng.range(0.8, 1.0);
             p.wall((r[0], top - s), (r[0] + s, top - s));
             p.wall((r[0] + s, top - s), (r[0] + s, top));
