@@ -985,11 +985,8 @@ impl<'a> Screen<'a> {
         let Some((frames, closed)) = self.sides else {
             return false;
         };
-        // a nearest wall with no closed side (most of them): no need to look it up
-        if !self.field.is_marked(p) {
-            return false;
-        }
-        let Some(k) = self.field.nearest_wall(p) else {
+        // only a nearest wall with a closed side is looked up (few are)
+        let Some(k) = self.field.marked_nearest_wall(p) else {
             return false;
         };
         let (Some(f), Some(sides)) = (frames.get(k as usize), closed.get(k as usize)) else {

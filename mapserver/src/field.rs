@@ -108,9 +108,10 @@ impl DistanceField {
     }
 
     /// Marks the cells whose nearest wall (if any within the cap) `marked` says yes to, for
-    /// [`is_marked`](Self::is_marked): a table of one bit a cell, where the nearest walls take
-    /// two or four bytes. A caller that only needs the nearest wall when it has some property
-    /// most walls lack asks this first, and skips most lookups of a large map's nearest walls.
+    /// [`marked_nearest_wall`](Self::marked_nearest_wall): a table of one bit a cell, where the
+    /// nearest walls take two or four bytes. A caller that only needs the nearest wall when it
+    /// has some property most walls lack reads the bit first, and skips most lookups of a large
+    /// map's nearest walls.
     pub fn mark_nearest(&mut self, marked: impl Fn(u32) -> bool) {
         let cells = self.cols * self.rows;
         let mut bits = vec![0u64; cells.div_ceil(64)];
@@ -122,13 +123,20 @@ impl DistanceField {
         self.marked = bits;
     }
 
-    /// Whether the nearest wall of the cell holding `p` is marked ([`mark_nearest`]); false
-    /// outside the field, and before any marking.
+    /// [`nearest_wall`](Self::nearest_wall) when that wall is marked ([`mark_nearest`]); `None`
+    /// when it is not, outside the field, and before any marking. The cell is found once, and
+    /// the nearest walls are read only for a marked cell.
     ///
     /// [`mark_nearest`]: Self::mark_nearest
     #[inline]
-    pub fn is_marked(&self, p: Point2<f64>) -> bool {
-        self.index(p).is_some_and(|i| self.marked.get(i / 64).is_some_and(|b| b >> (i % 64) & 1 == 1))
+    pub fn marked_nearest_wall(&self, p: Point2<f64>) -> Option<u32> {
+        let i = self.index(p)?;
+        let marked = self.marked.get(i / 64).is_some_and(|b| b >> (i % 64) & 1 == 1);
+        if marked {
+            self.nearest_of(i)
+        } else {
+            None
+        }
     }
 
     /// A lower bound of [`distance`](Self::distance) at `p`: the least distance over the
@@ -239,10 +247,10 @@ mod tests {
             let walls = vec![Wall::new(-1.0, 0.0, 1.0, 0.5), Wall::new(0.0, -2.0, 0.0, -1.0)];
             let mut f = DistanceField::new(&walls, 0.05, 1.0);
             let p = Point2::new(x, y);
-            prop_assert!(!f.is_marked(p));
+            prop_assert_eq!(f.marked_nearest_wall(p), None);
             f.mark_nearest(|k| k == 1);
-            prop_assert_eq!(f.is_marked(p), f.nearest_wall(p) == Some(1));
-            prop_assert!(!f.is_marked(Point2::new(x + 100.0, y)));
+            prop_assert_eq!(f.marked_nearest_wall(p), f.nearest_wall(p).filter(|&k| k == 1));
+            prop_assert_eq!(f.marked_nearest_wall(Point2::new(x + 100.0, y)), None);
         }
 
         #[test]
