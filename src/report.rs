@@ -117,9 +117,25 @@ impl Summary {
         self.outcomes.len()
     }
 
+    /// Scans whose reported pose is right.
+    pub fn successes(&self) -> usize {
+        self.outcomes.iter().filter(|o| o.success()).count()
+    }
+
     /// Fraction of scans whose reported pose is right.
     pub fn success_rate(&self) -> f64 {
-        self.outcomes.iter().filter(|o| o.success()).count() as f64 / self.scans().max(1) as f64
+        self.successes() as f64 / self.scans().max(1) as f64
+    }
+
+    /// Scans marked ok whose pose is wrong.
+    pub fn wrong_ok(&self) -> usize {
+        self.outcomes.iter().filter(|o| o.status == Status::Ok && !o.success()).count()
+    }
+
+    /// Median and p99 compute time per scan, microseconds (NaN without a scan).
+    pub fn time_quantiles(&self) -> (f64, f64) {
+        let mut t: Vec<f64> = self.outcomes.iter().map(|o| o.micros).collect();
+        (quantile(&mut t, 0.5), quantile(&mut t, 0.99))
     }
 
     /// Mean position error of the successes, metres; `None` without a success.
@@ -134,16 +150,15 @@ impl Summary {
 
     /// Of the scans marked ok, the fraction that are right; `None` when none is ok.
     pub fn ok_precision(&self) -> Option<f64> {
-        let ok: Vec<&Outcome> = self.outcomes.iter().filter(|o| o.status == Status::Ok).collect();
-        (!ok.is_empty()).then(|| ok.iter().filter(|o| o.success()).count() as f64 / ok.len() as f64)
+        let ok = self.count(Status::Ok);
+        (ok > 0).then(|| (ok - self.wrong_ok()) as f64 / ok as f64)
     }
 
     pub fn render(&self) -> String {
         if self.outcomes.is_empty() {
             return "scans 0: the log holds no laser scan (or none that --every and --offset select)\n".into();
         }
-        let mut t: Vec<f64> = self.outcomes.iter().map(|o| o.micros).collect();
-        let (p50, p99) = (quantile(&mut t, 0.5), quantile(&mut t, 0.99));
+        let (p50, p99) = self.time_quantiles();
         let mut s = format!(
             "scans {}  time per scan: median {:.0} us, p99 {:.0} us\nstatus: ok {}, ambiguous {}, failed {}\n",
             self.scans(),

@@ -7,7 +7,7 @@
 //! on the same map, scenario and seeds.
 
 use super::build_map::{self, BuildArgs};
-use crate::report::{quantile, Outcome, Summary};
+use crate::report::{Outcome, Summary};
 use acquire::{write_robotlaser1, CarmenReader, FlaserLayout, Scenario, SensorModel, Simulator};
 use anyhow::{bail, Context, Result};
 use clap::Args;
@@ -56,16 +56,15 @@ struct Row {
 
 impl Row {
     fn of(name: String, summary: &Summary) -> Row {
-        let outcomes = &summary.outcomes;
-        let mut micros: Vec<f64> = outcomes.iter().map(|o| o.micros).collect();
+        let (median_us, p99_us) = summary.time_quantiles();
         Row {
             name,
-            scans: outcomes.len(),
-            successes: outcomes.iter().filter(|o| o.success()).count(),
+            scans: summary.scans(),
+            successes: summary.successes(),
             ok: summary.count(Status::Ok),
-            wrong_ok: outcomes.iter().filter(|o| o.status == Status::Ok && !o.success()).count(),
-            median_us: quantile(&mut micros, 0.5),
-            p99_us: quantile(&mut micros, 0.99),
+            wrong_ok: summary.wrong_ok(),
+            median_us,
+            p99_us,
         }
     }
 
