@@ -326,3 +326,46 @@ fn evaluate_locates_each_half_of_a_real_log_against_a_map_of_the_other() {
     assert!(!out.status.success());
     assert!(text(&out.stderr).contains("--scans must be at least 1"), "{}", text(&out.stderr));
 }
+
+#[test]
+fn a_ros_map_of_a_plan_localizes_its_scans() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = |name: &str| dir.path().join(name).to_str().unwrap().to_owned();
+    // the apartment with walls 12 cm thick, as a grid of 5 cm cells: faces where the laser sees them
+    let out = gema2(&["map", "thicken", "apartment", "--out", &p("thick.json")]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let out = gema2(&["map", "export-ros", "--map", &p("thick.json"), "--out", &p("grid.yaml")]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    assert!(std::fs::read(p("grid.pgm")).unwrap().starts_with(b"P5"));
+    let sim = [
+        "sim",
+        "--map",
+        &p("thick.json"),
+        "--scenario",
+        "people",
+        "--scans",
+        "40",
+        "--seed",
+        "2",
+        "--out",
+        &p("a.log"),
+    ];
+    let out = gema2(&sim);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    // --map takes the YAML file as it is
+    let out = gema2(&["locate", "--map", &p("grid.yaml"), "--log", &p("a.log")]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let err = text(&out.stderr);
+    assert!(number_after(&err, "success") >= 85.0, "{err}");
+    // import-ros writes the same walls as a JSON map, with the free space the grid shows
+    let out = gema2(&["map", "import-ros", &p("grid.yaml"), "--out", &p("grid.json")]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let out = gema2(&["map", "info", &p("grid.json")]);
+    let info = text(&out.stdout);
+    assert!(info.contains("accuracy (sigma) 0.025 m") && info.contains("free space seen"), "{info}");
+    // a broken YAML file is refused naming the file and the line
+    std::fs::write(p("bad.yaml"), "image: grid.pgm\nresolution: 0.05\norigin: [0, 0]\n").unwrap();
+    let out = gema2(&["locate", "--map", &p("bad.yaml"), "--log", &p("a.log")]);
+    let err = text(&out.stderr);
+    assert!(!out.status.success() && err.contains("bad.yaml: line 3: origin must be [x, y, yaw]"), "{err}");
+}

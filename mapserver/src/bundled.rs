@@ -17,7 +17,9 @@ pub fn bundled(name: &str) -> Option<Result<WallMap, MapError>> {
     BUNDLED.iter().find(|(n, _)| *n == name).map(|(n, text)| WallMap::parse(text, Path::new(&format!("<bundled {n}>"))))
 }
 
-/// Loads `spec`: a bundled map's name, or a path to a JSON map.
+/// Loads `spec`: a bundled map's name, a path to a JSON map, or a ROS map_server map (a
+/// `.yaml` file naming a PGM image), traced into walls with the defaults of
+/// [`crate::ros::OccupancyGrid::to_wall_map`].
 pub fn load_map(spec: &str) -> Result<WallMap, MapError> {
     if !Path::new(spec).exists() {
         if let Some(m) = bundled(spec) {
@@ -30,6 +32,12 @@ pub fn load_map(spec: &str) -> Result<WallMap, MapError> {
     if looks_like_a_name && !path.exists() {
         let names: Vec<&str> = BUNDLED.iter().map(|(n, _)| *n).collect();
         return Err(MapError::Unknown { spec: spec.into(), bundled: names.join(", ") });
+    }
+    if crate::ros::is_ros_map(path) {
+        let grid = crate::ros::OccupancyGrid::load(path)?;
+        return grid
+            .to_wall_map(&crate::trace::TraceConfig::default(), None)
+            .map_err(|message| MapError::Shape { path: path.to_owned(), message });
     }
     WallMap::load(path)
 }

@@ -132,6 +132,8 @@ pub enum MapError {
     Shape { path: PathBuf, message: String },
     #[error("{path}: walls[{index}]: {message}")]
     Wall { path: PathBuf, index: usize, message: String },
+    #[error(transparent)]
+    Ros(#[from] crate::ros::RosMapError),
     #[error("{spec:?} is neither a bundled map ({bundled}) nor a map file")]
     Unknown { spec: String, bundled: String },
 }

@@ -25,6 +25,44 @@ pub enum MapCommand {
     },
     /// Build a wall map from a log whose poses are true (a SLAM-corrected log).
     Build(super::build_map::BuildArgs),
+    /// Trace a ROS map_server map (YAML naming a PGM occupancy grid) into a wall map: the
+    /// occupied cells' faces become walls, the free cells the free space. Every command's
+    /// --map also takes the .yaml directly, with these defaults.
+    ImportRos {
+        /// The map_server YAML file.
+        yaml: PathBuf,
+        /// Largest distance of the outline from its walls, in cells.
+        #[arg(long, default_value_t = mapserver::trace::TraceConfig::default().tolerance)]
+        tolerance: f64,
+        /// Occupied blobs of fewer cells are noise.
+        #[arg(long, default_value_t = mapserver::trace::TraceConfig::default().min_cells)]
+        min_cells: f64,
+        /// How far behind the edge of a face's cells the surface is, in cells (half a cell:
+        /// a surface lies anywhere in the cell it marks occupied).
+        #[arg(long, default_value_t = mapserver::trace::TraceConfig::default().face_depth)]
+        face_depth: f64,
+        /// The map's accuracy, metres (default: one cell).
+        #[arg(long)]
+        sigma: Option<f64>,
+        #[arg(long)]
+        out: PathBuf,
+    },
+    /// Draw a wall map as a ROS map_server map (YAML and PGM), for AMCL and other grid-based
+    /// localizers: walls occupied, the building's inside free, the rest unknown.
+    ExportRos {
+        /// A bundled map's name or a map file.
+        #[arg(long, default_value = "office")]
+        map: String,
+        /// Metres a cell.
+        #[arg(long, default_value_t = 0.05)]
+        resolution: f64,
+        /// Walls are drawn this thick, metres (at least the cells they cross).
+        #[arg(long, default_value_t = 0.0)]
+        thickness: f64,
+        /// The YAML file; the PGM is written beside it.
+        #[arg(long)]
+        out: PathBuf,
+    },
     /// Draw a centre-line map's walls with thickness, as a floor plan does: two faces per wall
     /// and a jamb at each door (the outline of the walls' union).
     Thicken {
@@ -67,6 +105,39 @@ pub fn run(c: MapCommand) -> Result<()> {
             let name = format!("{}-thick", out.file_stem().map_or("map".into(), |s| s.to_string_lossy()));
             std::fs::write(&out, thick.to_json(&name)).with_context(|| format!("writing {}", out.display()))?;
             eprintln!("{}: {} walls (from {})", out.display(), thick.walls.len(), m.walls.len());
+            Ok(())
+        }
+        MapCommand::ImportRos { yaml, tolerance, min_cells, face_depth, sigma, out } => {
+            let cells = [min_cells, face_depth];
+            if !(tolerance.is_finite() && tolerance > 0.0 && cells.iter().all(|v| v.is_finite() && *v >= 0.0)) {
+                bail!(
+                    "--tolerance {tolerance} --min-cells {min_cells} --face-depth {face_depth}: a positive number of \
+                     cells, then two non-negative ones"
+                );
+            }
+            if let Some(s) = sigma.filter(|s| !(s.is_finite() && *s >= 0.0)) {
+                bail!("--sigma {s}: a map's accuracy is a non-negative number of metres");
+            }
+            let grid = mapserver::OccupancyGrid::load(&yaml)?;
+            let trace = mapserver::trace::TraceConfig { tolerance, min_cells, face_depth };
+            let map = grid.to_wall_map(&trace, sigma).map_err(|e| anyhow::anyhow!("{}: {e}", yaml.display()))?;
+            let name = yaml.file_stem().map_or("map".into(), |s| s.to_string_lossy());
+            std::fs::write(&out, map.to_json(&name)).with_context(|| format!("writing {}", out.display()))?;
+            eprintln!(
+                "{}: {} walls from a {} x {} grid of {} m",
+                out.display(),
+                map.walls.len(),
+                grid.width,
+                grid.height,
+                grid.resolution
+            );
+            Ok(())
+        }
+        MapCommand::ExportRos { map, resolution, thickness, out } => {
+            let m = mapserver::load_map(&map)?;
+            let grid = mapserver::OccupancyGrid::from_walls(&m, resolution, thickness).map_err(anyhow::Error::msg)?;
+            grid.save(&out)?;
+            eprintln!("{}: a {} x {} grid of {resolution} m", out.display(), grid.width, grid.height);
             Ok(())
         }
         MapCommand::Info { map } => {

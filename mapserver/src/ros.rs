@@ -1,0 +1,684 @@
+//! ROS map_server maps: a YAML file that names a PGM image of an occupancy grid, the maps
+//! AMCL, gmapping, Cartographer and slam_toolbox users already have.
+//!
+//! [`OccupancyGrid::load`] reads one as map_server does (`resolution`, `origin` of the
+//! lower-left pixel, `negate`, `occupied_thresh`, `free_thresh`, `mode`), and
+//! [`OccupancyGrid::to_wall_map`] turns it into a wall map: the faces of the occupied cells
+//! ([`crate::trace`]) are the walls, the free cells are where the robot may be
+//! ([`SeenFree`]), and the map's accuracy is stated as one cell unless told otherwise.
+//! [`OccupancyGrid::from_walls`] and [`OccupancyGrid::save`] go the other way, so a plan can
+//! be given to AMCL as the same map.
+//!
+//! Only PGM images (P5 binary, P2 text; 8 or 16 bits) are read: a PNG map converts with any
+//! image tool (`convert map.png map.pgm`).
+
+use crate::map::{Wall, WallMap, MIN_WALL_LENGTH};
+use crate::trace::{Raster, TraceConfig};
+use crate::SeenFree;
+use nalgebra::{Point2, Vector2};
+use std::path::{Path, PathBuf};
+use thiserror::Error;
+
+/// Most cells a grid may have.
+pub const MAX_CELLS: usize = 1 << 27;
+
+/// Why a ROS map was rejected.
+#[derive(Debug, Error)]
+pub enum RosMapError {
+    #[error("{path}: cannot read: {source}")]
+    Io { path: PathBuf, source: std::io::Error },
+    #[error("{path}: line {line}: {message}")]
+    Yaml { path: PathBuf, line: usize, message: String },
+    #[error("{path}: {message}")]
+    Meta { path: PathBuf, message: String },
+    #[error("{path}: {message}")]
+    Image { path: PathBuf, message: String },
+}
+
+pub use crate::trace::Cell;
+
+/// How image values become occupancy (map_server's `mode`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Mode {
+    /// Darker is more occupied (or lighter, with `negate`); above `occupied_thresh` occupied,
+    /// below `free_thresh` free, unknown between.
+    Trinary,
+    /// As trinary for walls and free space (the values between are kept as unknown here).
+    Scale,
+    /// The value is the occupancy in percent; anything above 100 is unknown.
+    Raw,
+}
+
+/// The YAML file's fields.
+#[derive(Clone, Debug, PartialEq)]
+pub struct MapMeta {
+    /// The image, relative to the YAML file's folder unless absolute.
+    pub image: PathBuf,
+    /// Metres a cell.
+    pub resolution: f64,
+    /// Pose (x, y, yaw) of the image's lower-left corner in the map frame.
+    pub origin: [f64; 3],
+    pub negate: bool,
+    pub occupied_thresh: f64,
+    pub free_thresh: f64,
+    pub mode: Mode,
+}
+
+/// An occupancy grid: `width` x `height` cells, row 0 at the bottom (the image's last row).
+#[derive(Clone, Debug, PartialEq)]
+pub struct OccupancyGrid {
+    pub resolution: f64,
+    pub origin: [f64; 3],
+    pub width: usize,
+    pub height: usize,
+    pub cells: Vec<Cell>,
+}
+
+impl MapMeta {
+    /// Parses the YAML text of a map_server map; `path` names it in errors.
+    pub fn parse(text: &str, path: &Path) -> Result<Self, RosMapError> {
+        let (mut image, mut resolution, mut origin) = (None, None, None);
+        let mut meta = MapMeta {
+            image: PathBuf::new(),
+            resolution: 0.0,
+            origin: [0.0; 3],
+            negate: false,
+            occupied_thresh: 0.65,
+            free_thresh: 0.196,
+            mode: Mode::Trinary,
+        };
+        for (k, raw) in text.lines().enumerate() {
+            let line = k + 1;
+            let err = |message: String| RosMapError::Yaml { path: path.to_owned(), line, message };
+            let content = strip_comment(raw).trim();
+            if content.is_empty() || content == "---" {
+                continue;
+            }
+            let Some((key, value)) = content.split_once(':') else {
+                return Err(err(format!("expected `key: value`, found {content:?}")));
+            };
+            let (key, value) = (key.trim(), unquote(value.trim()));
+            let number = |what: &str| -> Result<f64, RosMapError> {
+                value
+                    .parse::<f64>()
+                    .ok()
+                    .filter(|v| v.is_finite())
+                    .ok_or_else(|| err(format!("{what} must be a number, found {value:?}")))
+            };
+            match key {
+                "image" if value.is_empty() => return Err(err("image names no file".into())),
+                "image" => image = Some(PathBuf::from(value)),
+                "resolution" => {
+                    let r = number("resolution")?;
+                    if r <= 0.0 {
+                        return Err(err(format!("resolution must be a positive number of metres, found {r}")));
+                    }
+                    resolution = Some(r);
+                }
+                "origin" => {
+                    let inner = value.strip_prefix('[').and_then(|v| v.strip_suffix(']'));
+                    let nums: Option<Vec<f64>> = inner.map(|v| {
+                        v.split(',').filter_map(|t| t.trim().parse::<f64>().ok().filter(|x| x.is_finite())).collect()
+                    });
+                    match nums {
+                        Some(n) if n.len() == 3 && inner.is_some_and(|v| v.split(',').count() == 3) => {
+                            origin = Some([n[0], n[1], n[2]])
+                        }
+                        _ => return Err(err(format!("origin must be [x, y, yaw], three numbers, found {value:?}"))),
+                    }
+                }
+                "negate" => {
+                    meta.negate = match value {
+                        "0" | "false" | "False" => false,
+                        "1" | "true" | "True" => true,
+                        _ => return Err(err(format!("negate must be 0 or 1, found {value:?}"))),
+                    }
+                }
+                "occupied_thresh" | "free_thresh" => {
+                    let t = number(key)?;
+                    if !(0.0..=1.0).contains(&t) {
+                        return Err(err(format!("{key} must lie in [0, 1], found {t}")));
+                    }
+                    if key == "free_thresh" {
+                        meta.free_thresh = t;
+                    } else {
+                        meta.occupied_thresh = t;
+                    }
+                }
+                "mode" => {
+                    meta.mode = match value {
+                        "trinary" => Mode::Trinary,
+                        "scale" => Mode::Scale,
+                        "raw" => Mode::Raw,
+                        _ => return Err(err(format!("mode must be trinary, scale or raw, found {value:?}"))),
+                    }
+                }
+                // other keys (a map's name, slam_toolbox's extras) say nothing about the grid
+                _ => {}
+            }
+        }
+        let missing = |key: &str| RosMapError::Meta { path: path.to_owned(), message: format!("no `{key}:`") };
+        meta.image = image.ok_or_else(|| missing("image"))?;
+        meta.resolution = resolution.ok_or_else(|| missing("resolution"))?;
+        meta.origin = origin.ok_or_else(|| missing("origin"))?;
+        if meta.free_thresh > meta.occupied_thresh {
+            return Err(RosMapError::Meta {
+                path: path.to_owned(),
+                message: format!(
+                    "free_thresh {} is above occupied_thresh {}: no value could be free",
+                    meta.free_thresh, meta.occupied_thresh
+                ),
+            });
+        }
+        Ok(meta)
+    }
+
+    /// What a pixel of value `v` (of `maxval`) says, as map_server reads it.
+    pub fn classify(&self, v: u16, maxval: u16) -> Cell {
+        if self.mode == Mode::Raw {
+            return match v {
+                _ if v > 100 => Cell::Unknown,
+                _ if f64::from(v) / 100.0 > self.occupied_thresh => Cell::Occupied,
+                _ if f64::from(v) / 100.0 < self.free_thresh => Cell::Free,
+                _ => Cell::Unknown,
+            };
+        }
+        let shade = f64::from(v) / f64::from(maxval.max(1));
+        let occupancy = if self.negate { shade } else { 1.0 - shade };
+        if occupancy > self.occupied_thresh {
+            Cell::Occupied
+        } else if occupancy < self.free_thresh {
+            Cell::Free
+        } else {
+            Cell::Unknown
+        }
+    }
+}
+
+/// `line` without a `#` comment (a `#` at the start or after a space, outside quotes).
+fn strip_comment(line: &str) -> &str {
+    let mut quote = None;
+    let mut previous = ' ';
+    for (k, ch) in line.char_indices() {
+        match (quote, ch) {
+            (None, '"' | '\'') => quote = Some(ch),
+            (Some(q), c) if c == q => quote = None,
+            (None, '#') if previous.is_whitespace() => return &line[..k],
+            _ => {}
+        }
+        previous = ch;
+    }
+    line
+}
+
+fn unquote(v: &str) -> &str {
+    for q in ['"', '\''] {
+        if let Some(inner) = v.strip_prefix(q).and_then(|v| v.strip_suffix(q)) {
+            return inner;
+        }
+    }
+    v
+}
+
+/// A PGM image: `width` x `height` values, the top row first.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Pgm {
+    pub width: usize,
+    pub height: usize,
+    pub maxval: u16,
+    pub values: Vec<u16>,
+}
+
+impl Pgm {
+    /// Parses a P5 (binary) or P2 (text) PGM; `path` names it in errors.
+    pub fn parse(bytes: &[u8], path: &Path) -> Result<Self, RosMapError> {
+        let err = |message: String| RosMapError::Image { path: path.to_owned(), message };
+        if bytes.starts_with(b"\x89PNG") {
+            return Err(err("is a PNG image: gema2 reads PGM maps (P5 or P2); convert it, e.g. `convert map.png \
+                            map.pgm`, and name the .pgm in the YAML file"
+                .into()));
+        }
+        let binary = match bytes.get(..2) {
+            Some(b"P5") => true,
+            Some(b"P2") => false,
+            _ => return Err(err("not a PGM image (it starts with neither P5 nor P2)".into())),
+        };
+        // the header: magic, width, height, maxval, with comments; one whitespace byte after
+        let mut pos = 2;
+        let mut header = [0usize; 3];
+        for (k, what) in ["width", "height", "maxval"].iter().enumerate() {
+            header[k] = next_number(bytes, &mut pos).ok_or_else(|| err(format!("the header has no {what}")))?;
+        }
+        let [width, height, maxval] = header;
+        if width == 0 || height == 0 || !(1..=65535).contains(&maxval) {
+            return Err(err(format!(
+                "a {width} x {height} image with maxval {maxval}: none of them may be 0, and maxval is at most 65535"
+            )));
+        }
+        let cells = width
+            .checked_mul(height)
+            .filter(|&n| n <= MAX_CELLS)
+            .ok_or_else(|| err(format!("{width} x {height} cells: at most {MAX_CELLS} are read")))?;
+        let maxval = maxval as u16;
+        let mut values = Vec::with_capacity(cells);
+        if binary {
+            let data = bytes.get(pos + 1..).unwrap_or(&[]);
+            let wide = maxval > 255;
+            let need = cells * if wide { 2 } else { 1 };
+            if data.len() < need {
+                return Err(err(format!("the image data stops after {} of {need} bytes", data.len())));
+            }
+            if wide {
+                values.extend(data[..need].chunks_exact(2).map(|b| u16::from_be_bytes([b[0], b[1]])));
+            } else {
+                values.extend(data[..need].iter().map(|&b| u16::from(b)));
+            }
+        } else {
+            for k in 0..cells {
+                let v =
+                    next_number(bytes, &mut pos).ok_or_else(|| err(format!("the image has {k} of {cells} values")))?;
+                values.push(v.min(65535) as u16);
+            }
+        }
+        if let Some(k) = values.iter().position(|&v| v > maxval) {
+            return Err(err(format!("pixel {k} has value {} above maxval {maxval}", values[k])));
+        }
+        Ok(Pgm { width, height, maxval, values })
+    }
+
+    /// The image as binary PGM (P5, 8 bits when `maxval` allows).
+    pub fn to_bytes(&self) -> Vec<u8> {
+        let mut out = format!("P5\n# gema2\n{} {}\n{}\n", self.width, self.height, self.maxval).into_bytes();
+        if self.maxval > 255 {
+            out.extend(self.values.iter().flat_map(|v| v.to_be_bytes()));
+        } else {
+            out.extend(self.values.iter().map(|&v| v as u8));
+        }
+        out
+    }
+}
+
+/// The next decimal number of a PGM header or text body, skipping whitespace and comments.
+fn next_number(bytes: &[u8], pos: &mut usize) -> Option<usize> {
+    loop {
+        match bytes.get(*pos)? {
+            b'#' => {
+                while bytes.get(*pos).is_some_and(|&b| b != b'\n') {
+                    *pos += 1;
+                }
+            }
+            b if b.is_ascii_whitespace() => *pos += 1,
+            _ => break,
+        }
+    }
+    let start = *pos;
+    while bytes.get(*pos).is_some_and(u8::is_ascii_digit) {
+        *pos += 1;
+    }
+    std::str::from_utf8(&bytes[start..*pos]).ok()?.parse().ok()
+}
+
+/// Shades written for each cell: map_server's own (black walls, white free, grey unknown).
+const OCCUPIED_SHADE: u16 = 0;
+const FREE_SHADE: u16 = 254;
+const UNKNOWN_SHADE: u16 = 205;
+
+impl OccupancyGrid {
+    /// Reads a map_server YAML file and the image it names.
+    pub fn load(yaml: &Path) -> Result<Self, RosMapError> {
+        let text = std::fs::read_to_string(yaml).map_err(|source| RosMapError::Io { path: yaml.to_owned(), source })?;
+        let meta = MapMeta::parse(&text, yaml)?;
+        let image = if meta.image.is_absolute() {
+            meta.image.clone()
+        } else {
+            yaml.parent().unwrap_or(Path::new("")).join(&meta.image)
+        };
+        let bytes = std::fs::read(&image).map_err(|source| RosMapError::Io { path: image.clone(), source })?;
+        let pgm = Pgm::parse(&bytes, &image)?;
+        Self::from_image(&meta, &pgm).ok_or_else(|| RosMapError::Image {
+            path: image,
+            message: "the image's values do not fill its width and height".into(),
+        })
+    }
+
+    /// The grid an image shows under `meta`; `None` when the image's values do not fill its
+    /// width and height.
+    pub fn from_image(meta: &MapMeta, pgm: &Pgm) -> Option<Self> {
+        let (width, height) = (pgm.width, pgm.height);
+        if width.checked_mul(height) != Some(pgm.values.len()) {
+            return None;
+        }
+        let mut cells = Vec::with_capacity(width * height);
+        // the image's top row is the grid's last
+        for r in 0..height {
+            let row = &pgm.values[(height - 1 - r) * width..(height - r) * width];
+            cells.extend(row.iter().map(|&v| meta.classify(v, pgm.maxval)));
+        }
+        Some(OccupancyGrid { resolution: meta.resolution, origin: meta.origin, width, height, cells })
+    }
+
+    /// Where lattice point (i, j) (a cell corner, in cells) lies in the map frame.
+    fn corner(&self, i: f64, j: f64) -> Point2<f64> {
+        let (s, c) = self.origin[2].sin_cos();
+        let (x, y) = (i * self.resolution, j * self.resolution);
+        Point2::new(self.origin[0] + c * x - s * y, self.origin[1] + s * x + c * y)
+    }
+
+    /// The wall map of the grid: the occupied cells' faces as walls, simplified to within
+    /// `trace.tolerance` cells; the free cells as the free space seen (no answer is given
+    /// farther from them than the localizer's slack); accuracy `sigma` metres (one cell when
+    /// `None`: a face is known to a cell, and a SLAM map's walls are rarely better).
+    pub fn to_wall_map(&self, trace: &TraceConfig, sigma: Option<f64>) -> Result<WallMap, String> {
+        let raster = Raster { width: self.width, height: self.height, cells: &self.cells };
+        let walls: Vec<Wall> = crate::trace::walls(&raster, trace)
+            .into_iter()
+            .map(|w| {
+                let (a, b) = (self.corner(w[0], w[1]), self.corner(w[2], w[3]));
+                Wall::new(a.x, a.y, b.x, b.y)
+            })
+            .filter(|w| w.length() >= MIN_WALL_LENGTH)
+            .collect();
+        if walls.is_empty() {
+            return Err("no occupied cells outline a wall: is the image negated (negate: 1), or are the \
+                        thresholds off?"
+                .into());
+        }
+        let corners =
+            [(0.0, 0.0), (self.width as f64, 0.0), (0.0, self.height as f64), (self.width as f64, self.height as f64)]
+                .map(|(i, j)| self.corner(i, j));
+        let lo = corners.iter().fold(Point2::new(f64::INFINITY, f64::INFINITY), |m, p| m.inf(p));
+        let hi = corners.iter().fold(Point2::new(f64::NEG_INFINITY, f64::NEG_INFINITY), |m, p| m.sup(p));
+        // the raster at the grid's own cells (coarser when it would be too large)
+        let mut cell = self.resolution;
+        let seen_free = loop {
+            match SeenFree::covering(lo, hi, cell) {
+                Some(s) => break Some(s),
+                None if cell < 1.0e3 => cell *= 2.0,
+                None => break None,
+            }
+        };
+        let seen_free = seen_free.map(|mut seen| {
+            for (k, _) in self.cells.iter().enumerate().filter(|(_, &c)| c == Cell::Free) {
+                let q = self.corner((k % self.width) as f64 + 0.5, (k / self.width) as f64 + 0.5);
+                seen.mark_ray(q, q);
+            }
+            seen
+        });
+        Ok(WallMap { walls, sigma: sigma.unwrap_or(self.resolution / 2.0), seen_free })
+    }
+
+    /// A grid of `resolution` metres drawing `map`: a cell is occupied when a wall passes
+    /// through it or within `thickness / 2` of its centre; free when it lies inside the
+    /// building (within the map's closed outline, and where its survey saw free space when it
+    /// says), unknown elsewhere.
+    pub fn from_walls(map: &WallMap, resolution: f64, thickness: f64) -> Result<Self, String> {
+        if !(resolution.is_finite() && resolution > 0.0 && thickness.is_finite() && thickness >= 0.0) {
+            return Err(format!(
+                "resolution {resolution} and thickness {thickness}: a positive and a non-negative number of metres"
+            ));
+        }
+        let (lo, hi) = map.bounds();
+        let margin = 2.0 * resolution + thickness;
+        let origin = lo - Vector2::new(margin, margin);
+        let width = ((hi.x - lo.x + 2.0 * margin) / resolution).ceil() as usize;
+        let height = ((hi.y - lo.y + 2.0 * margin) / resolution).ceil() as usize;
+        if width.checked_mul(height).is_none_or(|n| n > MAX_CELLS) {
+            return Err(format!("{width} x {height} cells of {resolution} m: at most {MAX_CELLS} are written"));
+        }
+        let mut occupied = vec![false; width * height];
+        let cell_of = |p: Point2<f64>| {
+            let (c, r) = ((p.x - origin.x) / resolution, (p.y - origin.y) / resolution);
+            (c >= 0.0 && r >= 0.0 && (c as usize) < width && (r as usize) < height)
+                .then(|| r as usize * width + c as usize)
+        };
+        let half = thickness / 2.0;
+        for w in &map.walls {
+            // the cells the wall crosses, at quarter-cell steps
+            let steps = (w.length() / (0.25 * resolution)).ceil().max(1.0) as usize;
+            for k in 0..=steps {
+                if let Some(i) = cell_of(w.a + (w.b - w.a) * (k as f64 / steps as f64)) {
+                    occupied[i] = true;
+                }
+            }
+            // and those whose centre lies within half the thickness
+            let (wl, wh) = (w.a.inf(&w.b) - Vector2::new(half, half), w.a.sup(&w.b) + Vector2::new(half, half));
+            let c0 = ((wl.x - origin.x) / resolution).floor().max(0.0) as usize;
+            let r0 = ((wl.y - origin.y) / resolution).floor().max(0.0) as usize;
+            let c1 = (((wh.x - origin.x) / resolution).ceil() as usize).min(width);
+            let r1 = (((wh.y - origin.y) / resolution).ceil() as usize).min(height);
+            for r in r0..r1 {
+                for c in c0..c1 {
+                    let centre = origin + Vector2::new((c as f64 + 0.5) * resolution, (r as f64 + 0.5) * resolution);
+                    if w.closest(centre).0 <= half {
+                        occupied[r * width + c] = true;
+                    }
+                }
+            }
+        }
+        let inside = inside_space(&occupied, width, height);
+        let cells = (0..width * height)
+            .map(|i| {
+                let centre = origin + Vector2::new((i % width) as f64 + 0.5, (i / width) as f64 + 0.5) * resolution;
+                if occupied[i] {
+                    Cell::Occupied
+                } else if !inside[i] || map.seen_free.as_ref().is_some_and(|s| !s.contains(centre)) {
+                    Cell::Unknown
+                } else {
+                    Cell::Free
+                }
+            })
+            .collect();
+        Ok(OccupancyGrid { resolution, origin: [origin.x, origin.y, 0.0], width, height, cells })
+    }
+
+    /// The image of the grid, map_server's shades (top row first).
+    pub fn to_pgm(&self) -> Pgm {
+        let mut values = Vec::with_capacity(self.cells.len());
+        for r in (0..self.height).rev() {
+            values.extend(self.cells[r * self.width..(r + 1) * self.width].iter().map(|c| match c {
+                Cell::Occupied => OCCUPIED_SHADE,
+                Cell::Free => FREE_SHADE,
+                Cell::Unknown => UNKNOWN_SHADE,
+            }));
+        }
+        Pgm { width: self.width, height: self.height, maxval: 255, values }
+    }
+
+    /// Writes the grid as `yaml` and the PGM beside it (same name, `.pgm`).
+    pub fn save(&self, yaml: &Path) -> Result<(), RosMapError> {
+        let image = yaml.with_extension("pgm");
+        let name = image.file_name().map_or("map.pgm".into(), |n| n.to_string_lossy().into_owned());
+        std::fs::write(&image, self.to_pgm().to_bytes())
+            .map_err(|source| RosMapError::Io { path: image.clone(), source })?;
+        let text = format!(
+            "image: {name}\nresolution: {}\norigin: [{}, {}, {}]\nnegate: 0\noccupied_thresh: 0.65\nfree_thresh: 0.196\nmode: trinary\n",
+            self.resolution, self.origin[0], self.origin[1], self.origin[2]
+        );
+        std::fs::write(yaml, text).map_err(|source| RosMapError::Io { path: yaml.to_owned(), source })
+    }
+}
+
+/// Which cells that are not `occupied` a robot can be in: the 4-connected regions of them at
+/// least a twentieth the size of the largest, leaving out the region around a closed building
+/// (it touches the raster's border) unless the building is open (that region is then the
+/// largest). The inside of a wall drawn as two faces, of a rack or a pillar, is too small.
+fn inside_space(occupied: &[bool], width: usize, height: usize) -> Vec<bool> {
+    let mut label = vec![u32::MAX; occupied.len()];
+    // (size, touches the border) of each region
+    let mut regions: Vec<(usize, bool)> = Vec::new();
+    let mut stack = Vec::new();
+    for start in 0..occupied.len() {
+        if occupied[start] || label[start] != u32::MAX {
+            continue;
+        }
+        let id = regions.len() as u32;
+        let (mut size, mut border) = (0, false);
+        label[start] = id;
+        stack.push(start);
+        while let Some(i) = stack.pop() {
+            size += 1;
+            let (c, r) = (i % width, i / width);
+            border |= c == 0 || r == 0 || c + 1 == width || r + 1 == height;
+            let neighbours = [
+                (c > 0).then(|| i - 1),
+                (c + 1 < width).then(|| i + 1),
+                (r > 0).then(|| i - width),
+                (r + 1 < height).then(|| i + width),
+            ];
+            for j in neighbours.into_iter().flatten() {
+                if !occupied[j] && label[j] == u32::MAX {
+                    label[j] = id;
+                    stack.push(j);
+                }
+            }
+        }
+        regions.push((size, border));
+    }
+    let largest = |border: bool| regions.iter().filter(|r| r.1 == border).map(|r| r.0).max().unwrap_or(0);
+    let open = largest(true) > largest(false);
+    let least = largest(open).max(largest(false)) / 20;
+    let kept: Vec<bool> = regions.iter().map(|&(size, border)| (open || !border) && size >= least.max(1)).collect();
+    label.iter().map(|&l| l != u32::MAX && kept[l as usize]).collect()
+}
+
+/// Whether `path` names a map_server YAML file.
+pub fn is_ros_map(path: &Path) -> bool {
+    path.extension().is_some_and(|e| e.eq_ignore_ascii_case("yaml") || e.eq_ignore_ascii_case("yml"))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    fn meta(text: &str) -> Result<MapMeta, RosMapError> {
+        MapMeta::parse(text, Path::new("m.yaml"))
+    }
+
+    #[test]
+    fn a_map_server_yaml_file_is_read_with_its_defaults() {
+        let m = meta(
+            "# a map\nimage: 'floor #2.pgm'  # the image\nresolution: 0.05\norigin: [-10.0, -5.5, 0.0]\nnegate: 0\n\
+                      occupied_thresh: 0.65\nfree_thresh: 0.196\nname: x\n",
+        )
+        .unwrap();
+        assert_eq!(m.image, PathBuf::from("floor #2.pgm"));
+        assert_eq!((m.resolution, m.origin, m.negate, m.mode), (0.05, [-10.0, -5.5, 0.0], false, Mode::Trinary));
+        let m = meta("image: a.pgm\nresolution: 0.1\norigin: [0, 0, 0]\nmode: raw\nnegate: 1").unwrap();
+        assert_eq!((m.mode, m.negate, m.free_thresh), (Mode::Raw, true, 0.196));
+    }
+
+    #[test]
+    fn a_bad_yaml_file_is_refused_naming_the_line() {
+        for (text, says) in [
+            ("image: a.pgm\nresolution: fine\norigin: [0, 0, 0]", "m.yaml: line 2: resolution must be a number"),
+            ("image: a.pgm\nresolution: 0.05\norigin: [0, 0]", "m.yaml: line 3: origin must be [x, y, yaw]"),
+            ("image: a.pgm\nresolution: -1\norigin: [0, 0, 0]", "line 2: resolution must be a positive"),
+            ("image: a.pgm\nresolution: 0.05\norigin: [0, 0, nan]", "line 3: origin"),
+            ("image: a.pgm\nthis is not yaml\n", "m.yaml: line 2: expected `key: value`"),
+            ("resolution: 0.05\norigin: [0, 0, 0]", "m.yaml: no `image:`"),
+            ("image: a.pgm\norigin: [0, 0, 0]", "no `resolution:`"),
+            ("image: a.pgm\nresolution: 0.05\norigin: [0,0,0]\nfree_thresh: 0.9", "free_thresh 0.9 is above"),
+            ("image: a.pgm\nresolution: 0.05\norigin: [0,0,0]\nnegate: maybe", "line 4: negate must be 0 or 1"),
+            ("image: a.pgm\nresolution: 0.05\norigin: [0,0,0]\nmode: fancy", "line 4: mode must be"),
+        ] {
+            let e = meta(text).unwrap_err().to_string();
+            assert!(e.contains(says), "{text:?}: {e}");
+        }
+    }
+
+    #[test]
+    fn pgm_images_are_read_in_both_encodings_and_bad_ones_refused() {
+        let text = b"P2\n# made by hand\n3 2\n255\n0 254 205\n10 20 30\n";
+        let p = Pgm::parse(text, Path::new("a.pgm")).unwrap();
+        assert_eq!((p.width, p.height, p.maxval), (3, 2, 255));
+        assert_eq!(p.values, vec![0, 254, 205, 10, 20, 30]);
+        assert_eq!(Pgm::parse(&p.to_bytes(), Path::new("b.pgm")).unwrap(), p);
+        let wide = Pgm { width: 2, height: 1, maxval: 1000, values: vec![1000, 3] };
+        assert_eq!(Pgm::parse(&wide.to_bytes(), Path::new("c.pgm")).unwrap(), wide);
+        for (bytes, says) in [
+            (&b"\x89PNG\r\n"[..], "a.pgm: is a PNG image"),
+            (b"P6\n1 1\n255\n\0\0\0", "not a PGM image"),
+            (b"P5\n3 2\n255\n\0\0", "stops after 2 of 6 bytes"),
+            (b"P2\n2 2\n255\n1 2 3", "has 3 of 4 values"),
+            (b"P2\n2 1\n100\n1 200", "pixel 1 has value 200 above maxval 100"),
+            (b"P5\n0 2\n255\n", "none of them may be 0"),
+            (b"P5\n99999 99999\n255\n", "at most"),
+            (b"P5\n4", "the header has no height"),
+        ] {
+            let e = Pgm::parse(bytes, Path::new("a.pgm")).unwrap_err().to_string();
+            assert!(e.contains(says), "{e}");
+        }
+    }
+
+    #[test]
+    fn values_become_cells_as_map_server_reads_them() {
+        let m = meta("image: a.pgm\nresolution: 0.05\norigin: [0, 0, 0]").unwrap();
+        assert_eq!(
+            [0, 254, 205, 100].map(|v| m.classify(v, 255)),
+            [Cell::Occupied, Cell::Free, Cell::Unknown, Cell::Unknown]
+        );
+        let negated = MapMeta { negate: true, ..m.clone() };
+        assert_eq!([0, 254].map(|v| negated.classify(v, 255)), [Cell::Free, Cell::Occupied]);
+        let raw = MapMeta { mode: Mode::Raw, ..m };
+        assert_eq!(
+            [0, 100, 50, 255].map(|v| raw.classify(v, 255)),
+            [Cell::Free, Cell::Occupied, Cell::Unknown, Cell::Unknown]
+        );
+    }
+
+    #[test]
+    fn a_grid_is_read_bottom_row_first_and_placed_by_its_origin() {
+        let m = meta("image: a.pgm\nresolution: 0.5\norigin: [10, 20, 0]").unwrap();
+        // the top row free, the bottom row occupied
+        let pgm = Pgm { width: 2, height: 2, maxval: 255, values: vec![254, 254, 0, 0] };
+        let g = OccupancyGrid::from_image(&m, &pgm).unwrap();
+        assert!(OccupancyGrid::from_image(&m, &Pgm { width: 3, ..pgm.clone() }).is_none());
+        assert_eq!(g.cells, vec![Cell::Occupied, Cell::Occupied, Cell::Free, Cell::Free]);
+        assert_eq!(g.corner(2.0, 1.0), Point2::new(11.0, 20.5));
+        let turned = OccupancyGrid { origin: [10.0, 20.0, std::f64::consts::FRAC_PI_2], ..g };
+        assert!((turned.corner(2.0, 0.0) - Point2::new(10.0, 21.0)).norm() < 1e-12);
+    }
+
+    #[test]
+    fn a_grid_with_no_walls_is_refused() {
+        let g = OccupancyGrid { resolution: 0.1, origin: [0.0; 3], width: 4, height: 4, cells: vec![Cell::Free; 16] };
+        assert!(g.to_wall_map(&TraceConfig::default(), None).unwrap_err().contains("negate"));
+    }
+
+    #[test]
+    fn a_plan_drawn_as_a_grid_and_traced_back_keeps_its_faces_and_free_space() {
+        let room = WallMap::new(Wall::rectangle(0.0, 0.0, 6.0, 4.0).to_vec());
+        let grid = OccupancyGrid::from_walls(&room, 0.05, 0.1).unwrap();
+        let dir = std::env::temp_dir().join(format!("gema2-ros-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let yaml = dir.join("room.yaml");
+        grid.save(&yaml).unwrap();
+        let again = OccupancyGrid::load(&yaml).unwrap();
+        std::fs::remove_dir_all(&dir).ok();
+        assert_eq!(again, grid);
+        let map = again.to_wall_map(&TraceConfig::default(), None).unwrap();
+        assert_eq!(map.sigma, 0.025);
+        // the inner faces lie a half thickness inside the drawn walls, to within a cell
+        let inner = Wall::rectangle(0.05, 0.05, 5.95, 3.95);
+        for face in inner {
+            let mid = face.a + (face.b - face.a) * 0.5;
+            let nearest = map.walls.iter().map(|w| w.closest(mid).0).fold(f64::INFINITY, f64::min);
+            assert!(nearest < 0.05, "no wall near {mid}: {nearest}");
+        }
+        let seen = map.seen_free.as_ref().unwrap();
+        assert!(seen.contains(Point2::new(3.0, 2.0)) && !seen.contains(Point2::new(-0.5, 2.0)));
+    }
+
+    proptest! {
+        /// Bytes that are no map never panic the readers.
+        #[test]
+        fn arbitrary_bytes_are_an_error_or_an_image(bytes in proptest::collection::vec(any::<u8>(), 0..64), text in "\\PC{0,80}") {
+            let _ = Pgm::parse(&bytes, Path::new("x.pgm"));
+            let mut with_header = b"P5\n".to_vec();
+            with_header.extend(&bytes);
+            let _ = Pgm::parse(&with_header, Path::new("x.pgm"));
+            let _ = MapMeta::parse(&text, Path::new("x.yaml"));
+        }
+    }
+}
