@@ -376,7 +376,8 @@ impl OccupancyGrid {
                 let (a, b) = (self.corner(w[0], w[1]), self.corner(w[2], w[3]));
                 Wall::new(a.x, a.y, b.x, b.y)
             })
-            .filter(|w| w.length() >= MIN_WALL_LENGTH)
+            // a face shorter than a quarter cell is where two refitted lines meet, not a wall
+            .filter(|w| w.length() >= MIN_WALL_LENGTH.max(0.25 * self.resolution))
             .collect();
         if walls.is_empty() {
             return Err("no occupied cells outline a wall: is the image negated (negate: 1), or are the \
