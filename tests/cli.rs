@@ -369,3 +369,34 @@ fn a_ros_map_of_a_plan_localizes_its_scans() {
     let err = text(&out.stderr);
     assert!(!out.status.success() && err.contains("bad.yaml: line 3: origin must be [x, y, yaw]"), "{err}");
 }
+
+#[test]
+fn a_survey_grid_of_a_log_locates_the_scans_it_was_not_built_from() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = |name: &str| dir.path().join(name).to_str().unwrap().to_owned();
+    let out = gema2(&["sim", "--map", "apartment", "--scans", "80", "--seed", "5", "--out", &p("survey.log")]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    // even scans into a grid (and a wall map), odd scans located on the grid
+    let build = ["map", "build", "--log", &p("survey.log"), "--grid", &p("grid.yaml"), "--out", &p("built.json")];
+    let out = gema2(&build);
+    assert!(out.status.success() && text(&out.stderr).contains("grid.yaml: a "), "{}", text(&out.stderr));
+    let grid = mapserver::OccupancyGrid::load(std::path::Path::new(&p("grid.yaml"))).unwrap();
+    assert!(grid.cells.contains(&mapserver::ros::Cell::Occupied) && grid.cells.contains(&mapserver::ros::Cell::Free));
+    let out = gema2(&["locate", "--map", &p("grid.yaml"), "--log", &p("survey.log"), "--every", "2", "--offset", "1"]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let err = text(&out.stderr);
+    assert!(number_after(&err, "success") >= 80.0, "{err}");
+    let out = gema2(&[
+        "map",
+        "build",
+        "--log",
+        &p("survey.log"),
+        "--grid",
+        &p("g.yaml"),
+        "--grid-cell",
+        "0",
+        "--out",
+        &p("b.json"),
+    ]);
+    assert!(!out.status.success() && text(&out.stderr).contains("--grid-cell"), "{}", text(&out.stderr));
+}

@@ -29,6 +29,6 @@ pub use free_space::{FreeSpace, Outside};
 pub use map::{MapError, Wall, WallMap};
 pub use occupancy::Occupancy;
 pub use raycast::{RayCaster, RayScratch};
-pub use ros::OccupancyGrid;
+pub use ros::{OccupancyGrid, SurveyGrid};
 pub use seen::SeenFree;
 pub use sight::SightLines;

@@ -499,6 +499,89 @@ impl OccupancyGrid {
     }
 }
 
+/// The occupancy grid a survey makes, as a grid-mapping SLAM does at known poses: each beam
+/// adds evidence that its end cell is occupied and that the cells it crossed are free, in log
+/// odds. What `gema2 map build --grid` writes for AMCL, and a grid of real scans to test
+/// [`OccupancyGrid::to_wall_map`] on.
+#[derive(Clone, Debug)]
+pub struct SurveyGrid {
+    origin: Point2<f64>,
+    cell: f64,
+    width: usize,
+    height: usize,
+    log_odds: Vec<f32>,
+}
+
+/// Log odds a beam's end adds to its cell, and a crossed cell loses (gmapping's and
+/// slam_toolbox's usual 0.9 and 0.4, as probabilities about 0.71 and 0.40).
+const HIT_LOG_ODDS: f32 = 0.9;
+const PASS_LOG_ODDS: f32 = 0.4;
+/// A cell is occupied above this log odds, free below minus it, unknown between.
+const DECIDED_LOG_ODDS: f32 = 0.5;
+
+impl SurveyGrid {
+    /// A grid of `cell` metres covering `lo`..`hi`, nothing seen; `None` when the cell is not
+    /// positive and finite or the grid would exceed [`MAX_CELLS`].
+    pub fn covering(lo: Point2<f64>, hi: Point2<f64>, cell: f64) -> Option<Self> {
+        if !(cell.is_finite() && cell > 0.0 && lo.x <= hi.x && lo.y <= hi.y) {
+            return None;
+        }
+        let (w, h) = (((hi.x - lo.x) / cell).ceil().max(1.0), ((hi.y - lo.y) / cell).ceil().max(1.0));
+        // finite: the bounds were compared above, which NaN fails
+        if w * h > MAX_CELLS as f64 {
+            return None;
+        }
+        let (width, height) = (w as usize, h as usize);
+        Some(SurveyGrid { origin: lo, cell, width, height, log_odds: vec![0.0; width * height] })
+    }
+
+    fn index(&self, q: Point2<f64>) -> Option<usize> {
+        let (c, r) = ((q.x - self.origin.x) / self.cell, (q.y - self.origin.y) / self.cell);
+        let inside = c >= 0.0 && r >= 0.0 && (c as usize) < self.width && (r as usize) < self.height;
+        inside.then(|| r as usize * self.width + c as usize)
+    }
+
+    /// A beam from `sensor` whose end lies at `end`: the cells it crosses before its end's
+    /// cell lose evidence, and that cell gains it when `hit` (a return; a beam that ran out of
+    /// range only crossed).
+    pub fn add_beam(&mut self, sensor: Point2<f64>, end: Point2<f64>, hit: bool) {
+        let last = self.index(end);
+        let steps = ((end - sensor).norm() / (0.5 * self.cell)).ceil();
+        let steps = if steps.is_finite() { steps.min(1e7) as usize } else { return };
+        let mut previous = None;
+        for k in 0..steps {
+            let i = self.index(sensor + (end - sensor) * (k as f64 / steps as f64));
+            if let Some(j) = i.filter(|_| i != previous && i != last) {
+                self.log_odds[j] -= PASS_LOG_ODDS;
+            }
+            previous = i;
+        }
+        if let (true, Some(i)) = (hit, last) {
+            self.log_odds[i] += HIT_LOG_ODDS;
+        }
+    }
+
+    /// The grid as map_server would load it.
+    pub fn to_occupancy_grid(&self) -> OccupancyGrid {
+        let cells = self
+            .log_odds
+            .iter()
+            .map(|&l| match l {
+                _ if l > DECIDED_LOG_ODDS => Cell::Occupied,
+                _ if l < -DECIDED_LOG_ODDS => Cell::Free,
+                _ => Cell::Unknown,
+            })
+            .collect();
+        OccupancyGrid {
+            resolution: self.cell,
+            origin: [self.origin.x, self.origin.y, 0.0],
+            width: self.width,
+            height: self.height,
+            cells,
+        }
+    }
+}
+
 /// Which cells that are not `occupied` a robot can be in: the 4-connected regions of them at
 /// least a twentieth the size of the largest, leaving out the region around a closed building
 /// (it touches the raster's border) unless the building is open (that region is then the
@@ -669,6 +752,45 @@ mod tests {
         }
         let seen = map.seen_free.as_ref().unwrap();
         assert!(seen.contains(Point2::new(3.0, 2.0)) && !seen.contains(Point2::new(-0.5, 2.0)));
+    }
+
+    #[test]
+    fn a_survey_of_a_room_marks_its_walls_occupied_and_its_inside_free() {
+        let mut grid = SurveyGrid::covering(Point2::new(-1.0, -1.0), Point2::new(5.0, 4.0), 0.05).unwrap();
+        let caster = crate::RayCaster::new(&Wall::rectangle(0.0, 0.0, 4.0, 3.0));
+        let geometry = laser::ScanGeometry { angle_min: -3.1, angle_increment: 0.01, range_min: 0.02, range_max: 10.0 };
+        let mut ranges = Vec::new();
+        for &(x, y) in &[(1.0, 1.0), (3.0, 2.0), (2.0, 1.5)] {
+            let pose = laser::pose(x, y, 0.0);
+            caster.cast(&pose, &geometry, 620, 1, &mut crate::RayScratch::default(), &mut ranges);
+            for (k, d) in ranges.iter().enumerate() {
+                let a = geometry.angle_min + k as f64 * geometry.angle_increment;
+                grid.add_beam(Point2::new(x, y), Point2::new(x + d * a.cos(), y + d * a.sin()), true);
+            }
+        }
+        let g = grid.to_occupancy_grid();
+        let at = |x: f64, y: f64| g.cells[grid.index(Point2::new(x, y)).unwrap()];
+        // each wall's cells: the cell either side of its line holds its hits
+        let wall = |a: Point2<f64>, b: Point2<f64>| at(a.x, a.y) == Cell::Occupied || at(b.x, b.y) == Cell::Occupied;
+        for (x, y, dx, dy) in
+            [(2.0, 0.0, 0.0, 0.01), (0.0, 1.5, 0.01, 0.0), (4.0, 2.0, 0.01, 0.0), (1.0, 3.0, 0.0, 0.01)]
+        {
+            assert!(wall(Point2::new(x - dx, y - dy), Point2::new(x + dx, y + dy)), "{x} {y}");
+        }
+        assert_eq!((at(2.0, 2.0), at(0.5, 0.5)), (Cell::Free, Cell::Free));
+        assert_eq!(at(-0.5, 1.5), Cell::Unknown);
+        // and traced, its walls lie on the room's
+        let map = g.to_wall_map(&TraceConfig::default(), None).unwrap();
+        let long: Vec<_> = map.walls.iter().filter(|w| w.length() > 2.5).collect();
+        assert!(long.len() >= 4, "{:?}", map.walls);
+        for w in long {
+            let mid = w.a + (w.b - w.a) * 0.5;
+            let off = [mid.x.abs(), (mid.x - 4.0).abs(), mid.y.abs(), (mid.y - 3.0).abs()]
+                .into_iter()
+                .fold(f64::INFINITY, f64::min);
+            assert!(off < 0.06, "{w:?}");
+        }
+        assert!(SurveyGrid::covering(Point2::new(0.0, 0.0), Point2::new(1.0, 1.0), 0.0).is_none());
     }
 
     proptest! {

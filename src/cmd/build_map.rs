@@ -50,6 +50,15 @@ pub struct BuildArgs {
     pub seen_cell: f64,
     #[arg(long)]
     pub out: PathBuf,
+    /// Also write the survey as a ROS map_server occupancy grid (this YAML and a PGM beside
+    /// it): each beam's end adds evidence of a wall, the cells it crossed evidence of free
+    /// space, in log odds, as a grid-mapping SLAM does at these poses. For AMCL, or to compare
+    /// a grid traced into walls (`--map GRID.yaml`) with the map built here.
+    #[arg(long)]
+    pub grid: Option<PathBuf>,
+    /// Cell of `--grid`, metres.
+    #[arg(long, default_value_t = 0.05)]
+    pub grid_cell: f64,
 }
 
 /// A scan's line in the world, with its direction either way along it.
@@ -92,6 +101,12 @@ impl BuildArgs {
 }
 
 pub fn run(a: BuildArgs) -> Result<()> {
+    if let Some(path) = &a.grid {
+        check_metres("--grid-cell", a.grid_cell)?;
+        let grid = survey_grid(&a)?;
+        grid.save(path)?;
+        eprintln!("{}: a {} x {} grid of {} m", path.display(), grid.width, grid.height, grid.resolution);
+    }
     let (map, scans, lines) = build(&a)?;
     std::fs::write(&a.out, map.to_json("built")).with_context(|| format!("writing {}", a.out.display()))?;
     eprintln!("{}: {} walls from {lines} lines of {scans} scans", a.out.display(), map.walls.len());
@@ -134,6 +149,51 @@ pub fn build(a: &BuildArgs) -> Result<(WallMap, usize, usize)> {
 }
 
 /// The scans the map is built from (every `every`-th from `offset`), each with its true pose.
+/// The occupancy grid of the survey's beams ([`mapserver::SurveyGrid`]): returns up to
+/// `--max-range` only (far hits are sparse and blurred), and the cells crossed that far by the
+/// beams that reach farther or return nothing.
+fn survey_grid(a: &BuildArgs) -> Result<mapserver::OccupancyGrid> {
+    // each beam's sensor, end and whether the end is a return
+    let beams = |scan: &LaserScan, truth: &Pose| -> Vec<(Point2<f64>, Point2<f64>, bool)> {
+        let view = scan.view();
+        let sensor = truth * Point2::origin();
+        (0..view.len())
+            .filter_map(|i| {
+                let angle = view.geometry.angle(i);
+                let along = |t: f64| truth * (Point2::new(angle.cos(), angle.sin()) * t);
+                match view.reading(i) {
+                    Reading::Valid(d) if d <= a.max_range => Some((sensor, along(d), true)),
+                    Reading::Valid(_) | Reading::NoReturn => Some((sensor, along(a.max_range), false)),
+                    Reading::Unknown => None,
+                }
+            })
+            .collect()
+    };
+    // the log twice: once for the grid's bounds, once for the beams
+    let mut bounds: Option<(Point2<f64>, Point2<f64>)> = None;
+    for item in survey(a)? {
+        let (scan, truth) = item?;
+        for (s, e, _) in beams(&scan, &truth) {
+            let (lo, hi) = bounds.unwrap_or((s, s));
+            bounds = Some((lo.inf(&s).inf(&e), hi.sup(&s).sup(&e)));
+        }
+    }
+    let Some((lo, hi)) = bounds else {
+        bail!("{}: no beam to draw a grid from", a.log.display());
+    };
+    let margin = Vector2::new(2.0 * a.grid_cell, 2.0 * a.grid_cell);
+    let Some(mut grid) = mapserver::SurveyGrid::covering(lo - margin, hi + margin, a.grid_cell) else {
+        bail!("--grid-cell {}: the survey spans too many cells of that size", a.grid_cell);
+    };
+    for item in survey(a)? {
+        let (scan, truth) = item?;
+        for (sensor, end, hit) in beams(&scan, &truth) {
+            grid.add_beam(sensor, end, hit);
+        }
+    }
+    Ok(grid.to_occupancy_grid())
+}
+
 fn survey(a: &BuildArgs) -> Result<impl Iterator<Item = Result<(LaserScan, Pose)>> + '_> {
     let reader = CarmenReader::open(&a.log, FlaserLayout::default())?;
     let every = a.every.max(1);
