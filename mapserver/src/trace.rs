@@ -5,13 +5,17 @@
 //! free ones; so only those cell edges become walls. Where occupied cells meet unknown ones
 //! (the inside of a thick wall, the far side of the building's outer wall) nothing was seen,
 //! and where free cells meet unknown ones (the edge of what the survey explored, a door into a
-//! room it never entered) there is no wall. The outlines are traced around everything that is
-//! not free, with the free cells on the right; where two such cells touch only at a corner the
-//! outline turns right, so a wall drawn diagonally (a staircase of cells touching at their
-//! corners) is one outline, not a chain of single cells. Each stretch of an outline that faces
-//! free cells from occupied ones is simplified by Douglas-Peucker to within a tolerance, each
-//! piece is refitted by total least squares to the boundary points it replaces, and
-//! neighbouring pieces meet where their lines cross.
+//! room it never entered) there is no wall; but an unknown cell touching an occupied one is
+//! taken as occupied first ([`close_fringes`]), since hits smear across cell edges.
+//!
+//! The outlines are traced around everything that is not free, with the free cells on the
+//! right; where two such cells touch only at a corner the outline turns right, so a wall drawn
+//! diagonally (a staircase of cells touching at their corners) is one outline, not a chain of
+//! single cells. Each stretch of an outline that faces free cells from occupied ones is
+//! simplified by Douglas-Peucker to within a tolerance, pieces are joined across bumps (where
+//! nine tenths of what they replace lies within the tolerance), each piece is refitted by
+//! total least squares to the boundary points it replaces and set half a cell behind the cell
+//! edge ([`TraceConfig::face_depth`]), and neighbouring pieces meet where their lines cross.
 
 /// What a cell of an occupancy grid says.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -47,9 +51,10 @@ impl Raster<'_> {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct TraceConfig {
     /// Largest distance of a boundary point from the wall that replaces it, in cells (the
-    /// Douglas-Peucker tolerance; pieces are then joined where nine tenths of the outline they
-    /// replace stays within it, [`join_pieces`]). A staircase of cells drawing a
-    /// diagonal wall strays 0.7 cells from it, and a SLAM map's walls are ragged by a cell.
+    /// Douglas-Peucker tolerance; pieces are then joined where nine tenths of the outline
+    /// they replace stays within it and none strays past four times it). A staircase of cells
+    /// drawing a diagonal wall strays 0.7 cells from it, and a SLAM map's walls are ragged by a
+    /// cell.
     pub tolerance: f64,
     /// Outlines enclosing fewer cells than this are noise (a speck, a pinhole) and give no walls.
     pub min_cells: f64,
