@@ -53,8 +53,21 @@ enum StageCommand {
     Mapserver(mapserver::node::MapServerArgs),
 }
 
+/// Lets a closed stdout end the process quietly, as it ends `ls` or `grep`: `gema2 map info M
+/// | head -1` would otherwise panic on the broken pipe. Not for the pipeline's processes, which
+/// handle their own signals and must not die with a consumer that stopped reading.
+fn exit_quietly_on_a_closed_pipe() {
+    // SAFETY: restoring a signal's default disposition, before any thread starts
+    unsafe {
+        libc::signal(libc::SIGPIPE, libc::SIG_DFL);
+    }
+}
+
 fn main() -> anyhow::Result<()> {
     let cli = Cli::parse();
+    if !matches!(cli.command, Some(Command::Run(_) | Command::Stage(_) | Command::EmulateUrg(_) | Command::Swap(_))) {
+        exit_quietly_on_a_closed_pipe();
+    }
     match cli.command {
         Some(Command::Map(c)) => cmd::map::run(c),
         Some(Command::Sim(a)) => cmd::sim::run(a),

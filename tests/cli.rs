@@ -400,3 +400,18 @@ fn a_survey_grid_of_a_log_locates_the_scans_it_was_not_built_from() {
     ]);
     assert!(!out.status.success() && text(&out.stderr).contains("--grid-cell"), "{}", text(&out.stderr));
 }
+
+#[test]
+fn a_closed_stdout_ends_a_command_quietly() {
+    // as `gema2 map info office | head -0` does: the reader is gone before the first line
+    let mut child = Command::new(env!("CARGO_BIN_EXE_gema2"))
+        .args(["map", "info", "office"])
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("gema2 runs");
+    drop(child.stdout.take());
+    let out = child.wait_with_output().unwrap();
+    let err = text(&out.stderr);
+    assert!(!err.contains("panicked") && out.status.code() != Some(101), "{:?} {err}", out.status);
+}
