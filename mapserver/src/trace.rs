@@ -12,7 +12,8 @@
 //! right; where two such cells touch only at a corner the outline turns right, so a wall drawn
 //! diagonally (a staircase of cells touching at their corners) is one outline, not a chain of
 //! single cells. Each stretch of an outline that faces free cells from occupied ones is
-//! simplified by Douglas-Peucker to within a tolerance, pieces are joined across bumps (where
+//! simplified by Douglas-Peucker to within a tolerance, keeping the points where it turns back
+//! round the end of a thin wall, pieces are joined across bumps (where
 //! nine tenths of what they replace lies within the tolerance), each piece is refitted by
 //! total least squares to the boundary points it replaces and set half a cell behind the cell
 //! edge ([`TraceConfig::face_depth`]), and neighbouring pieces meet where their lines cross.
@@ -265,13 +266,57 @@ fn turns(points: impl Iterator<Item = [f64; 2]>, closed: bool) -> Vec<[f64; 2]> 
 
 /// The vertices of the walls replacing a path: simplified, then refitted.
 fn polyline(points: &[[f64; 2]], closed: bool, cfg: &TraceConfig) -> Vec<[f64; 2]> {
+    let turns = u_turns(points, closed);
     let (kept, anchors) = if closed {
-        simplify_closed(points, cfg.tolerance)
+        simplify_closed(points, &turns, cfg.tolerance)
     } else {
-        (simplify_open(points, cfg.tolerance), Vec::new())
+        (simplify_open(points, &turns, cfg.tolerance), turns)
     };
     let kept = join_pieces(points, kept, &anchors, closed, cfg.tolerance);
     refit(points, &kept, closed, cfg.tolerance, cfg.face_depth)
+}
+
+/// Length of outline, in cells, either side of a point over which [`u_turns`] judges its
+/// direction: longer than a staircase's steps and a bump, shorter than a wall's face.
+const TURN_WINDOW: f64 = 3.0;
+
+/// The points where the path turns back on itself (by more than 120 degrees within
+/// [`TURN_WINDOW`] cells either side): the end of a wall body one or two cells thick, where
+/// its outline comes round from one face to the other. Douglas-Peucker would take the two
+/// faces, closer than its tolerance, for one line along the body's diagonal; so these points
+/// are kept.
+fn u_turns(points: &[[f64; 2]], closed: bool) -> Vec<usize> {
+    let n = points.len();
+    let length = |a: [f64; 2], b: [f64; 2]| (b[0] - a[0]).hypot(b[1] - a[1]);
+    // the point `TURN_WINDOW` along the path from `k`, going `forward` or back
+    let reach = |k: usize, forward: bool| -> Option<[f64; 2]> {
+        let (mut at, mut walked) = (k, 0.0);
+        for _ in 0..n {
+            let next = match (forward, closed) {
+                (true, true) => (at + 1) % n,
+                (false, true) => (at + n - 1) % n,
+                (true, false) => (at + 1 < n).then_some(at + 1)?,
+                (false, false) => at.checked_sub(1)?,
+            };
+            walked += length(points[at], points[next]);
+            at = next;
+            if walked >= TURN_WINDOW {
+                return Some(points[at]);
+            }
+        }
+        None
+    };
+    (0..n)
+        .filter(|&k| {
+            let (Some(back), Some(ahead)) = (reach(k, false), reach(k, true)) else {
+                return false;
+            };
+            let p = points[k];
+            let (u, v) = ([p[0] - back[0], p[1] - back[1]], [ahead[0] - p[0], ahead[1] - p[1]]);
+            let norms = u[0].hypot(u[1]) * v[0].hypot(v[1]);
+            norms > 0.0 && (u[0] * v[0] + u[1] * v[1]) < -0.5 * norms
+        })
+        .collect()
 }
 
 /// Drops kept points (never an anchor, nor an open path's ends) while the path between the
@@ -336,7 +381,7 @@ fn distance_to_segment(p: [f64; 2], a: [f64; 2], b: [f64; 2]) -> f64 {
 /// it, and the point of each half farthest from the chord between those two. A wall body
 /// thinner than the tolerance (a wall one cell thick) keeps its four corners that way, where
 /// two halves would each lie within the tolerance of the body's diagonal.
-fn simplify_closed(points: &[[f64; 2]], tolerance: f64) -> (Vec<usize>, Vec<usize>) {
+fn simplify_closed(points: &[[f64; 2]], turns: &[usize], tolerance: f64) -> (Vec<usize>, Vec<usize>) {
     let n = points.len();
     if n <= 4 {
         return ((0..n).collect(), (0..n).collect());
@@ -355,6 +400,7 @@ fn simplify_closed(points: &[[f64; 2]], tolerance: f64) -> (Vec<usize>, Vec<usiz
     let mut anchors = vec![0, far, n];
     anchors.extend(off_chord(1..far));
     anchors.extend(off_chord(far + 1..n));
+    anchors.extend_from_slice(turns);
     anchors.sort_unstable();
     anchors.dedup();
     let kept = douglas_peucker(points, anchors.windows(2).map(|w| (w[0], w[1])).collect(), tolerance);
@@ -362,12 +408,18 @@ fn simplify_closed(points: &[[f64; 2]], tolerance: f64) -> (Vec<usize>, Vec<usiz
     (kept, anchors)
 }
 
-/// Douglas-Peucker over an open path: the indices kept, both ends among them.
-fn simplify_open(points: &[[f64; 2]], tolerance: f64) -> Vec<usize> {
+/// Douglas-Peucker over an open path: the indices kept, both ends and `turns` among them.
+fn simplify_open(points: &[[f64; 2]], turns: &[usize], tolerance: f64) -> Vec<usize> {
     match points.len() {
         0 => Vec::new(),
         1 => vec![0],
-        n => douglas_peucker(points, vec![(0, n - 1)], tolerance),
+        n => {
+            let mut anchors = vec![0, n - 1];
+            anchors.extend_from_slice(turns);
+            anchors.sort_unstable();
+            anchors.dedup();
+            douglas_peucker(points, anchors.windows(2).map(|w| (w[0], w[1])).collect(), tolerance)
+        }
     }
 }
 
@@ -596,6 +648,20 @@ mod tests {
             &TraceConfig { face_depth: 0.0, ..TraceConfig::default() },
         );
         assert_eq!(got, vec![[0.0, 2.0, 10.0, 2.0]]);
+    }
+
+    #[test]
+    fn a_wall_one_cell_thick_keeps_its_faces_round_its_ends_and_joints() {
+        // an L of walls one cell thick: thinner than the tolerance, so without its U-turns
+        // anchored Douglas-Peucker drew each arm as a line along its diagonal
+        let cells = raster(34, 24, |c, r| (r == 5 && (2..30).contains(&c)) || (c == 29 && (5..20).contains(&r)));
+        let got = walls(&Raster { width: 34, height: 24, cells: &cells }, &TraceConfig::default());
+        let long: Vec<&[f64; 4]> = got.iter().filter(|w| (w[2] - w[0]).hypot(w[3] - w[1]) > 3.0).collect();
+        // each arm's two faces
+        assert_eq!(long.len(), 4, "{got:?}");
+        for w in long {
+            assert!((w[2] - w[0]).abs() < 0.05 || (w[3] - w[1]).abs() < 0.05, "{w:?} is not along an arm");
+        }
     }
 
     #[test]
