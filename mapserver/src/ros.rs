@@ -366,8 +366,9 @@ impl OccupancyGrid {
 
     /// The wall map of the grid: the occupied cells' faces as walls, simplified to within
     /// `trace.tolerance` cells; the free cells as the free space seen (no answer is given
-    /// farther from them than the localizer's slack); accuracy `sigma` metres (one cell when
-    /// `None`: a face is known to a cell, and a SLAM map's walls are rarely better).
+    /// farther from them than the localizer's slack); accuracy `sigma` metres (half a cell when
+    /// `None`: how far a surface may lie from where its face is drawn; a SLAM map's walls are
+    /// often worse, and should say so).
     pub fn to_wall_map(&self, trace: &TraceConfig, sigma: Option<f64>) -> Result<WallMap, String> {
         let raster = Raster { width: self.width, height: self.height, cells: &self.cells };
         let walls: Vec<Wall> = crate::trace::walls(&raster, trace)
@@ -410,8 +411,9 @@ impl OccupancyGrid {
 
     /// A grid of `resolution` metres drawing `map`: a cell is occupied when a wall passes
     /// through it or within `thickness / 2` of its centre; free when it lies inside the
-    /// building (within the map's closed outline, and where its survey saw free space when it
-    /// says), unknown elsewhere.
+    /// building (a 4-connected region of cells at least a twentieth the size of the largest,
+    /// not the one around a closed building) and, when the map says where its survey saw free
+    /// space, there; unknown elsewhere.
     pub fn from_walls(map: &WallMap, resolution: f64, thickness: f64) -> Result<Self, String> {
         if !(resolution.is_finite() && resolution > 0.0 && thickness.is_finite() && thickness >= 0.0) {
             return Err(format!(

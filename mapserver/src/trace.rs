@@ -202,8 +202,8 @@ pub fn close_fringes(raster: &Raster<'_>) -> Vec<Cell> {
 /// right of each wall's direction. Unknown cells touching occupied ones are taken as occupied
 /// first ([`close_fringes`]).
 pub fn walls(raster: &Raster<'_>, cfg: &TraceConfig) -> Vec<[f64; 4]> {
-    let closed = close_fringes(raster);
-    let raster = &Raster { cells: &closed, ..*raster };
+    let fringed = close_fringes(raster);
+    let raster = &Raster { cells: &fringed, ..*raster };
     let mut walls = Vec::new();
     for outline in outlines(raster) {
         if (twice_area(&outline.points).abs() as f64) < 2.0 * cfg.min_cells {
@@ -215,7 +215,7 @@ pub fn walls(raster: &Raster<'_>, cfg: &TraceConfig) -> Vec<[f64; 4]> {
             [i as f64, j as f64]
         };
         let vertices: Vec<Vec<[f64; 2]>> = match outline.faces.iter().position(|&f| !f) {
-            None => vec![polyline(&turns((0..n).map(point), true), true, cfg)],
+            None => vec![polyline(&turning_points((0..n).map(point), true), true, cfg)],
             // the stretches of faces, from an edge that is none
             Some(gap) => {
                 let mut stretches = Vec::new();
@@ -229,13 +229,14 @@ pub fn walls(raster: &Raster<'_>, cfg: &TraceConfig) -> Vec<[f64; 4]> {
                     while k < gap + n && outline.faces[k % n] {
                         k += 1;
                     }
-                    stretches.push(polyline(&turns((first..=k).map(point), false), false, cfg));
+                    stretches.push(polyline(&turning_points((first..=k).map(point), false), false, cfg));
                 }
                 stretches
             }
         };
-        for (v, closed) in vertices.iter().map(|v| (v, outline.faces.iter().all(|&f| f))) {
-            let count = if closed { v.len() } else { v.len().saturating_sub(1) };
+        let all_faces = outline.faces.iter().all(|&f| f);
+        for v in &vertices {
+            let count = if all_faces { v.len() } else { v.len().saturating_sub(1) };
             for k in 0..count {
                 let (a, b) = (v[k], v[(k + 1) % v.len()]);
                 if (a[0] - b[0]).hypot(a[1] - b[1]) > 1e-9 {
@@ -248,7 +249,7 @@ pub fn walls(raster: &Raster<'_>, cfg: &TraceConfig) -> Vec<[f64; 4]> {
 }
 
 /// The points where a path of unit steps turns (and, for an open one, its two ends).
-fn turns(points: impl Iterator<Item = [f64; 2]>, closed: bool) -> Vec<[f64; 2]> {
+fn turning_points(points: impl Iterator<Item = [f64; 2]>, closed: bool) -> Vec<[f64; 2]> {
     let all: Vec<[f64; 2]> = points.collect();
     let n = all.len();
     let direction = |a: [f64; 2], b: [f64; 2]| [b[0] - a[0], b[1] - a[1]];
@@ -266,11 +267,11 @@ fn turns(points: impl Iterator<Item = [f64; 2]>, closed: bool) -> Vec<[f64; 2]> 
 
 /// The vertices of the walls replacing a path: simplified, then refitted.
 fn polyline(points: &[[f64; 2]], closed: bool, cfg: &TraceConfig) -> Vec<[f64; 2]> {
-    let turns = u_turns(points, closed);
+    let back = u_turns(points, closed);
     let (kept, anchors) = if closed {
-        simplify_closed(points, &turns, cfg.tolerance)
+        simplify_closed(points, &back, cfg.tolerance)
     } else {
-        (simplify_open(points, &turns, cfg.tolerance), turns)
+        (simplify_open(points, &back, cfg.tolerance), back)
     };
     let kept = join_pieces(points, kept, &anchors, closed, cfg.tolerance);
     refit(points, &kept, closed, cfg.tolerance, cfg.face_depth)
@@ -550,7 +551,7 @@ mod tests {
         assert_eq!(points.len(), 10);
         assert_eq!(points[..4], [(1, 2), (2, 2), (3, 2), (4, 2)]);
         assert!(loops[0].faces.iter().all(|&f| f));
-        let corners = turns(points.iter().map(|&(i, j)| [i as f64, j as f64]), true);
+        let corners = turning_points(points.iter().map(|&(i, j)| [i as f64, j as f64]), true);
         assert_eq!(corners, vec![[1.0, 2.0], [4.0, 2.0], [4.0, 4.0], [1.0, 4.0]]);
         assert_eq!(twice_area(points), 2 * 6);
     }
