@@ -1,7 +1,7 @@
 //! The map server process: loads the map, publishes it on `gema2/map` with history (so a
 //! localizer that starts later gets it), answers corner queries on `gema2/map/corners`
 //! (inner angle and tolerance, optionally within a region), and reloads the map when its file
-//! changes or on SIGHUP, publishing a new version.
+//! (or a ROS map's image) changes or on SIGHUP, publishing a new version.
 
 use crate::{load_map, CornerIndex, MapCornerConfig, WallMap};
 use anyhow::{anyhow, bail, Result};
@@ -30,8 +30,11 @@ extern "C" fn on_sighup(_: libc::c_int) {
     RELOAD.store(true, Ordering::Relaxed);
 }
 
+/// When the map's files last changed: a ROS map's YAML file or the image it names.
 fn modified(spec: &str) -> Option<SystemTime> {
-    std::fs::metadata(Path::new(spec)).and_then(|m| m.modified()).ok()
+    let path = Path::new(spec);
+    let files = if crate::ros::is_ros_map(path) { crate::ros::files_of(path) } else { vec![path.to_owned()] };
+    files.iter().filter_map(|f| std::fs::metadata(f).and_then(|m| m.modified()).ok()).max()
 }
 
 fn load(spec: &str) -> Result<(WallMap, CornerIndex)> {

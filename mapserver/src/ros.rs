@@ -173,6 +173,15 @@ impl MapMeta {
         Ok(meta)
     }
 
+    /// The image's path, relative to the folder of the YAML file at `yaml` unless absolute.
+    pub fn image_beside(&self, yaml: &Path) -> PathBuf {
+        if self.image.is_absolute() {
+            self.image.clone()
+        } else {
+            yaml.parent().unwrap_or(Path::new("")).join(&self.image)
+        }
+    }
+
     /// What a pixel of value `v` (of `maxval`) says, as map_server reads it.
     pub fn classify(&self, v: u16, maxval: u16) -> Cell {
         if self.mode == Mode::Raw {
@@ -328,11 +337,7 @@ impl OccupancyGrid {
     pub fn load(yaml: &Path) -> Result<Self, RosMapError> {
         let text = std::fs::read_to_string(yaml).map_err(|source| RosMapError::Io { path: yaml.to_owned(), source })?;
         let meta = MapMeta::parse(&text, yaml)?;
-        let image = if meta.image.is_absolute() {
-            meta.image.clone()
-        } else {
-            yaml.parent().unwrap_or(Path::new("")).join(&meta.image)
-        };
+        let image = meta.image_beside(yaml);
         let bytes = std::fs::read(&image).map_err(|source| RosMapError::Io { path: image.clone(), source })?;
         let pgm = Pgm::parse(&bytes, &image)?;
         Self::from_image(&meta, &pgm).ok_or_else(|| RosMapError::Image {
@@ -627,6 +632,15 @@ fn inside_space(occupied: &[bool], width: usize, height: usize) -> Vec<bool> {
     label.iter().map(|&l| l != u32::MAX && kept[l as usize]).collect()
 }
 
+/// The files a map_server map is read from: the YAML file and, when it parses, the image it
+/// names (what a map server watches for changes).
+pub fn files_of(yaml: &Path) -> Vec<PathBuf> {
+    let mut files = vec![yaml.to_owned()];
+    let meta = std::fs::read_to_string(yaml).ok().and_then(|text| MapMeta::parse(&text, yaml).ok());
+    files.extend(meta.map(|m| m.image_beside(yaml)));
+    files
+}
+
 /// Whether `path` names a map_server YAML file.
 pub fn is_ros_map(path: &Path) -> bool {
     path.extension().is_some_and(|e| e.eq_ignore_ascii_case("yaml") || e.eq_ignore_ascii_case("yml"))
@@ -740,6 +754,9 @@ mod tests {
         std::fs::create_dir_all(&dir).unwrap();
         let yaml = dir.join("room.yaml");
         grid.save(&yaml).unwrap();
+        // what a map server watches: the YAML file and the image beside it
+        assert_eq!(files_of(&yaml), vec![yaml.clone(), dir.join("room.pgm")]);
+        assert_eq!(files_of(&dir.join("none.yaml")), vec![dir.join("none.yaml")]);
         let again = OccupancyGrid::load(&yaml).unwrap();
         std::fs::remove_dir_all(&dir).ok();
         assert_eq!(again, grid);
