@@ -314,6 +314,13 @@ fn evaluate_locates_each_half_of_a_real_log_against_a_map_of_the_other() {
     assert!(table.contains("total: 2 logs, 40 scans"), "{table}");
     // 20 scans of a room map well enough to find most of the other 20 in it
     assert!(number_after(&table, "successes (") >= 50.0, "{table}");
+    // and through the grids of the same halves
+    let out = gema2(&["evaluate", "--no-sim", "--grids", "--carmen", dir.path().to_str().unwrap()]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let table = text(&out.stdout);
+    assert!(table.contains("hall odd grid") && table.contains("total: 4 logs, 80 scans"), "{table}");
+    let out = gema2(&["evaluate", "--grids"]);
+    assert!(!out.status.success() && text(&out.stderr).contains("give --carmen too"), "{}", text(&out.stderr));
 
     let empty = tempfile::tempdir().unwrap();
     let out = gema2(&["evaluate", "--no-sim", "--carmen", empty.path().to_str().unwrap()]);

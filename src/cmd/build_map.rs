@@ -152,7 +152,7 @@ pub fn build(a: &BuildArgs) -> Result<(WallMap, usize, usize)> {
 /// The occupancy grid of the survey's beams ([`mapserver::SurveyGrid`]): returns up to
 /// `--max-range` only (far hits are sparse and blurred), and the cells crossed that far by the
 /// beams that reach farther or return nothing.
-fn survey_grid(a: &BuildArgs) -> Result<mapserver::OccupancyGrid> {
+pub(crate) fn survey_grid(a: &BuildArgs) -> Result<mapserver::OccupancyGrid> {
     // each beam's sensor, end and whether the end is a return
     let beams = |scan: &LaserScan, truth: &Pose| -> Vec<(Point2<f64>, Point2<f64>, bool)> {
         let view = scan.view();

@@ -38,6 +38,10 @@ pub struct EvaluateArgs {
     /// from its even ones (`gema2 map build` defaults) and the other way round.
     #[arg(long)]
     pub carmen: Option<PathBuf>,
+    /// With --carmen: also locate each half through the occupancy grid of the other half
+    /// (`gema2 map build --grid` defaults), traced into walls as `--map GRID.yaml` does.
+    #[arg(long)]
+    pub grids: bool,
     /// Override a localizer or segmenter parameter, KEY=VALUE (repeatable), as `gema2 locate`.
     #[arg(long = "set", value_name = "KEY=VALUE")]
     pub set: Vec<String>,
@@ -70,23 +74,34 @@ impl Row {
 
     fn print(&self) {
         println!(
-            "{:<28} {:>6} {:>7.1} % {:>6} {:>6} {:>10.0} {:>10.0}",
+            "{:<w$} {:>6} {:>7.1} % {:>6} {:>6} {:>10.0} {:>10.0}",
             self.name,
             self.scans,
             100.0 * self.successes as f64 / self.scans.max(1) as f64,
             self.ok,
             self.wrong_ok,
             self.median_us,
-            self.p99_us
+            self.p99_us,
+            w = NAME_WIDTH
         );
     }
 }
 
+/// Width of the log column: "freiburg-101-corrected even grid" fits.
+const NAME_WIDTH: usize = 32;
+
 fn header(title: &str) {
     println!("\n{title}");
     println!(
-        "{:<28} {:>6} {:>9} {:>6} {:>6} {:>10} {:>10}",
-        "log", "scans", "success", "ok", "wrong", "median us", "p99 us"
+        "{:<w$} {:>6} {:>9} {:>6} {:>6} {:>10} {:>10}",
+        "log",
+        "scans",
+        "success",
+        "ok",
+        "wrong",
+        "median us",
+        "p99 us",
+        w = NAME_WIDTH
     );
 }
 
@@ -109,6 +124,9 @@ pub fn run(a: EvaluateArgs) -> Result<()> {
     config.apply(&a.set).context("--set")?;
     if a.no_sim && a.carmen.is_none() {
         bail!("nothing to evaluate: --no-sim without --carmen");
+    }
+    if a.grids && a.carmen.is_none() {
+        bail!("--grids locates CARMEN logs through grids: give --carmen too");
     }
     if a.scans == 0 && !a.no_sim {
         bail!("--scans must be at least 1");
@@ -135,12 +153,17 @@ pub fn run(a: EvaluateArgs) -> Result<()> {
                 .collect::<Result<_, _>>()?;
             let stem = log_stem(&log);
             for (built_from, located) in [(0, 1), (1, 0)] {
-                let map = built_map(&log, built_from)?;
                 let half: Vec<LaserScan> = scans.iter().skip(located).step_by(2).cloned().collect();
                 let name = format!("{stem} {}", if built_from == 0 { "odd" } else { "even" });
-                let row = Row::of(name, &locate_all(&map, &config, &half));
-                row.print();
-                rows.push(row);
+                let mut maps = vec![(name.clone(), built_map(&log, built_from)?)];
+                if a.grids {
+                    maps.push((format!("{name} grid"), grid_map(&log, built_from)?));
+                }
+                for (name, map) in maps {
+                    let row = Row::of(name, &locate_all(&map, &config, &half));
+                    row.print();
+                    rows.push(row);
+                }
             }
         }
         total(&rows);
@@ -212,6 +235,14 @@ fn carmen_logs(dir: &Path) -> Result<Vec<PathBuf>> {
 fn log_stem(log: &Path) -> String {
     let name = log.file_name().and_then(|n| n.to_str()).unwrap_or("log");
     name.trim_end_matches(".gz").trim_end_matches(".log").to_string()
+}
+
+/// The occupancy grid `gema2 map build --grid` draws of every other scan of `log` from
+/// `offset`, traced into walls as `--map GRID.yaml` traces it.
+fn grid_map(log: &Path, offset: usize) -> Result<WallMap> {
+    let grid = build_map::survey_grid(&BuildArgs::every_other(log, offset)?)?;
+    grid.to_wall_map(&mapserver::trace::TraceConfig::default(), None)
+        .map_err(|e| anyhow::anyhow!("{}: the grid of every other scan from {offset}: {e}", log.display()))
 }
 
 /// The map `gema2 map build` makes of every other scan of `log` from `offset`, as its file
