@@ -45,35 +45,8 @@ impl FreeSpace {
         let grid = Grid { origin, cell, cols, rows };
         let passable: Vec<bool> =
             (0..rows * cols).map(|i| field.distance(grid.centre(i % cols, i / cols)) >= cell).collect();
-        let mut labels = vec![0u32; rows * cols];
-        let mut regions = 0;
-        let mut sizes = vec![0];
-        let mut stack = Vec::new();
-        for start in 0..rows * cols {
-            if !passable[start] || labels[start] != 0 {
-                continue;
-            }
-            regions += 1;
-            labels[start] = regions;
-            sizes.push(0);
-            stack.push(start);
-            while let Some(i) = stack.pop() {
-                sizes[regions as usize] += 1;
-                let (c, r) = (i % cols, i / cols);
-                let neighbours = [
-                    (c > 0).then(|| i - 1),
-                    (c + 1 < cols).then(|| i + 1),
-                    (r > 0).then(|| i - cols),
-                    (r + 1 < rows).then(|| i + cols),
-                ];
-                for n in neighbours.into_iter().flatten() {
-                    if passable[n] && labels[n] == 0 {
-                        labels[n] = regions;
-                        stack.push(n);
-                    }
-                }
-            }
-        }
+        let (labels, sizes) = connected_regions(&passable, cols, rows);
+        let regions = (sizes.len() - 1) as u32;
         FreeSpace { grid, labels, regions, sizes }
     }
 
@@ -141,6 +114,41 @@ impl Outside {
         // NaN coordinates are no position at all, not a position outside
         self.raster.at(q).unwrap_or(!(q.x.is_nan() || q.y.is_nan()))
     }
+}
+
+/// The 4-connected regions of the `passable` cells of a `cols` x `rows` raster (numbered row
+/// by row): each cell's region, numbered from 1 (0 for a cell that is not passable), and each
+/// region's cell count by number (index 0 unused).
+pub(crate) fn connected_regions(passable: &[bool], cols: usize, rows: usize) -> (Vec<u32>, Vec<usize>) {
+    let mut labels = vec![0u32; rows * cols];
+    let mut sizes = vec![0];
+    let mut stack = Vec::new();
+    for start in 0..rows * cols {
+        if !passable[start] || labels[start] != 0 {
+            continue;
+        }
+        let region = sizes.len() as u32;
+        labels[start] = region;
+        sizes.push(0);
+        stack.push(start);
+        while let Some(i) = stack.pop() {
+            sizes[region as usize] += 1;
+            let (c, r) = (i % cols, i / cols);
+            let neighbours = [
+                (c > 0).then(|| i - 1),
+                (c + 1 < cols).then(|| i + 1),
+                (r > 0).then(|| i - cols),
+                (r + 1 < rows).then(|| i + cols),
+            ];
+            for n in neighbours.into_iter().flatten() {
+                if passable[n] && labels[n] == 0 {
+                    labels[n] = region;
+                    stack.push(n);
+                }
+            }
+        }
+    }
+    (labels, sizes)
 }
 
 #[cfg(test)]

@@ -435,10 +435,9 @@ impl OccupancyGrid {
         }
         let mut occupied = vec![false; width * height];
         let cell_of = |p: Point2<f64>| {
-            let (c, r) = ((p.x - origin.x) / resolution, (p.y - origin.y) / resolution);
-            (c >= 0.0 && r >= 0.0 && (c as usize) < width && (r as usize) < height)
-                .then(|| r as usize * width + c as usize)
+            crate::grid::cell_holding(origin, resolution, (width, height), p).map(|(c, r)| r * width + c)
         };
+        let centre = |c: usize, r: usize| crate::grid::centre_of(origin, resolution, c, r);
         let half = thickness / 2.0;
         for w in &map.walls {
             // the cells the wall crosses, at quarter-cell steps
@@ -456,8 +455,7 @@ impl OccupancyGrid {
             let r1 = (((wh.y - origin.y) / resolution).ceil() as usize).min(height);
             for r in r0..r1 {
                 for c in c0..c1 {
-                    let centre = origin + Vector2::new((c as f64 + 0.5) * resolution, (r as f64 + 0.5) * resolution);
-                    if w.closest(centre).0 <= half {
+                    if w.closest(centre(c, r)).0 <= half {
                         occupied[r * width + c] = true;
                     }
                 }
@@ -466,10 +464,11 @@ impl OccupancyGrid {
         let inside = inside_space(&occupied, width, height);
         let cells = (0..width * height)
             .map(|i| {
-                let centre = origin + Vector2::new((i % width) as f64 + 0.5, (i / width) as f64 + 0.5) * resolution;
                 if occupied[i] {
                     Cell::Occupied
-                } else if !inside[i] || map.seen_free.as_ref().is_some_and(|s| !s.contains(centre)) {
+                } else if !inside[i]
+                    || map.seen_free.as_ref().is_some_and(|s| !s.contains(centre(i % width, i / width)))
+                {
                     Cell::Unknown
                 } else {
                     Cell::Free
@@ -543,9 +542,7 @@ impl SurveyGrid {
     }
 
     fn index(&self, q: Point2<f64>) -> Option<usize> {
-        let (c, r) = ((q.x - self.origin.x) / self.cell, (q.y - self.origin.y) / self.cell);
-        let inside = c >= 0.0 && r >= 0.0 && (c as usize) < self.width && (r as usize) < self.height;
-        inside.then(|| r as usize * self.width + c as usize)
+        crate::grid::cell_holding(self.origin, self.cell, (self.width, self.height), q).map(|(c, r)| r * self.width + c)
     }
 
     /// A beam from `sensor` whose end lies at `end`: the cells it crosses before its end's
@@ -594,42 +591,23 @@ impl SurveyGrid {
 /// (it touches the raster's border) unless the building is open (that region is then the
 /// largest). The inside of a wall drawn as two faces, of a rack or a pillar, is too small.
 fn inside_space(occupied: &[bool], width: usize, height: usize) -> Vec<bool> {
-    let mut label = vec![u32::MAX; occupied.len()];
-    // (size, touches the border) of each region
-    let mut regions: Vec<(usize, bool)> = Vec::new();
-    let mut stack = Vec::new();
-    for start in 0..occupied.len() {
-        if occupied[start] || label[start] != u32::MAX {
-            continue;
+    let free: Vec<bool> = occupied.iter().map(|&o| !o).collect();
+    let (labels, sizes) = crate::free_space::connected_regions(&free, width, height);
+    let mut touches_border = vec![false; sizes.len()];
+    for (i, &l) in labels.iter().enumerate() {
+        let (c, r) = (i % width, i / width);
+        if c == 0 || r == 0 || c + 1 == width || r + 1 == height {
+            touches_border[l as usize] = true;
         }
-        let id = regions.len() as u32;
-        let (mut size, mut border) = (0, false);
-        label[start] = id;
-        stack.push(start);
-        while let Some(i) = stack.pop() {
-            size += 1;
-            let (c, r) = (i % width, i / width);
-            border |= c == 0 || r == 0 || c + 1 == width || r + 1 == height;
-            let neighbours = [
-                (c > 0).then(|| i - 1),
-                (c + 1 < width).then(|| i + 1),
-                (r > 0).then(|| i - width),
-                (r + 1 < height).then(|| i + width),
-            ];
-            for j in neighbours.into_iter().flatten() {
-                if !occupied[j] && label[j] == u32::MAX {
-                    label[j] = id;
-                    stack.push(j);
-                }
-            }
-        }
-        regions.push((size, border));
     }
-    let largest = |border: bool| regions.iter().filter(|r| r.1 == border).map(|r| r.0).max().unwrap_or(0);
+    // the largest region that touches the border (`true`) or does not
+    let largest =
+        |border: bool| (1..sizes.len()).filter(|&l| touches_border[l] == border).map(|l| sizes[l]).max().unwrap_or(0);
     let open = largest(true) > largest(false);
     let least = largest(open).max(largest(false)) / 20;
-    let kept: Vec<bool> = regions.iter().map(|&(size, border)| (open || !border) && size >= least.max(1)).collect();
-    label.iter().map(|&l| l != u32::MAX && kept[l as usize]).collect()
+    let kept: Vec<bool> =
+        (0..sizes.len()).map(|l| l != 0 && (open || !touches_border[l]) && sizes[l] >= least.max(1)).collect();
+    labels.iter().map(|&l| kept[l as usize]).collect()
 }
 
 /// The files a map_server map is read from: the YAML file and, when it parses, the image it
