@@ -5,7 +5,7 @@
 //! lower-left pixel, `negate`, `occupied_thresh`, `free_thresh`, `mode`), and
 //! [`OccupancyGrid::to_wall_map`] turns it into a wall map: the faces of the occupied cells
 //! ([`crate::trace`]) are the walls, the free cells are where the robot may be
-//! ([`SeenFree`]), and the map's accuracy is stated as one cell unless told otherwise.
+//! ([`SeenFree`]), and the map's accuracy is stated as half a cell unless told otherwise.
 //! [`OccupancyGrid::from_walls`] and [`OccupancyGrid::save`] go the other way, so a plan can
 //! be given to AMCL as the same map.
 //!

@@ -148,7 +148,6 @@ pub fn build(a: &BuildArgs) -> Result<(WallMap, usize, usize)> {
     Ok((WallMap { walls, sigma: a.sigma, seen_free }, scans, seen.len()))
 }
 
-/// The scans the map is built from (every `every`-th from `offset`), each with its true pose.
 /// The occupancy grid of the survey's beams ([`mapserver::SurveyGrid`]): returns up to
 /// `--max-range` only (far hits are sparse and blurred), and the cells crossed that far by the
 /// beams that reach farther or return nothing.
@@ -194,6 +193,7 @@ pub(crate) fn survey_grid(a: &BuildArgs) -> Result<mapserver::OccupancyGrid> {
     Ok(grid.to_occupancy_grid())
 }
 
+/// The scans the map is built from (every `every`-th from `offset`), each with its true pose.
 fn survey(a: &BuildArgs) -> Result<impl Iterator<Item = Result<(LaserScan, Pose)>> + '_> {
     let reader = CarmenReader::open(&a.log, FlaserLayout::default())?;
     let every = a.every.max(1);

@@ -26,8 +26,7 @@ pub struct EvaluateArgs {
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
     /// Seeds of the generated apartment (a flat of another plan), office, radial and warehouse
-    /// maps located besides the bundled
-    /// four (`--map-seeds` alone: the bundled maps only).
+    /// maps located besides the bundled four (`--map-seeds` alone: the bundled maps only).
     #[arg(long, value_delimiter = ',', num_args = 0.., default_value = "2,3,4")]
     pub map_seeds: Vec<u64>,
     /// Leave out the simulated suite.

@@ -41,7 +41,7 @@ pub enum MapCommand {
         /// a surface lies anywhere in the cell it marks occupied).
         #[arg(long, default_value_t = mapserver::trace::TraceConfig::default().face_depth)]
         face_depth: f64,
-        /// The map's accuracy, metres (default: one cell).
+        /// The map's accuracy, metres (default: half a cell).
         #[arg(long)]
         sigma: Option<f64>,
         #[arg(long)]
