@@ -68,7 +68,7 @@ pub struct SlideConfig {
     /// How far a line may reach past a wall's ends (line-end noise, a door frame), metres.
     pub slack: f64,
     /// A wall shorter than the line is laid within the line's extent when it is at least this
-    /// fraction of the line's length (see [`placements`]).
+    /// fraction of the line's length (see `placements`).
     pub shorter_walls: f64,
     /// Candidates kept by the screen for the coarse cost (the corner search's `screened`).
     pub screened: usize,

@@ -1,0 +1,162 @@
+//! Candidate poses (step 1 of the stage): scan corners matched with the map's corners of a
+//! similar inner angle (eqs. 5-6), or the scan's longest lines laid along the map's walls
+//! ([`crate::slide`]). Each pose is screened as it is made ([`FirstPass`]), so that only the
+//! best few thousand are ever kept.
+
+use super::screen::{order_by_telling, within, FirstPass, Screen};
+use super::{Candidate, Localizer, LocalizerConfig, Source};
+use crate::matching::{arms_fit, pose_from_corners};
+use crate::model::MapModel;
+use crate::slide::{chord_poses, slide_lines, slide_poses, slide_step, SlideLine, FROM_SLIDE};
+use laser::Pose;
+use mapserver::runs::RunChain;
+use mapserver::Wall;
+use nalgebra::Point2;
+use segment::Segmentation;
+use std::sync::Arc;
+
+impl Localizer {
+    /// The candidate poses of `source`, each screened by the distance field; the `keep` best
+    /// are kept.
+    pub(super) fn make_candidates(&mut self, seg: &Segmentation, source: Source, keep: usize) {
+        self.candidates.clear();
+        let cfg = self.config;
+        let model = Arc::clone(&self.model);
+        // screening in two passes: one in `prescreen_step` points for all poses, then every
+        // point for the `keep` best
+        self.screen_few.clear();
+        self.screen_few.extend(self.screen_pts.iter().step_by(cfg.prescreen_step.max(1)));
+        let screen = Screen::new(&model, cfg.screen_cap);
+        let mut offers = Offers {
+            pass: FirstPass::new(screen, self.screen_few.len(), keep, &mut self.best_sums),
+            few: &self.screen_few,
+            order: &mut self.screen_order,
+            candidates: &mut self.candidates,
+        };
+        // tracking: the robot is within r of its last pose
+        let prior = self.prior.zip(cfg.track_radius);
+        match source {
+            Source::Corners(corners) => corner_candidates(&mut offers, seg, &model, &cfg, prior, corners),
+            Source::Slides => {
+                slide_lines(&self.lines, &cfg.slide, &mut self.slide_lines);
+                let step = slide_candidates(&mut offers, &self.lines, &self.slide_lines, &model, &cfg, prior);
+                self.out.slide_step = Some(step);
+            }
+        }
+        if self.candidates.len() > keep {
+            self.candidates.select_nth_unstable_by(keep, |a, b| a.score.total_cmp(&b.score));
+            self.candidates.truncate(keep);
+        }
+        let n = self.screen_pts.len().max(1) as f64;
+        for c in self.candidates.iter_mut() {
+            c.score = screen.sum(&c.pose, &self.screen_pts, f64::INFINITY).unwrap_or(f64::INFINITY) / n;
+        }
+    }
+}
+
+/// Where the poses of one search go: each is scored by the screen's first pass, reading its
+/// points in the order that best tells apart the poses of the current match, and kept when
+/// it may be among the best.
+struct Offers<'a> {
+    pass: FirstPass<'a>,
+    /// The first pass's points, as subsampled.
+    few: &'a [Point2<f64>],
+    /// `few` in the order the current match's poses read them.
+    order: &'a mut Vec<Point2<f64>>,
+    candidates: &'a mut Vec<Candidate>,
+}
+
+impl Offers<'_> {
+    /// Orders the points for the poses offered next: by `telling`, largest first (points
+    /// every pose of the match puts on a wall tell nothing and go last).
+    fn order_by(&mut self, telling: impl Fn(Point2<f64>) -> f64) {
+        order_by_telling(self.few, self.order, telling);
+    }
+
+    fn offer(&mut self, pose: Pose, scan_corner: u16, map_corner: u32) {
+        if let Some(score) = self.pass.score(&pose, self.order) {
+            self.candidates.push(Candidate { pose, score, scan_corner, map_corner });
+        }
+    }
+}
+
+/// Offers the poses of the `corners` best scan corners the map has corners like, each matched
+/// with every map corner of a similar inner angle whose arms it fits. With `track` (the last
+/// pose and the tracking radius), only poses within the radius of it.
+fn corner_candidates(
+    offers: &mut Offers<'_>,
+    seg: &Segmentation,
+    model: &MapModel,
+    cfg: &LocalizerConfig,
+    track: Option<(Point2<f64>, f64)>,
+    corners: usize,
+) {
+    // a corner of a kind the map has none of (a wall end, where the map lists no wall ends)
+    // makes no candidate: the next best takes its place
+    let matchable = seg.corners.iter().enumerate().filter_map(|(ci, c)| {
+        let range = model.corners.similar_range(c.inner_angle, cfg.angle_tolerance(c));
+        (!range.is_empty()).then_some((ci, c, range))
+    });
+    for (ci, c, range) in matchable.take(corners) {
+        // points on the corner's arms fit every match of it: they go last
+        offers.order_by(|q| {
+            c.arms.iter().map(|a| a.direction.perp(&(q - c.position)).abs()).fold(f64::INFINITY, f64::min)
+        });
+        for k in range {
+            let m = &model.corners.corners()[k];
+            // a map corner the robot sees lies within r plus the scan corner's own range of
+            // the last pose
+            if track.is_some_and(|(p, r)| (m.position - p).norm() > r + c.position.coords.norm()) {
+                continue;
+            }
+            if !arms_fit(c, m, cfg.arm_slack) {
+                continue;
+            }
+            let pose = pose_from_corners(c, m);
+            if track.is_some_and(|(p, r)| !within(&pose, p, r)) {
+                continue;
+            }
+            offers.offer(pose, ci as u16, k as u32);
+        }
+    }
+}
+
+/// Offers the poses that lay each of the `chosen` scan lines along the map's walls, and as
+/// chords of its bent walls; returns the step along the walls. With `prior` (the last pose and
+/// the tracking radius), only poses within the radius of it, so only the walls within the
+/// radius plus the lines' reach of it, as with map corners; the step is then sized for those
+/// walls alone.
+fn slide_candidates(
+    offers: &mut Offers<'_>,
+    lines: &[SlideLine],
+    chosen: &[usize],
+    model: &MapModel,
+    cfg: &LocalizerConfig,
+    prior: Option<(Point2<f64>, f64)>,
+) -> f64 {
+    let reach =
+        chosen.iter().map(|&li| lines[li].start.coords.norm().max(lines[li].end.coords.norm())).fold(0.0, f64::max);
+    let near = |w: &&Wall| prior.is_none_or(|(p, r)| w.closest(p).0 <= r + reach);
+    let bent_near = |c: &&RunChain| prior.is_none_or(|(p, r)| c.runs().any(|w| w.closest(p).0 <= r + reach));
+    let bends = model.bends.iter().filter(bent_near);
+    let step =
+        slide_step(lines, chosen, model.runs.iter().filter(near), bends.clone().map(RunChain::length), &cfg.slide);
+    for &li in chosen {
+        let line = &lines[li];
+        // points on the slid line fit every pose along the wall: they go last
+        offers.order_by(|q| line.direction().perp(&(q - line.start)).abs());
+        let mut offer = |pose: Pose, map_corner| {
+            if prior.is_none_or(|(p, r)| within(&pose, p, r)) {
+                offers.offer(pose, FROM_SLIDE, map_corner);
+            }
+        };
+        for (wi, wall) in model.runs.iter().enumerate().filter(|(_, w)| near(w)) {
+            slide_poses(line, wall, step, &cfg.slide, |pose| offer(pose, wi as u32));
+        }
+        // a chord's pose names no run
+        for chain in bends.clone() {
+            chord_poses(line, chain, step, |pose| offer(pose, u32::MAX));
+        }
+    }
+    step
+}

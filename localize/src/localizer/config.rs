@@ -1,0 +1,262 @@
+//! What the localization stage is told: how many corners, candidates and beams each step
+//! takes, the cost function's form, and when an answer is `ok` ([`LocalizerConfig`]), and the
+//! cheaper [`FirstLook`] that runs before the full search.
+
+use super::{Hypothesis, Status};
+use crate::cost::CostConfig;
+use crate::refine::RefineConfig;
+use crate::slide::SlideConfig;
+use segment::ErrorModel;
+
+/// The localization stage's parameters; [`LocalizerConfig::set`] sets them by name.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LocalizerConfig {
+    /// How many of the best scan corners (eq. 4 order) are matched. Corners of a kind the map
+    /// has none of (within the angle tolerance) are passed over and do not count: a wall end,
+    /// where the map lists none, as a map built from scans does not.
+    pub corners_tried: usize,
+    /// Inner angle tolerance of a match: three standard deviations of the scan corner's angle,
+    /// clamped to [min, max] radians.
+    pub min_angle_tolerance: f64,
+    pub max_angle_tolerance: f64,
+    /// Slack of the arm fit test, metres.
+    pub arm_slack: f64,
+    /// Scan points used to screen hypotheses with the distance field: a first pass over every
+    /// candidate uses one in `prescreen_step` of them and keeps the `prescreened` best. With
+    /// furniture in view its few points often land on boxes, so the right pose can rank low
+    /// here: keeping 512 instead of 256 took the furnished office log from 82.7 to 83.7 %, and
+    /// 1024 instead of 512 won 28 scans over the 13 furnished simulated logs (3900 scans) and
+    /// 29 over all 42 (12600). Reading 20 points instead (a step of 2) won as many, but took
+    /// the matching on a 5000-wall map from 1.1 to 1.5-1.7 ms a scan, where keeping more did
+    /// not move it: the same instructions, but each pose's extra points are distance-field
+    /// lookups that miss the cache once the field outgrows it.
+    pub screen_points: usize,
+    pub prescreen_step: usize,
+    pub prescreened: usize,
+    /// Distance from the walls beyond which a screened point counts as unexplained (metres, at
+    /// most the field's cap). The screen is two-sided, so a point on a box half a metre in front
+    /// of a wall must cost no more than one that misses by a little more than an unrefined
+    /// pose's error: with a 0.5 m cap, furnished scans lost their right pose here 38 times in
+    /// 300, with 0.12 m 19 times.
+    pub screen_cap: f64,
+    /// Hypotheses kept by the screen, and costed coarsely.
+    pub screened: usize,
+    /// Beams of the coarse cost, and its noise floor (metres).
+    pub coarse_beams: usize,
+    pub coarse_sigma: f64,
+    /// When more than `sparse_kept` hypotheses pass the screen, a coarse cost over only
+    /// `sparse_beams` beams keeps the `sparse_kept` best first. The ray-cast cost tells an object
+    /// in front of a wall from a beam through one, which the distance-field screen cannot, so
+    /// handing it more candidates rescues furnished scans whose right pose screens poorly: with
+    /// 384 screened (was 128) and 32 beams, the furnished office log went from 83.7 to 85.7 %
+    /// and no clean or people log lost a scan, for about 1.4 times the instructions per
+    /// furnished scan.
+    pub sparse_beams: usize,
+    pub sparse_kept: usize,
+    /// Hypotheses kept by the coarse cost, refined and costed in full.
+    pub refined: usize,
+    /// Scan points used by refinement.
+    pub refine_points: usize,
+    /// When a hypothesis distinct from the best costs less than `polish_margin` more (per beam, as
+    /// [`ambiguity_margin`](Self::ambiguity_margin)), every hypothesis that close is refined again
+    /// over `polish_points` scan points, `polish_iterations` steps from the final gate, and keeps
+    /// the pose that costs less. Refined over 160 points, the true pose of a clean simulated scan
+    /// costs a median 0.01-0.02 more than the truth, and 0.05 more in 7-15 % of scans: enough to
+    /// rank near-equal poses wrongly or call the right one `ambiguous`. Over the 39 simulated logs
+    /// this took successes from 10913 to 10924, `ok` from 9247 to 9266 and wrong `ok` from 70 to 67
+    /// (aces: ok precision 91.0 to 92.1 %), for 8 % more instructions on the clean office log (164
+    /// hypotheses polished in its 300 scans). Polishing without a contest costs about 95 us a scan
+    /// more for no more successes; 341 points gave fewer successes than none; 3 steps no more than
+    /// 2. 0 points: no polish.
+    pub polish_margin: f64,
+    pub polish_points: usize,
+    pub polish_iterations: usize,
+    pub refine: RefineConfig,
+    pub cost: CostConfig,
+    /// The sensor's e(d), which sets the noise scale of the cost.
+    pub error: ErrorModel,
+    /// Two poses are distinct when their positions differ by more than this (metres) or their
+    /// headings by more than `distinct_heading` (radians).
+    pub distinct_position: f64,
+    pub distinct_heading: f64,
+    /// The best pose is `ambiguous` when a distinct hypothesis costs less than this much more.
+    pub ambiguity_margin: f64,
+    /// In a scan with no corner, a slid pose along the best one's wall explains the scan as
+    /// well as the best when their costs, summed over the beams (squared standard deviations,
+    /// twice the log-likelihood ratio), differ by less than this; the scan then does not say
+    /// where along the wall the sensor is, and is `failed`. A corridor whose ends are out of
+    /// range gives differences of 0.00 per beam. The ambiguity margin (0.3 per beam, 200 over a
+    /// URG scan) made this rule fail scans whose cost rose by 0.04-0.2 per beam within half a
+    /// metre along the wall, 6 of 300 clean warehouse scans, all of them right.
+    pub cornerless_tie: f64,
+    /// The best pose is `failed` when fewer of its beams than this fraction agree with the map...
+    pub min_inliers: f64,
+    /// ...or when more than this fraction see through mapped walls: at the true pose only
+    /// noise, mixed pixels and map errors do, whatever the map lacks.
+    pub max_through: f64,
+    /// [`max_through`](Self::max_through) for a map that declares itself approximate
+    /// ([`mapserver::WallMap::is_approximate`], as maps built from scans do); 1 sets no limit,
+    /// the default. Such a map's errors (doors drawn shut, things since moved, gaps between its
+    /// walls) are what right poses see through: 21-38 % of the beams of 28 CARMEN scans whose
+    /// best pose was failed at 20 %, 23 of them right. Seeing through walls still makes a pose
+    /// `ambiguous` beyond `max_through_ok`, and too few agreeing beams still fail it. On the
+    /// simulated logs, whose maps are exact, nothing changes.
+    pub max_through_approximate: f64,
+    /// [`CostConfig::front_cap`] for a map that declares itself approximate (as
+    /// [`max_through_approximate`](Self::max_through_approximate)). The one-sided cost caps a
+    /// reading short of the map low because a drawn plan lacks the furniture the sensor sees;
+    /// a map built from scans keeps what stayed in the survey, so there a short reading at the
+    /// right pose is rarer and says more against a wrong one. Twice the drawn map's cap (8
+    /// against 4): CARMEN both ways 90.4 -> 92.6 % (`ok` 691 -> 718, wrong `ok` 4 -> 4); maps
+    /// built from 200 simulated scans among people or boxes (apartment, office, warehouse;
+    /// locating the other 200) 61.2 -> 62.8 %, wrong `ok` 99 -> 97 of 1104 -> 1141. Between 6
+    /// and 10 the figures barely move; at 12, the through-wall cap, the furnished built
+    /// apartment fell from 87 to 67 %. Drawn maps keep `cost.front_cap`.
+    pub front_cap_approximate: f64,
+    /// The best pose is at most `ambiguous` when more than this fraction of its beams see
+    /// through mapped walls. A drawn map has no walls that are not there, so 5 % holds every
+    /// right pose on the simulated logs; a map built from a log has walls of doors and things
+    /// that have since moved, and right poses against the CARMEN maps see through 5-19 %: of
+    /// the 154 scans there that a 5 % limit failed and this one does not, 84 were right (with
+    /// the through-wall cost at 25, when this was measured). Such a pose is an answer, but not
+    /// one to trust. On the simulated logs 18 scans moved, all wrong, all now `ambiguous`.
+    pub max_through_ok: f64,
+    /// A scan with at least this many returns lost on surfaces it sees on both sides
+    /// ([`crate::cost::surface_dropouts`]) comes from a sensor that reads "no return" where a
+    /// wall is: its missing returns are skipped by the cost as unknown readings are
+    /// ([`CostConfig::skip_no_returns`]). 0 never skips them. The simulated URG reports lost
+    /// returns as error codes and "no return" only beyond its range, so no default simulated
+    /// log has such a scan; the CARMEN logs' SICK reads 81.91 m for both, and 27 / 127 / 130
+    /// scans of aces / csail / freiburg-101 show it. There, a right pose paid the through-wall
+    /// cost for dozens of beams whose walls 3-20 m away returned nothing, and lost to poses
+    /// outside the building: freiburg-101 went from 63.0 to 76.7 % and csail from 58.1 to
+    /// 62.6 % (aces unchanged at 56.8 %). Costing those beams as unexplained (`front_cap`)
+    /// instead gave 75.3 and 62.1 %; only runs between two readings that agree with the map,
+    /// 69.9 and 58.6 %.
+    pub surface_dropouts: usize,
+    /// Never answer with a pose outside a building whose walls close it off
+    /// ([`mapserver::Outside`]), or where the survey that built the map saw no free space
+    /// ([`mapserver::SeenFree`]). Beyond the outline the map predicts "no return" in every
+    /// direction away from it, which a scan's open side matches as well as the building does:
+    /// wrong poses out there beat the right one when furniture hides the walls the scan would
+    /// need (39 of the furnished warehouse's 96 wrong answers, 9 of the furnished radial map's
+    /// 19). Such poses are still searched and costed: one that explains the scan about as well
+    /// as the answer makes the answer `ambiguous`, since the scan then does not single it out.
+    /// A map with an open outline and no seen free space rules nothing out. Maps built from
+    /// the CARMEN logs are open, but keep their scans' free space: there 34 / 13 / 4 of the
+    /// csail / freiburg-101 / aces wrong answers lay where no beam had been.
+    pub inside_only: bool,
+    /// Largest number of hypotheses reported.
+    pub max_hypotheses: usize,
+    /// Keep every candidate pose of a scan in [`crate::Localization::all_candidates`] (diagnostics).
+    pub record_candidates: bool,
+    /// A cheaper search tried first; see [`FirstLook`].
+    pub first_look: FirstLook,
+    /// Hypotheses from scan lines laid along map walls, tried when neither look's best pose is
+    /// confirmed; see [`crate::slide`].
+    pub slide: SlideConfig,
+    /// Tracking (section 5.1): after an `ok` scan, only poses within this many metres of it
+    /// are made, the most the robot moves between two located scans. A map corner is matched
+    /// only within this plus the scan corner's own range of the last pose, and only walls
+    /// within this plus the slid lines' reach are slid along. Any other outcome returns to
+    /// global search. `None`: always global.
+    pub track_radius: Option<f64>,
+}
+
+impl Default for LocalizerConfig {
+    fn default() -> Self {
+        LocalizerConfig {
+            corners_tried: 12,
+            min_angle_tolerance: 2f64.to_radians(),
+            max_angle_tolerance: 8f64.to_radians(),
+            arm_slack: 0.3,
+            screen_points: 40,
+            prescreen_step: 4,
+            prescreened: 1024,
+            screen_cap: 0.12,
+            screened: 384,
+            coarse_beams: 64,
+            coarse_sigma: 0.08,
+            sparse_beams: 32,
+            sparse_kept: 64,
+            refined: 6,
+            refine_points: 160,
+            polish_margin: 0.6,
+            polish_points: 682,
+            polish_iterations: 2,
+            refine: RefineConfig::default(),
+            cost: CostConfig::default(),
+            error: ErrorModel::default(),
+            distinct_position: 0.3,
+            distinct_heading: 5f64.to_radians(),
+            ambiguity_margin: 0.3,
+            cornerless_tie: 10.0,
+            min_inliers: 0.3,
+            max_through: 0.2,
+            max_through_approximate: 1.0,
+            front_cap_approximate: 8.0,
+            max_through_ok: 0.05,
+            surface_dropouts: 1,
+            inside_only: true,
+            max_hypotheses: 32,
+            record_candidates: false,
+            first_look: FirstLook::default(),
+            slide: SlideConfig::default(),
+            track_radius: None,
+        }
+    }
+}
+
+impl LocalizerConfig {
+    /// The inner angle tolerance of matching scan corner `c`: three standard deviations of its
+    /// angle, clamped to [`min_angle_tolerance`, `max_angle_tolerance`].
+    ///
+    /// [`min_angle_tolerance`]: Self::min_angle_tolerance
+    /// [`max_angle_tolerance`]: Self::max_angle_tolerance
+    pub fn angle_tolerance(&self, c: &segment::Corner) -> f64 {
+        (3.0 * c.inner_angle_sigma()).clamp(self.min_angle_tolerance, self.max_angle_tolerance)
+    }
+}
+
+/// A first, cheaper search, as the paper's: the best scan corner (or few best) the map has
+/// corners like, fewer hypotheses screened and refined.
+///
+/// When its best pose is *confirmed* (at least `min_inliers` of the beams agree with the map
+/// and at most `max_through` see through its walls) the scan ends there, `ok` or `ambiguous`;
+/// otherwise the full search runs and its hypotheses are ranked together with the first
+/// look's. An ambiguous scan whose best pose is confirmed is a symmetric place (two identical
+/// rooms): the full search would find the same twins. On the clean office log this changed
+/// no scan's status, and on the other simulated logs success by at most one scan.
+///
+/// Seeing through walls is what tells a wrong pose: people and furniture only shorten beams,
+/// so a right pose in a furnished room has fewer inliers but still almost no beam through a
+/// wall. On the simulated logs, lowering `min_inliers` from 0.9 to 0.6 settled 2 % -> 50 % of
+/// furnished office scans and changed no scan's success. The full search exists for scans whose
+/// best corner is a box or a person: its pose sees through walls and is not confirmed. A
+/// settled scan's ambiguity is judged among the first look's hypotheses only, so a twin pose
+/// that only another scan corner would find goes unseen.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FirstLook {
+    /// Scan corners matched; 0 turns the first look off.
+    pub corners: usize,
+    /// Candidates kept by the first screening pass (see [`LocalizerConfig::prescreened`]).
+    pub prescreened: usize,
+    pub screened: usize,
+    pub refined: usize,
+    pub min_inliers: f64,
+    pub max_through: f64,
+}
+
+impl Default for FirstLook {
+    fn default() -> Self {
+        FirstLook { corners: 1, prescreened: 32, screened: 8, refined: 2, min_inliers: 0.6, max_through: 0.01 }
+    }
+}
+
+impl FirstLook {
+    /// Whether `best` settles the scan.
+    pub(super) fn confirms(&self, status: Status, best: Option<&Hypothesis>) -> bool {
+        status != Status::Failed
+            && best.is_some_and(|h| h.cost.inliers >= self.min_inliers && h.cost.through <= self.max_through)
+    }
+}

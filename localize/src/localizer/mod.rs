@@ -1,0 +1,485 @@
+//! The localization stage (section 5): scan corners x similar map corners -> pose hypotheses
+//! (eqs. 5-6) -> ranked by the cost function (eq. 7).
+//!
+//! Robustness over the paper's single best corner (LESSONS.md): the `corners_tried` best scan
+//! corners are all matched, so a spurious best corner (a person's legs, a box) does not sink
+//! the scan. Hypotheses then pass through stages of increasing cost and decreasing number:
+//!
+//! 1. matches whose arms cannot fit the map corner's are dropped ([`crate::matching::arms_fit`]);
+//! 2. a distance-field screen keeps the `screened` best;
+//! 3. a coarse one-sided eq. 7 over a subset of beams (first a sparser one when many pass the
+//!    screen), with a noise floor that tolerates an unrefined pose, keeps the `refined` best
+//!    (unmapped objects in front of walls cost little here, unlike in the screen);
+//! 4. those are refined against the walls and ranked by the full one-sided eq. 7.
+//!
+//! All this runs first for the single best corner with few hypotheses (the [`FirstLook`]),
+//! and for the `corners_tried` best only when that look's best pose is not confirmed. When
+//! that is not confirmed either, the scan's longest lines are laid along the map's walls
+//! ([`crate::slide`]) and those poses go through the same steps, ranked with the others.
+
+mod candidates;
+mod config;
+mod ranking;
+mod screen;
+
+pub use config::{FirstLook, LocalizerConfig};
+pub use screen::same_pose;
+
+use crate::cost::{cost, cost_below, Cost, CostConfig};
+use crate::lowest::Lowest;
+use crate::model::MapModel;
+use crate::refine::{refine, RefineConfig};
+use crate::slide::SlideLine;
+use laser::{Pose, ScanView};
+use mapserver::RayScratch;
+use nalgebra::Point2;
+use screen::{keep_distinct, subsample, Screen};
+use segment::{ErrorModel, Segmentation};
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+/// The outcome of one scan.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Status {
+    /// One pose clearly explains the scan best.
+    Ok,
+    /// Two distinct poses explain it about equally well.
+    Ambiguous,
+    /// No corner, no candidate, or no pose that explains the scan; or, in a scan with no
+    /// corner, several poses that explain it equally well.
+    Failed,
+}
+
+impl Status {
+    pub fn as_str(&self) -> &'static str {
+        match self {
+            Status::Ok => "ok",
+            Status::Ambiguous => "ambiguous",
+            Status::Failed => "failed",
+        }
+    }
+}
+
+/// One pose hypothesis.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Hypothesis {
+    /// Sensor pose in the map frame (refined).
+    pub pose: Pose,
+    pub cost: Cost,
+    /// Index of the scan corner (in the segmentation's corner list) and of the map corner (in
+    /// the map's inner-angle-sorted corner list) that produced it; for a pose of the slide
+    /// search, [`crate::slide::FROM_SLIDE`] and the index of the straight run ([`MapModel::runs`]).
+    pub scan_corner: u16,
+    pub map_corner: u32,
+}
+
+/// Compute time of the localization steps of one scan.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct LocateTimes {
+    /// Corner matching (eqs. 5-6), arm test and screening.
+    pub matching: Duration,
+    /// Coarse eq. 7 over the screened hypotheses.
+    pub coarse: Duration,
+    pub refine: Duration,
+    /// Full eq. 7 over the refined hypotheses.
+    pub cost: Duration,
+    /// Whether the full search ran: the [`FirstLook`] did not settle the scan. Each step's
+    /// time above is the sum over all searches.
+    pub full_search: bool,
+    /// Whether the slide search ran: the full search's best pose was not confirmed either.
+    pub slide_search: bool,
+}
+
+#[derive(Clone, Debug)]
+pub struct Localization {
+    /// Ranked hypotheses, best first.
+    pub hypotheses: Vec<Hypothesis>,
+    pub status: Status,
+    /// Poses produced by corner matching (after the arm test, before screening).
+    pub candidates: usize,
+    pub times: LocateTimes,
+    /// With `record_candidates`: every candidate (pose, screening score, scan corner index),
+    /// in screening order.
+    pub all_candidates: Vec<(Pose, f64, u16)>,
+    /// The distance between poses along a wall that the slide search used, when it ran.
+    pub slide_step: Option<f64>,
+}
+
+impl Localization {
+    pub fn best(&self) -> Option<&Hypothesis> {
+        match self.status {
+            Status::Failed => None,
+            _ => self.hypotheses.first(),
+        }
+    }
+}
+
+#[derive(Clone, Copy, Debug)]
+struct Candidate {
+    pose: Pose,
+    score: f64,
+    scan_corner: u16,
+    map_corner: u32,
+}
+
+/// The localization stage: one scan's segmentation in, ranked pose hypotheses and a status
+/// out ([`Localizer::locate`]). Its buffers are kept from scan to scan.
+pub struct Localizer {
+    /// Where the last `ok` scan put the sensor, while tracking.
+    prior: Option<Point2<f64>>,
+    model: Arc<MapModel>,
+    pub config: LocalizerConfig,
+    screen_pts: Vec<Point2<f64>>,
+    /// One in `prescreen_step` screening points: the first screening pass.
+    screen_few: Vec<Point2<f64>>,
+    /// `screen_few` in the order the first pass reads them for one scan corner or slid line.
+    screen_order: Vec<Point2<f64>>,
+    /// The first screening pass's best sums.
+    best_sums: Lowest,
+    /// The lowest coarse costs so far ([`Localizer::coarse_cost`]).
+    coarse_lowest: Lowest,
+    refine_pts: Vec<Point2<f64>>,
+    polish_pts: Vec<Point2<f64>>,
+    candidates: Vec<Candidate>,
+    /// [`Self::keep_best`]'s kept candidates as (x, position), sorted by x.
+    kept_by_x: Vec<(f64, usize)>,
+    /// The scan's lines as the slide search reads them, and those it lays along walls.
+    lines: Vec<SlideLine>,
+    slide_lines: Vec<usize>,
+    scratch: RayScratch,
+    expected: Vec<f64>,
+    /// The cost's e(d) for the scan being located: the configured one widened as the
+    /// segmentation widened its own ([`Segmentation::noise_scale`]).
+    error: ErrorModel,
+    /// The cost for the scan being located: the configured one, skipping missing returns when
+    /// the scan shows its sensor losing returns on surfaces.
+    cost: CostConfig,
+    out: Localization,
+}
+
+impl Localizer {
+    pub fn new(model: Arc<MapModel>, config: LocalizerConfig) -> Self {
+        Localizer {
+            prior: None,
+            model,
+            config,
+            screen_pts: Vec::new(),
+            screen_few: Vec::new(),
+            screen_order: Vec::new(),
+            best_sums: Lowest::default(),
+            coarse_lowest: Lowest::default(),
+            refine_pts: Vec::new(),
+            polish_pts: Vec::new(),
+            candidates: Vec::new(),
+            kept_by_x: Vec::new(),
+            lines: Vec::new(),
+            slide_lines: Vec::new(),
+            scratch: RayScratch::default(),
+            expected: Vec::new(),
+            error: config.error,
+            cost: config.cost,
+            out: Localization {
+                hypotheses: Vec::new(),
+                status: Status::Failed,
+                candidates: 0,
+                times: LocateTimes::default(),
+                all_candidates: Vec::new(),
+                slide_step: None,
+            },
+        }
+    }
+
+    /// Switches to another map (from the next scan on).
+    pub fn set_model(&mut self, model: Arc<MapModel>) {
+        self.prior = None;
+        self.model = model;
+    }
+
+    pub fn model(&self) -> &Arc<MapModel> {
+        &self.model
+    }
+
+    /// Localizes one scan from its segmentation.
+    pub fn locate(&mut self, scan: &ScanView<'_>, seg: &Segmentation) -> &Localization {
+        self.lines.clear();
+        self.lines.extend(seg.lines.iter().map(SlideLine::from));
+        self.locate_lines_given(scan, seg)
+    }
+
+    /// [`locate`](Self::locate) for a segmentation whose lines arrive separately (the
+    /// pipeline's localizer gets samples, corners and line extents; `seg.lines` is ignored).
+    pub fn locate_with_lines(
+        &mut self,
+        scan: &ScanView<'_>,
+        seg: &Segmentation,
+        lines: impl IntoIterator<Item = SlideLine>,
+    ) -> &Localization {
+        self.lines.clear();
+        self.lines.extend(lines);
+        self.locate_lines_given(scan, seg)
+    }
+
+    /// For diagnosis, after [`locate`](Self::locate) of `scan`: how the search would have
+    /// judged `pose` at each step.
+    pub fn judge(&mut self, scan: &ScanView<'_>, pose: &Pose) -> Judgement {
+        let model = Arc::clone(&self.model);
+        let cfg = self.config;
+        let screen = Screen::new(&model, cfg.screen_cap);
+        let mean = |points: &[Point2<f64>]| {
+            screen.sum(pose, points, f64::INFINITY).unwrap_or(f64::INFINITY) / points.len().max(1) as f64
+        };
+        let (prescreen, screen) = (mean(&self.screen_few), mean(&self.screen_pts));
+        let final_cfg = self.final_cost_config();
+        let cost_at = cost(scan, pose, &model.caster, &self.error, &final_cfg, &mut self.scratch, &mut self.expected);
+        let refined = refine(&model, &self.refine_pts, pose, &cfg.refine).0;
+        let refined_cost =
+            cost(scan, &refined, &model.caster, &self.error, &final_cfg, &mut self.scratch, &mut self.expected);
+        Judgement { prescreen, screen, cost: cost_at, refined, refined_cost }
+    }
+
+    /// Eq. 7's form for this map, before a scan adjusts it: an approximate map's own cap on
+    /// readings short of it ([`LocalizerConfig::front_cap_approximate`]).
+    fn scan_cost_config(&self) -> CostConfig {
+        let mut c = self.config.cost;
+        if self.model.map.is_approximate() {
+            c.front_cap = self.config.front_cap_approximate;
+        }
+        c
+    }
+
+    /// The cost configuration of a hypothesis's final eq. 7: never expect the scan to agree
+    /// with the map better than the map is accurate.
+    fn final_cost_config(&self) -> CostConfig {
+        CostConfig { sigma_floor: self.cost.sigma_floor.max(self.model.map.sigma), ..self.cost }
+    }
+
+    fn locate_lines_given(&mut self, scan: &ScanView<'_>, seg: &Segmentation) -> &Localization {
+        self.out.hypotheses.clear();
+        self.out.status = Status::Failed;
+        self.out.times = LocateTimes::default();
+        self.out.slide_step = None;
+        // a scan noisier than the configured e(d) would count the right pose's beams as seeing
+        // through walls
+        self.error = self.config.error.scaled(segment::noise::usable_scale(seg.noise_scale));
+        self.cost = self.scan_cost_config();
+        let drops = self.config.surface_dropouts;
+        self.cost.skip_no_returns = drops > 0 && crate::cost::surface_dropouts(scan, &self.error) >= drops;
+        subsample(seg, self.config.screen_points, &mut self.screen_pts);
+        subsample(seg, self.config.refine_points, &mut self.refine_pts);
+        let first = self.config.first_look;
+        let mut settled = false;
+        if first.corners > 0 && first.corners < self.config.corners_tried {
+            self.search(scan, seg, Source::Corners(first.corners), first.prescreened, first.screened, first.refined);
+            self.rank();
+            settled = first.confirms(self.out.status, self.out.hypotheses.first());
+        }
+        let cfg = self.config;
+        if !settled {
+            self.out.times.full_search = true;
+            self.search(scan, seg, Source::Corners(cfg.corners_tried), cfg.prescreened, cfg.screened, cfg.refined);
+            self.rank();
+            settled = first.confirms(self.out.status, self.out.hypotheses.first());
+        }
+        if !settled && cfg.slide.lines > 0 {
+            self.out.times.slide_search = true;
+            self.search(scan, seg, Source::Slides, cfg.prescreened, cfg.slide.screened, cfg.refined);
+            self.rank();
+            if self.out.status == Status::Ok
+                && self.out.hypotheses.first().is_some_and(|h| h.cost.inliers < cfg.slide.min_inliers_ok)
+            {
+                self.out.status = Status::Ambiguous;
+            }
+            // with no corner in view, an equally good pose further along the same wall means the
+            // scan does not say where along it the sensor is (a corridor whose ends are out of
+            // range): that is no answer, as the paper's cornerless scan. Twins elsewhere (two
+            // identical aisles) stay `ambiguous`: the scan does fix each of them.
+            if seg.corners.is_empty() && self.out.status == Status::Ambiguous && self.slides_along_a_wall() {
+                self.out.status = Status::Failed;
+            }
+        }
+        self.report();
+        self.prior = match (self.config.track_radius, self.out.status, self.out.hypotheses.first()) {
+            (Some(_), Status::Ok, Some(h)) => Some(Point2::from(h.pose.translation.vector)),
+            _ => None,
+        };
+        &self.out
+    }
+
+    /// Makes the candidates of `source`, keeps the `screened` best by the screen (its first
+    /// pass keeps `prescreened`) and the `refined` best of those by the coarse cost, refines
+    /// them and adds them to the hypotheses with their full eq. 7 cost (unranked). Adds each
+    /// step's time.
+    fn search(
+        &mut self,
+        scan: &ScanView<'_>,
+        seg: &Segmentation,
+        source: Source,
+        prescreened: usize,
+        screened: usize,
+        refined: usize,
+    ) {
+        let t0 = Instant::now();
+        self.out.all_candidates.clear();
+        self.make_candidates(seg, source, prescreened.max(screened));
+        self.out.candidates = self.candidates.len();
+        if self.config.record_candidates {
+            self.candidates.sort_by(|a, b| a.score.total_cmp(&b.score));
+            self.out.all_candidates.extend(self.candidates.iter().map(|c| (c.pose, c.score, c.scan_corner)));
+        }
+        self.keep_best(screened);
+        let t1 = Instant::now();
+        // with no more screened than refined there is nothing for the coarse cost to choose
+        if screened > refined {
+            let cfg = self.config;
+            if self.candidates.len() > cfg.sparse_kept.max(refined) {
+                self.coarse_cost(scan, cfg.sparse_beams, cfg.sparse_kept);
+                self.keep_best(cfg.sparse_kept);
+            }
+            self.coarse_cost(scan, cfg.coarse_beams, refined);
+            self.keep_best(refined);
+        }
+        let t2 = Instant::now();
+        let model = Arc::clone(&self.model);
+        for c in self.candidates.iter_mut() {
+            c.pose = refine(&model, &self.refine_pts, &c.pose, &self.config.refine).0;
+        }
+        let t3 = Instant::now();
+        let final_cfg = self.final_cost_config();
+        for c in &self.candidates {
+            let cost =
+                cost(scan, &c.pose, &model.caster, &self.error, &final_cfg, &mut self.scratch, &mut self.expected);
+            if cost.value.is_finite() {
+                self.out.hypotheses.push(Hypothesis {
+                    pose: c.pose,
+                    cost,
+                    scan_corner: c.scan_corner,
+                    map_corner: c.map_corner,
+                });
+            }
+        }
+        let t4 = Instant::now();
+        self.polish(scan, seg);
+        let t5 = Instant::now();
+        let times = &mut self.out.times;
+        times.matching += t1 - t0;
+        times.coarse += t2 - t1;
+        times.refine += (t3 - t2) + (t5 - t4);
+        times.cost += t4 - t3;
+    }
+
+    /// When the best hypothesis so far is contested (see [`LocalizerConfig::polish_margin`]),
+    /// refines once more, over the polish points, every hypothesis that costs less than the
+    /// margin more than the best, and costs it again (the polish's time counts as
+    /// refinement). One polished by an earlier search's contest is polished again, which
+    /// keeps it or lowers its cost: a contest judged between polished and unpolished poses
+    /// would favour the polished.
+    fn polish(&mut self, scan: &ScanView<'_>, seg: &Segmentation) {
+        let cfg = self.config;
+        if cfg.polish_points == 0 {
+            return;
+        }
+        let hyps = &self.out.hypotheses;
+        let Some(best) = hyps.iter().min_by(|a, b| a.cost.value.total_cmp(&b.cost.value)).copied() else {
+            return;
+        };
+        let near = |h: &Hypothesis| h.cost.value - best.cost.value < cfg.polish_margin;
+        let contested = hyps
+            .iter()
+            .any(|h| near(h) && !same_pose(&h.pose, &best.pose, cfg.distinct_position, cfg.distinct_heading));
+        if !contested {
+            return;
+        }
+        // only for a contested scan: an uncontested one never needs them
+        subsample(seg, cfg.polish_points, &mut self.polish_pts);
+        let final_cfg = self.final_cost_config();
+        // it starts where refinement ended: at its final gate
+        let refine_cfg =
+            RefineConfig { first_gate: cfg.refine.final_gate, iterations: cfg.polish_iterations, ..cfg.refine };
+        let model = Arc::clone(&self.model);
+        for h in self.out.hypotheses.iter_mut().filter(|h| near(h)) {
+            let pose = refine(&model, &self.polish_pts, &h.pose, &refine_cfg).0;
+            let c = cost(scan, &pose, &model.caster, &self.error, &final_cfg, &mut self.scratch, &mut self.expected);
+            if c.value < h.cost.value {
+                (h.pose, h.cost) = (pose, c);
+            }
+        }
+    }
+
+    /// Sorts candidates by score and keeps the `count` best distinct ones.
+    fn keep_best(&mut self, count: usize) {
+        keep_distinct(&mut self.candidates, count, &mut self.kept_by_x);
+    }
+
+    /// Scores each candidate by eq. 7 over about `beams` equispaced beams, tolerant of
+    /// misalignment, for [`keep_best`](Self::keep_best) to keep the `keep` best. The candidates
+    /// are distinct already (this keeps the poses a keep before it made distinct), so those are
+    /// the `keep` lowest costs: a candidate known to cost more than `keep` others is stopped
+    /// early ([`cost_below`]) and scores +inf. The candidates come best first by the previous
+    /// step's score, so the bound is tight early.
+    fn coarse_cost(&mut self, scan: &ScanView<'_>, beams: usize, keep: usize) {
+        let cfg = CostConfig {
+            stride: (scan.len() / beams.max(1)).max(1),
+            sigma_floor: self.config.coarse_sigma.max(self.model.map.sigma),
+            ..self.cost
+        };
+        let lowest = &mut self.coarse_lowest;
+        lowest.clear();
+        for c in self.candidates.iter_mut() {
+            let bound = lowest.kth(keep);
+            c.score = cost_below(
+                scan,
+                &c.pose,
+                &self.model.caster,
+                &self.error,
+                &cfg,
+                bound,
+                &mut self.scratch,
+                &mut self.expected,
+            )
+            .value;
+            if c.score.is_finite() {
+                lowest.offer(c.score, keep);
+            }
+        }
+    }
+}
+
+/// Where a search's candidate poses come from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Source {
+    /// The given number of best scan corners, matched against similar map corners (eqs. 5-6).
+    Corners(usize),
+    /// The longest scan lines laid along every map wall ([`crate::slide`]).
+    Slides,
+}
+
+/// How the search judges one pose of a scan ([`Localizer::judge`]).
+#[derive(Clone, Copy, Debug)]
+pub struct Judgement {
+    /// The screen's first pass and its full pass (mean per point).
+    pub prescreen: f64,
+    pub screen: f64,
+    /// Eq. 7 at the pose, the pose refinement reaches from it, and eq. 7 there.
+    pub cost: Cost,
+    pub refined: Pose,
+    pub refined_cost: Cost,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Eq. 7's cap on readings short of the map is the approximate one only for a map that
+    /// declares itself approximate.
+    #[test]
+    fn an_approximate_map_has_its_own_cap_on_short_readings() {
+        let walls = vec![mapserver::Wall::new(0.0, 0.0, 20.0, 0.0)];
+        let config = LocalizerConfig { front_cap_approximate: 9.0, ..LocalizerConfig::default() };
+        let cap_on = |map: mapserver::WallMap| {
+            let model = Arc::new(MapModel::new(map, &mapserver::MapCornerConfig::default()));
+            Localizer::new(model, config).scan_cost_config().front_cap
+        };
+        assert_eq!(cap_on(mapserver::WallMap::new(walls.clone())), config.cost.front_cap);
+        assert_eq!(cap_on(mapserver::WallMap { sigma: 0.1, ..mapserver::WallMap::new(walls) }), 9.0);
+    }
+}

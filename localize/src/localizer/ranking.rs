@@ -1,0 +1,242 @@
+//! Ranking (step 4 of the stage): hypotheses sorted by eq. 7, those that converged to one pose
+//! merged, and the scan's status decided: `ok` when one pose explains the scan clearly best,
+//! `ambiguous` when a distinct pose explains it about as well or the best sees through too
+//! many walls to be trusted, `failed` when no pose explains it.
+
+use super::{same_pose, Hypothesis, Localizer, Status};
+use crate::model::MapModel;
+use crate::slide::FROM_SLIDE;
+use laser::{angle_diff, pose_theta};
+use nalgebra::Point2;
+
+impl Localizer {
+    /// Whether a distinct hypothesis as good as the best (within [`LocalizerConfig::cornerless_tie`])
+    /// has its heading and lies along the wall the best was slid on.
+    pub(super) fn slides_along_a_wall(&self) -> bool {
+        let cfg = &self.config;
+        let hyps = &self.out.hypotheses;
+        let Some(best) = hyps.first().filter(|h| h.scan_corner == FROM_SLIDE) else {
+            return false;
+        };
+        let Some(wall) = self.model.runs.get(best.map_corner as usize) else {
+            return false;
+        };
+        let along = (wall.b - wall.a).normalize();
+        hyps[1..].iter().any(|h| {
+            let d = h.pose.translation.vector - best.pose.translation.vector;
+            (h.cost.value - best.cost.value) * f64::from(best.cost.beams) < cfg.cornerless_tie
+                && !same_pose(&h.pose, &best.pose, cfg.distinct_position, cfg.distinct_heading)
+                && angle_diff(pose_theta(&h.pose), pose_theta(&best.pose)).abs() <= cfg.distinct_heading
+                && along.perp(&d).abs() <= 0.5 * cfg.distinct_position
+        })
+    }
+
+    /// Sorts hypotheses, merges those that converged to the same pose, and sets the status.
+    pub(super) fn rank(&mut self) {
+        let cfg = self.config;
+        let hyps = &mut self.out.hypotheses;
+        hyps.sort_by(|a, b| a.cost.value.total_cmp(&b.cost.value));
+        // keep the first (cheapest) of hypotheses that converged to the same pose, in place
+        let mut kept = 0;
+        for k in 0..hyps.len() {
+            let h = hyps[k];
+            if !hyps[..kept].iter().any(|q| same_pose(&q.pose, &h.pose, 0.05, 1f64.to_radians())) {
+                hyps[kept] = h;
+                kept += 1;
+            }
+        }
+        hyps.truncate(kept);
+        // poses outside the building are never the answer, but one that explains the scan as
+        // well as the answer says the scan does not single the answer out: they stay in the
+        // list, behind the answer, until the scan's last search is ranked
+        let Some(at) = hyps.iter().position(|h| !is_outside(&self.model, cfg.inside_only, h)) else {
+            self.out.status = Status::Failed;
+            return;
+        };
+        hyps[..=at].rotate_right(1);
+        let best = hyps[0];
+        let max_through = if self.model.map.is_approximate() { cfg.max_through_approximate } else { cfg.max_through };
+        self.out.status = if best.cost.inliers < cfg.min_inliers || best.cost.through > max_through {
+            Status::Failed
+        } else if best.cost.through > cfg.max_through_ok
+            || hyps.iter().any(|h| {
+                !same_pose(&h.pose, &best.pose, cfg.distinct_position, cfg.distinct_heading)
+                    && h.cost.value - best.cost.value < cfg.ambiguity_margin
+            })
+        {
+            Status::Ambiguous
+        } else {
+            Status::Ok
+        };
+    }
+
+    /// Drops the hypotheses outside the building (see [`Self::rank`]) and all but the
+    /// reported number of the others.
+    pub(super) fn report(&mut self) {
+        let (model, inside_only) = (&self.model, self.config.inside_only);
+        self.out.hypotheses.retain(|h| !is_outside(model, inside_only, h));
+        self.out.hypotheses.truncate(self.config.max_hypotheses);
+    }
+}
+
+/// Whether `h` lies where the robot cannot be ([`MapModel::off_limits`]), when answers are
+/// kept to where it can.
+fn is_outside(model: &MapModel, inside_only: bool, h: &Hypothesis) -> bool {
+    inside_only && model.off_limits(Point2::from(h.pose.translation.vector))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::{Cost, LocalizerConfig};
+    use laser::Pose;
+    use std::sync::Arc;
+
+    /// A slid pose further along the wall ties with the best only when the scan cannot tell
+    /// them apart: their costs summed over the beams differ by less than `cornerless_tie`. A
+    /// per-beam difference that is small but holds over hundreds of beams is not a tie.
+    #[test]
+    fn a_cornerless_tie_is_judged_on_the_whole_scan() {
+        let map = mapserver::WallMap::new(vec![mapserver::Wall::new(0.0, 0.0, 20.0, 0.0)]);
+        let model = Arc::new(MapModel::new(map, &mapserver::MapCornerConfig::default()));
+        let mut localizer = Localizer::new(model, LocalizerConfig::default());
+        let slid = |x: f64, value: f64| Hypothesis {
+            pose: Pose::new(nalgebra::Vector2::new(x, 1.5), 0.3),
+            cost: Cost { value, inliers: 1.0, through: 0.0, beams: 680 },
+            scan_corner: FROM_SLIDE,
+            map_corner: 0,
+        };
+        // 0.02 per beam over 680 beams: 13.6 in all, above the default 10
+        localizer.out.hypotheses = vec![slid(5.0, 0.5), slid(6.0, 0.52)];
+        assert!(!localizer.slides_along_a_wall());
+        // 0.01 per beam: 6.8 in all, a tie
+        localizer.out.hypotheses = vec![slid(5.0, 0.5), slid(6.0, 0.51)];
+        assert!(localizer.slides_along_a_wall());
+        // the same cost off the wall's line is another place, not a tie along it
+        localizer.out.hypotheses[1].pose = Pose::new(nalgebra::Vector2::new(6.0, 3.0), 0.3);
+        assert!(!localizer.slides_along_a_wall());
+    }
+
+    /// Beams through mapped walls: up to `max_through_ok` the best pose may be `ok`, up to
+    /// `max_through` it is an untrusted answer (`ambiguous`), beyond that no answer.
+    #[test]
+    fn beams_through_walls_grade_the_status() {
+        let map = mapserver::WallMap::new(vec![mapserver::Wall::new(0.0, 0.0, 20.0, 0.0)]);
+        let model = Arc::new(MapModel::new(map, &mapserver::MapCornerConfig::default()));
+        let config = LocalizerConfig::default();
+        let mut localizer = Localizer::new(model, config);
+        let mut status_with = |through: f64| {
+            localizer.out.hypotheses = vec![Hypothesis {
+                pose: Pose::new(nalgebra::Vector2::new(5.0, 1.5), 0.3),
+                cost: Cost { value: 0.5, inliers: 0.8, through, beams: 680 },
+                scan_corner: 0,
+                map_corner: 0,
+            }];
+            localizer.rank();
+            localizer.out.status
+        };
+        assert_eq!(status_with(0.0), Status::Ok);
+        assert_eq!(status_with(config.max_through_ok), Status::Ok);
+        assert_eq!(status_with(config.max_through_ok + 0.01), Status::Ambiguous);
+        assert_eq!(status_with(config.max_through), Status::Ambiguous);
+        assert_eq!(status_with(config.max_through + 0.01), Status::Failed);
+        // against a map that declares itself approximate, seeing through its walls never
+        // fails a pose by default, and fails it beyond its own limit when one is set
+        let approximate = mapserver::WallMap {
+            sigma: 0.1,
+            ..mapserver::WallMap::new(vec![mapserver::Wall::new(0.0, 0.0, 20.0, 0.0)])
+        };
+        let model = Arc::new(MapModel::new(approximate, &mapserver::MapCornerConfig::default()));
+        for (limit, status) in [(1.0, Status::Ambiguous), (0.4, Status::Failed)] {
+            let mut localizer =
+                Localizer::new(Arc::clone(&model), LocalizerConfig { max_through_approximate: limit, ..config });
+            localizer.out.hypotheses = vec![Hypothesis {
+                pose: Pose::new(nalgebra::Vector2::new(5.0, 1.5), 0.3),
+                cost: Cost { value: 0.5, inliers: 0.6, through: 0.45, beams: 680 },
+                scan_corner: 0,
+                map_corner: 0,
+            }];
+            localizer.rank();
+            assert_eq!(localizer.out.status, status, "limit {limit}");
+        }
+    }
+
+    /// A pose outside a closed building is never the answer, and is never reported; one that
+    /// explains the scan about as well as the answer makes the answer `ambiguous`. With
+    /// `inside_only` off it is an answer like any other.
+    #[test]
+    fn poses_outside_a_closed_building_are_witnesses_never_answers() {
+        let map = mapserver::WallMap::new(mapserver::Wall::rectangle(0.0, 0.0, 20.0, 10.0).to_vec());
+        let model = Arc::new(MapModel::new(map, &mapserver::MapCornerConfig::default()));
+        let at = |x: f64, y: f64, value: f64| Hypothesis {
+            pose: Pose::new(nalgebra::Vector2::new(x, y), 0.3),
+            cost: Cost { value, inliers: 0.8, through: 0.0, beams: 680 },
+            scan_corner: 0,
+            map_corner: 0,
+        };
+        let run = |config: LocalizerConfig, hyps: Vec<Hypothesis>| {
+            let mut localizer = Localizer::new(Arc::clone(&model), config);
+            localizer.out.hypotheses = hyps;
+            localizer.rank();
+            let first = localizer.out.hypotheses[0].pose;
+            localizer.report();
+            (localizer.out.status, first, localizer.out.hypotheses.clone())
+        };
+        let inside = at(5.0, 5.0, 0.9);
+        let far_inside = at(15.0, 5.0, 2.0);
+        // an outside pose cheaper than the answer, and one 0.1 m beyond the outline
+        for outside in [at(-3.0, 5.0, 0.5), at(10.0, 10.15, 0.5)] {
+            let (status, first, reported) = run(LocalizerConfig::default(), vec![outside, inside, far_inside]);
+            assert_eq!(first, inside.pose);
+            assert_eq!(status, Status::Ambiguous);
+            assert_eq!(reported, vec![inside, far_inside]);
+            // far costlier than the answer: no doubt about it
+            let (status, _, reported) = run(
+                LocalizerConfig::default(),
+                vec![inside, far_inside, Hypothesis { cost: Cost { value: 3.0, ..outside.cost }, ..outside }],
+            );
+            assert_eq!(status, Status::Ok);
+            assert_eq!(reported, vec![inside, far_inside]);
+            let off = LocalizerConfig { inside_only: false, ..LocalizerConfig::default() };
+            // the outside pose answers, clear of the inside one by more than the margin
+            let (status, first, reported) = run(off, vec![outside, inside, far_inside]);
+            assert_eq!((status, first), (Status::Ok, outside.pose));
+            assert_eq!(reported.len(), 3);
+        }
+        // only outside poses: no answer
+        let mut localizer = Localizer::new(Arc::clone(&model), LocalizerConfig::default());
+        localizer.out.hypotheses = vec![at(-3.0, 5.0, 0.5)];
+        localizer.rank();
+        localizer.report();
+        assert_eq!(localizer.out.status, Status::Failed);
+        assert!(localizer.out.hypotheses.is_empty());
+    }
+
+    /// A map built from scans says where its survey saw free space: a pose elsewhere is a
+    /// witness, as one outside a closed building, never an answer.
+    #[test]
+    fn poses_where_the_survey_saw_no_free_space_are_never_answers() {
+        let mut map = mapserver::WallMap::new(vec![mapserver::Wall::new(0.0, 0.0, 20.0, 0.0)]);
+        let mut seen = mapserver::SeenFree::covering(Point2::new(-1.0, -1.0), Point2::new(21.0, 6.0), 0.2).unwrap();
+        // the survey looked along a corridor 2 m from the wall, up to x = 10
+        seen.mark_ray(Point2::new(0.0, 2.0), Point2::new(10.0, 2.0));
+        map.seen_free = Some(seen);
+        let model = Arc::new(MapModel::new(map, &mapserver::MapCornerConfig::default()));
+        assert!(model.outside.is_none(), "one wall closes nothing off");
+        let at = |x: f64, value: f64| Hypothesis {
+            pose: Pose::new(nalgebra::Vector2::new(x, 2.0), 0.3),
+            cost: Cost { value, inliers: 0.8, through: 0.0, beams: 680 },
+            scan_corner: 0,
+            map_corner: 0,
+        };
+        let mut localizer = Localizer::new(Arc::clone(&model), LocalizerConfig::default());
+        localizer.out.hypotheses = vec![at(15.0, 0.5), at(5.0, 0.9)];
+        localizer.rank();
+        localizer.report();
+        assert_eq!(localizer.out.status, Status::Ambiguous);
+        assert_eq!(localizer.out.hypotheses, vec![at(5.0, 0.9)]);
+        // a pose a cell beside what was seen is within the slack
+        assert!(!model.off_limits(Point2::new(5.0, 2.25)));
+        assert!(model.off_limits(Point2::new(5.0, 3.0)));
+    }
+}

@@ -1,0 +1,286 @@
+//! Screening (step 2 of the stage): scan points placed at a candidate pose cost their squared
+//! distance to the nearest wall, read from the distance field, so that thousands of candidates
+//! can be ranked before eq. 7 casts a single ray. Also the helpers that choose and order those
+//! points, and that keep the best distinct candidates.
+
+use super::Candidate;
+use crate::lowest::Lowest;
+use crate::model::{MapModel, WallFrame, FIELD_CAP};
+use laser::{angle_diff, pose_theta, Pose};
+use mapserver::DistanceField;
+use nalgebra::Point2;
+use segment::Segmentation;
+
+/// The screen's first pass over one in `prescreen_step` points. It keeps the `keep` best sums:
+/// a pose is dropped as soon as its partial sum reaches the `keep`-th best so far (sums only
+/// grow), which leaves the kept set as it was and stops most wrong poses after a few points; a
+/// pose that puts every point far from the walls is never worth more work.
+pub(super) struct FirstPass<'a> {
+    screen: Screen<'a>,
+    /// How many points each pose is screened over.
+    points: usize,
+    keep: usize,
+    limit: f64,
+    /// The best sums so far.
+    best: &'a mut Lowest,
+}
+
+impl<'a> FirstPass<'a> {
+    pub(super) fn new(screen: Screen<'a>, points: usize, keep: usize, best: &'a mut Lowest) -> Self {
+        best.clear();
+        let limit = screen.cap * screen.cap * 0.95 * points.max(1) as f64;
+        FirstPass { screen, points, keep, limit, best }
+    }
+
+    /// The pose's mean screen cost over `points` (the pass's points, in any order), or `None`
+    /// when it cannot be among the `keep` best. The kept set does not depend on the order;
+    /// the time does: the sooner a wrong pose's large misses come, the sooner it is dropped.
+    pub(super) fn score(&mut self, pose: &Pose, points: &[Point2<f64>]) -> Option<f64> {
+        debug_assert_eq!(points.len(), self.points);
+        let sum = self.screen.sum(pose, points, self.limit)?;
+        self.best.offer(sum, self.keep);
+        self.limit = self.limit.min(self.best.kth(self.keep));
+        Some(sum / self.points.max(1) as f64)
+    }
+}
+
+/// Whether `pose` places the sensor within `r` of `p`.
+pub(super) fn within(pose: &Pose, p: Point2<f64>, r: f64) -> bool {
+    (Point2::from(pose.translation.vector) - p).norm() <= r
+}
+
+/// Eq. 7's cheap stand-in for screening: scan points placed at a pose cost their squared
+/// distance to the nearest wall, capped at `cap`.
+#[derive(Clone, Copy)]
+pub(super) struct Screen<'a> {
+    field: &'a DistanceField,
+    /// With [`MapModel::closed_sides`]: each wall's frame and closed sides.
+    sides: Option<(&'a [WallFrame], &'a [[bool; 2]])>,
+    cap: f64,
+}
+
+impl<'a> Screen<'a> {
+    pub(super) fn new(model: &'a MapModel, cap: f64) -> Self {
+        let sides = model.closed_sides.as_deref().map(|closed| (&model.frames[..], closed));
+        Screen { field: &model.field, sides, cap: cap.min(FIELD_CAP) }
+    }
+
+    /// The sum over `points` (sensor frame) placed at `pose`; `None` as soon as the partial sum
+    /// reaches `limit`.
+    ///
+    /// A point whose nearest wall turns its closed side to the sensor is unexplained (the cap):
+    /// its beam would have crossed a wall's body to reach that face. A pose a wall's thickness
+    /// off the truth puts its points there, on the far face of the walls it sees, where the
+    /// distance alone finds them as near a wall as the truth's.
+    #[inline]
+    pub(super) fn sum(&self, pose: &Pose, points: &[Point2<f64>], limit: f64) -> Option<f64> {
+        // with a limit, first the field's lower bounds, from a table that stays in cache: most
+        // wrong poses pass the limit on them alone, without reading the field itself
+        if limit < f64::INFINITY {
+            let mut bound = 0.0;
+            for q in points {
+                let d = self.field.lower_bound(pose * q).min(self.cap);
+                bound += d * d;
+                if bound >= limit {
+                    return None;
+                }
+            }
+        }
+        let sensor = Point2::from(pose.translation.vector);
+        let mut sum = 0.0;
+        for q in points {
+            let p = pose * q;
+            let mut d = self.field.distance(p).min(self.cap);
+            if d < self.cap && self.seen_from_a_closed_side(p, sensor) {
+                d = self.cap;
+            }
+            sum += d * d;
+            if sum >= limit {
+                return None;
+            }
+        }
+        Some(sum)
+    }
+
+    /// Whether `sensor` lies on the closed side of the wall nearest to `p` (never when the map
+    /// has no closed sides).
+    #[inline]
+    fn seen_from_a_closed_side(&self, p: Point2<f64>, sensor: Point2<f64>) -> bool {
+        let Some((frames, closed)) = self.sides else {
+            return false;
+        };
+        // only a nearest wall with a closed side is looked up (few are)
+        let Some(k) = self.field.marked_nearest_wall(p) else {
+            return false;
+        };
+        let (Some(f), Some(sides)) = (frames.get(k as usize), closed.get(k as usize)) else {
+            return false;
+        };
+        let left = f.normal.dot(&(sensor - f.a)) > 0.0;
+        sides[usize::from(!left)]
+    }
+}
+
+/// Sorts `candidates` by score and keeps the `count` best that are not within 0.1 m and 2
+/// degrees of a better kept one. `by_x` is scratch space.
+pub(super) fn keep_distinct(candidates: &mut Vec<Candidate>, count: usize, by_x: &mut Vec<(f64, usize)>) {
+    const POSITION: f64 = 0.1;
+    candidates.sort_by(|a, b| a.score.total_cmp(&b.score));
+    // a candidate is compared only with the kept ones whose x lies within POSITION of its own
+    // (hundreds are kept from hundreds more: comparing with all of them was quadratic)
+    by_x.clear();
+    let window = POSITION * (1.0 + 1e-9);
+    let mut kept = 0;
+    for k in 0..candidates.len() {
+        if kept == count {
+            break;
+        }
+        let p = candidates[k].pose;
+        let x = p.translation.x;
+        let from = by_x.partition_point(|&(qx, _)| qx < x - window);
+        let duplicate = by_x[from..]
+            .iter()
+            .take_while(|&&(qx, _)| qx <= x + window)
+            .any(|&(_, i)| same_pose(&p, &candidates[i].pose, POSITION, 2f64.to_radians()));
+        if !duplicate {
+            // positions below `kept` hold kept candidates and never move again
+            candidates.swap(kept, k);
+            by_x.insert(by_x.partition_point(|&(qx, _)| qx < x), (x, kept));
+            kept += 1;
+        }
+    }
+    candidates.truncate(kept);
+}
+
+/// Whether two poses are within `position` metres and `heading` radians.
+pub fn same_pose(a: &Pose, b: &Pose, position: f64, heading: f64) -> bool {
+    (a.translation.vector - b.translation.vector).norm() <= position
+        && angle_diff(pose_theta(a), pose_theta(b)).abs() <= heading
+}
+
+/// `points` into `out`, those that tell poses apart first: by `telling` (how far a point lies
+/// from where every candidate of one match puts it on a wall), largest first.
+pub(super) fn order_by_telling(
+    points: &[Point2<f64>],
+    out: &mut Vec<Point2<f64>>,
+    telling: impl Fn(Point2<f64>) -> f64,
+) {
+    out.clear();
+    out.extend_from_slice(points);
+    out.sort_by(|a, b| telling(*b).total_cmp(&telling(*a)));
+}
+
+/// Up to `count` sample points spread evenly over the scan.
+pub(super) fn subsample(seg: &Segmentation, count: usize, out: &mut Vec<Point2<f64>>) {
+    out.clear();
+    let n = seg.samples.len();
+    if n == 0 || count == 0 {
+        return;
+    }
+    let step = (n as f64 / count as f64).max(1.0);
+    let mut k = 0.0;
+    while (k as usize) < n {
+        out.push(seg.samples[k as usize].point());
+        k += step;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    /// Seen from the left, a 12 cm thick partition's left face; a pose 12 cm further right puts
+    /// those points on its right face, from inside the wall. The distance field alone finds them
+    /// on a wall either way; the closed sides tell the second apart.
+    #[test]
+    fn the_screen_tells_a_pose_a_walls_thickness_off_from_the_truth() {
+        let mut walls = mapserver::Wall::rectangle(0.0, 0.0, 6.0, 4.0).to_vec();
+        walls.push(mapserver::Wall::new(3.0, 0.0, 3.0, 4.0));
+        let thick = mapserver::thick::thicken(&mapserver::WallMap::new(walls), 0.12);
+        let model = MapModel::new(thick, &mapserver::MapCornerConfig::default());
+        assert!(model.closed_sides.is_some());
+        let truth = Pose::new(nalgebra::Vector2::new(1.5, 2.0), 0.0);
+        // sensor-frame points on the face x = 2.94 at 0.5 m spacing, 2 cm behind it as noise has them
+        let points: Vec<Point2<f64>> = (0..6).map(|k| Point2::new(1.44 + 0.02, -1.25 + 0.5 * k as f64)).collect();
+        let off = Pose::new(nalgebra::Vector2::new(1.62, 2.0), 0.0);
+        let screen = Screen::new(&model, 0.12);
+        let at_truth = screen.sum(&truth, &points, f64::INFINITY).unwrap();
+        let a_wall_off = screen.sum(&off, &points, f64::INFINITY).unwrap();
+        assert!(at_truth < 6.0 * 0.03f64.powi(2), "{at_truth}");
+        assert!(a_wall_off >= 6.0 * 0.12f64.powi(2) * 0.99, "{a_wall_off}");
+        // both lie on a wall by distance alone
+        for pose in [truth, off] {
+            assert!(points.iter().all(|q| model.field.distance(pose * q) < 0.04));
+        }
+    }
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(64))]
+        /// The first screening pass keeps the same poses, with the same sums, whatever order it
+        /// reads the points in: the order only decides how soon a pose is dropped.
+        #[test]
+        fn the_first_pass_keeps_the_same_poses_in_any_point_order(
+            poses in proptest::collection::vec((0.0f64..12.0, -1.0f64..9.0, -3.2f64..3.2), 1..120),
+            points in proptest::collection::vec((-4.0f64..4.0, -4.0f64..4.0), 1..12),
+            keep in 1usize..40,
+        ) {
+            let model = MapModel::new(mapserver::load_map("apartment").unwrap(), &mapserver::MapCornerConfig::default());
+            let points: Vec<Point2<f64>> = points.iter().map(|&(x, y)| Point2::new(x, y)).collect();
+            let mut reversed = points.clone();
+            reversed.reverse();
+            let kept = |order: &[Point2<f64>]| {
+                let mut best = Lowest::default();
+                let mut pass = FirstPass::new(Screen::new(&model, 0.12), order.len(), keep, &mut best);
+                let mut scored: Vec<(usize, f64)> = poses
+                    .iter()
+                    .enumerate()
+                    .filter_map(|(k, &(x, y, t))| pass.score(&Pose::new(nalgebra::Vector2::new(x, y), t), order).map(|s| (k, s)))
+                    .collect();
+                scored.sort_by(|a, b| a.1.total_cmp(&b.1).then(a.0.cmp(&b.0)));
+                scored.truncate(keep);
+                scored
+            };
+            let (a, b) = (kept(&points), kept(&reversed));
+            prop_assert_eq!(a.len(), b.len());
+            for (x, y) in a.iter().zip(&b) {
+                // the same sums up to rounding; poses whose sums tie within it may swap
+                prop_assert!((x.1 - y.1).abs() < 1e-12, "{:?} {:?}", x, y);
+            }
+        }
+    }
+
+    proptest! {
+        /// The windowed de-duplication keeps exactly what comparing with every kept candidate
+        /// keeps.
+        #[test]
+        fn keep_distinct_equals_comparing_with_every_kept_one(
+            poses in proptest::collection::vec((0.0f64..0.6, 0.0f64..0.6, -0.1f64..0.1, 0.0f64..1.0), 0..80),
+            count in 0usize..40,
+        ) {
+            let candidates: Vec<Candidate> = poses
+                .iter()
+                .enumerate()
+                .map(|(k, &(x, y, theta, score))| Candidate {
+                    pose: Pose::new(nalgebra::Vector2::new(x, y), theta),
+                    score,
+                    scan_corner: 0,
+                    map_corner: k as u32,
+                })
+                .collect();
+            let mut fast = candidates.clone();
+            keep_distinct(&mut fast, count, &mut Vec::new());
+            let mut sorted = candidates;
+            sorted.sort_by(|a, b| a.score.total_cmp(&b.score));
+            let mut reference: Vec<Candidate> = Vec::new();
+            for c in sorted {
+                if reference.len() < count
+                    && !reference.iter().any(|q| same_pose(&c.pose, &q.pose, 0.1, 2f64.to_radians()))
+                {
+                    reference.push(c);
+                }
+            }
+            let ids = |v: &[Candidate]| v.iter().map(|c| c.map_corner).collect::<Vec<_>>();
+            prop_assert_eq!(ids(&fast), ids(&reference));
+        }
+    }
+}
