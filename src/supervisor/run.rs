@@ -2,15 +2,18 @@
 
 use super::child::{stop, StageProcess};
 use super::monitor::Monitor;
-use super::pipeline::{set_arg, Kind, Pipeline, Restart, StageSpec};
+use super::pipeline::{set_arg, Kind, Pipeline, Restart, StageSpec, SupervisorSpec};
 use super::swap::{Swap, SwapOutcome};
 use anyhow::{anyhow, bail, Context, Result};
 use clap::Args;
 use messages::iceoryx2::prelude::*;
 use messages::iceoryx2::service::port_factory::server::ServerCreateError;
-use messages::{monotonic_ns, open_control, open_topic, ready_listener, ListenerDrain, PoseMsg, Topic, MAX_INSTANCE};
+use messages::{
+    monotonic_ns, open_control, open_topic, ready_listener, ControlReply, ControlRequest, ListenerDrain, PoseMsg,
+    Topic, MAX_INSTANCE,
+};
 use std::collections::HashSet;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
 #[derive(Args, Debug, Clone)]
@@ -78,6 +81,92 @@ fn wait_ready(
 
 pub fn run(a: RunArgs) -> Result<()> {
     let mut pipeline = Pipeline::load(a.pipeline.as_deref())?;
+    let scans = apply_overrides(&mut pipeline, &a);
+    // the supervisor's own place: it consumes the poses, and holds the wake-up latency request
+    let _placement = Placement::take(&pipeline.supervisor)?;
+    let stale = messages::cleanup_dead_nodes();
+    if stale > 0 {
+        eprintln!("supervisor: removed the resources of {stale} dead processes");
+    }
+    let node = messages::create_node("supervisor")?;
+    // the control service takes one server: holding it claims the prefix, so a second run
+    // under the same prefix stops here instead of mixing its scans and poses with this one's
+    let control = open_control(&node, &a.prefix)?;
+    let server = control.server_builder().create().map_err(|e| match e {
+        ServerCreateError::ExceedsMaxSupportedServers => {
+            anyhow!("prefix {:?} is in use by another `gema2 run`: give this one its own --prefix", a.prefix)
+        }
+        e => anyhow!("control: {e:?}"),
+    })?;
+    let poses = open_topic::<PoseMsg>(&node, &a.prefix, Topic::Pose)?;
+    let pose_in = poses.data.subscriber_builder().create().map_err(|e| anyhow!("{}: {e:?}", poses.name))?;
+    let pose_wake = poses.event.listener_builder().create().map_err(|e| anyhow!("{}: {e:?}", poses.name))?;
+    let ready = ready_listener(&node, &a.prefix)?;
+
+    let mut instances = Instances(0);
+    let mut seen = HashSet::new();
+    let mut stages: Vec<StageProcess> = pipeline.stages.into_iter().map(StageProcess::new).collect();
+    start_all(&mut stages, &a.prefix, &ready, &mut seen, &mut instances)?;
+    let started = Instant::now();
+    eprintln!("supervisor: {} stages running under prefix {}", stages.len(), a.prefix);
+
+    let waitset = WaitSetBuilder::new().create::<ipc::Service>().map_err(|e| anyhow!("waitset: {e:?}"))?;
+    let _pose_guard = waitset.attach_notification(&pose_wake).map_err(|e| anyhow!("waitset: {e:?}"))?;
+    let _ready_guard = waitset.attach_notification(&ready).map_err(|e| anyhow!("waitset: {e:?}"))?;
+    let _tick = waitset.attach_interval(Duration::from_millis(20)).map_err(|e| anyhow!("waitset: {e:?}"))?;
+    let mut monitor = Monitor::default();
+    let mut swap: Option<Swap> = None;
+    let mut failure: Option<anyhow::Error> = None;
+    let mut last_pose = Instant::now();
+    let on_event = |_: WaitSetAttachmentId<ipc::Service>| {
+        // looked at on every wake, the tick too: a wake-up can be lost (MISSED_WAKEUP_POLL);
+        // two passes, the listener drained in between (messages::ListenerDrain)
+        let mut drain = ListenerDrain::new([&pose_wake]);
+        for pass in 0..2 {
+            if pass == 1 {
+                drain.once();
+            }
+            while let Ok(Some(p)) = pose_in.receive() {
+                monitor.record(&p, monotonic_ns());
+                last_pose = Instant::now();
+                drain.once();
+            }
+        }
+        let _ = ready.try_wait(|e| {
+            seen.insert(e.id.as_value());
+        });
+        if let Err(e) = reap_and_restart(&mut stages, &a.prefix, &mut instances) {
+            failure = Some(e);
+            return CallbackProgression::Stop;
+        }
+        hot_swap(&mut swap, &server, &mut stages, &a.prefix, &seen, &mut instances);
+        // done?
+        let sources_done = stages.iter().filter(|s| s.spec.kind == Kind::Acquire).all(|s| s.finished);
+        let all_in = scans.is_some_and(|n| monitor.received >= n);
+        let quiet = sources_done && last_pose.elapsed() > Duration::from_secs(2);
+        let timed_out = a.timeout.is_some_and(|t| started.elapsed().as_secs_f64() > t);
+        if all_in || quiet || timed_out {
+            if timed_out {
+                eprintln!("supervisor: timed out after {:?}", started.elapsed());
+            }
+            return CallbackProgression::Stop;
+        }
+        CallbackProgression::Continue
+    };
+    let waited = messages::run_waitset(&node, &waitset, on_event);
+    stop_all(&mut stages);
+    drop(swap);
+    messages::cleanup_dead_nodes();
+    waited.map_err(|e| anyhow!("waitset: {e:?}"))?;
+    if let Some(e) = failure {
+        return Err(e);
+    }
+    report(&monitor, &stages, scans, a.out.as_deref())
+}
+
+/// Applies the command line's `--scans`, `--rate` and `--record` to the pipeline; returns the
+/// scans the sources publish, when known.
+fn apply_overrides(pipeline: &mut Pipeline, a: &RunArgs) -> Option<u64> {
     let scans = a.scans.or(if a.pipeline.is_none() { Some(300) } else { None });
     for s in pipeline.stages.iter_mut().filter(|s| s.kind == Kind::Acquire) {
         if let Some(n) = scans {
@@ -107,147 +196,121 @@ pub fn run(a: RunArgs) -> Result<()> {
             },
         );
     }
-    // the supervisor's own place: it consumes the poses, and holds the wake-up latency request
-    let placement = &pipeline.supervisor;
-    let _wake_latency = match placement.wake_latency_us {
-        Some(us) => {
-            let r = messages::placement::WakeLatencyRequest::hold(us).context("[supervisor] wake_latency_us")?;
-            eprintln!("supervisor: idle cores wake within {} us while the pipeline runs (PM QoS)", r.micros);
-            Some(r)
-        }
-        None => None,
-    };
-    // put back on return: `gema2 bench` runs several pipelines from this thread
-    let saved = (placement.cpu.is_some() || placement.priority.is_some())
-        .then(messages::placement::SavedPlacement::save)
-        .transpose()?;
-    if let (Some(cpu), Some(saved)) = (placement.cpu, &saved) {
-        super::child::remember_affinity(saved.affinity());
-        messages::pin_to_cpu(cpu).context("[supervisor] cpu")?;
-    }
-    if let Some(p) = placement.priority {
-        messages::placement::set_realtime_priority(p, true).context("[supervisor] priority")?;
-    }
-    let stale = messages::cleanup_dead_nodes();
-    if stale > 0 {
-        eprintln!("supervisor: removed the resources of {stale} dead processes");
-    }
-    let node = messages::create_node("supervisor")?;
-    // the control service takes one server: holding it claims the prefix, so a second run
-    // under the same prefix stops here instead of mixing its scans and poses with this one's
-    let control = open_control(&node, &a.prefix)?;
-    let server = control.server_builder().create().map_err(|e| match e {
-        ServerCreateError::ExceedsMaxSupportedServers => {
-            anyhow!("prefix {:?} is in use by another `gema2 run`: give this one its own --prefix", a.prefix)
-        }
-        e => anyhow!("control: {e:?}"),
-    })?;
-    let poses = open_topic::<PoseMsg>(&node, &a.prefix, Topic::Pose)?;
-    let pose_in = poses.data.subscriber_builder().create().map_err(|e| anyhow!("{}: {e:?}", poses.name))?;
-    let pose_wake = poses.event.listener_builder().create().map_err(|e| anyhow!("{}: {e:?}", poses.name))?;
-    let ready = ready_listener(&node, &a.prefix)?;
+    scans
+}
 
-    let mut instances = Instances(0);
-    let mut seen = HashSet::new();
-    let mut stages: Vec<StageProcess> = pipeline.stages.into_iter().map(StageProcess::new).collect();
-    // everything but the sources first, each connected before the next starts
+/// The supervisor's own placement while the pipeline runs (its `[supervisor]` table): put
+/// back when dropped, because `gema2 bench` runs several pipelines from one thread.
+struct Placement {
+    _saved: Option<messages::placement::SavedPlacement>,
+    _wake_latency: Option<messages::placement::WakeLatencyRequest>,
+}
+
+impl Placement {
+    fn take(placement: &SupervisorSpec) -> Result<Placement> {
+        let wake_latency = match placement.wake_latency_us {
+            Some(us) => {
+                let r = messages::placement::WakeLatencyRequest::hold(us).context("[supervisor] wake_latency_us")?;
+                eprintln!("supervisor: idle cores wake within {} us while the pipeline runs (PM QoS)", r.micros);
+                Some(r)
+            }
+            None => None,
+        };
+        let saved = (placement.cpu.is_some() || placement.priority.is_some())
+            .then(messages::placement::SavedPlacement::save)
+            .transpose()?;
+        if let (Some(cpu), Some(saved)) = (placement.cpu, &saved) {
+            super::child::remember_affinity(saved.affinity());
+            messages::pin_to_cpu(cpu).context("[supervisor] cpu")?;
+        }
+        if let Some(p) = placement.priority {
+            messages::placement::set_realtime_priority(p, true).context("[supervisor] priority")?;
+        }
+        Ok(Placement { _saved: saved, _wake_latency: wake_latency })
+    }
+}
+
+/// Starts every stage: all but the sources first, each connected before the next starts, so
+/// that no scan is published before its consumers listen.
+fn start_all(
+    stages: &mut [StageProcess],
+    prefix: &str,
+    ready: &messages::iceoryx2::port::listener::Listener<ipc::Service>,
+    seen: &mut HashSet<usize>,
+    instances: &mut Instances,
+) -> Result<()> {
     for st in stages.iter_mut().filter(|s| s.spec.kind != Kind::Acquire) {
         let k = instances.next();
-        st.start(&a.prefix, None, k)?;
-        wait_ready(&ready, &mut seen, k, st, Duration::from_secs(30))?;
+        st.start(prefix, None, k)?;
+        wait_ready(ready, seen, k, st, Duration::from_secs(30))?;
     }
     for st in stages.iter_mut().filter(|s| s.spec.kind == Kind::Acquire) {
-        st.start(&a.prefix, None, instances.next())?;
+        st.start(prefix, None, instances.next())?;
     }
-    let started = Instant::now();
-    eprintln!("supervisor: {} stages running under prefix {}", stages.len(), a.prefix);
+    Ok(())
+}
 
-    let waitset = WaitSetBuilder::new().create::<ipc::Service>().map_err(|e| anyhow!("waitset: {e:?}"))?;
-    let _pose_guard = waitset.attach_notification(&pose_wake).map_err(|e| anyhow!("waitset: {e:?}"))?;
-    let _ready_guard = waitset.attach_notification(&ready).map_err(|e| anyhow!("waitset: {e:?}"))?;
-    let _tick = waitset.attach_interval(Duration::from_millis(20)).map_err(|e| anyhow!("waitset: {e:?}"))?;
-    let mut monitor = Monitor::default();
-    let mut swap: Option<Swap> = None;
-    let mut failure: Option<anyhow::Error> = None;
-    let mut last_pose = Instant::now();
-    let on_event = |_: WaitSetAttachmentId<ipc::Service>| {
-        // looked at on every wake, the tick too: a wake-up can be lost (MISSED_WAKEUP_POLL);
-        // two passes, the listener drained in between (messages::ListenerDrain)
-        let mut drain = ListenerDrain::new([&pose_wake]);
-        for pass in 0..2 {
-            if pass == 1 {
-                drain.once();
-            }
-            while let Ok(Some(p)) = pose_in.receive() {
-                monitor.record(&p, monotonic_ns());
-                last_pose = Instant::now();
-                drain.once();
-            }
-        }
-        let _ = ready.try_wait(|e| {
-            seen.insert(e.id.as_value());
-        });
-        // reap and restart
-        for st in stages.iter_mut() {
-            let exited = st.child.as_mut().and_then(|c| c.try_wait().ok().flatten());
-            if let Some(status) = exited {
-                st.child = None;
-                if st.should_restart(&status) {
-                    let removed = messages::cleanup_dead_nodes();
-                    eprintln!(
-                        "supervisor: stage {} ended ({status}); restarting in {:?} ({removed} dead nodes cleaned)",
-                        st.spec.name,
-                        st.backoff()
-                    );
-                    st.restart_at = Some(Instant::now() + st.backoff());
-                    st.restarts += 1;
-                } else {
-                    st.finished = true;
-                    if !status.success() {
-                        eprintln!("supervisor: stage {} ended ({status}), not restarted", st.spec.name);
-                    }
-                }
-            }
-            if st.restart_at.is_some_and(|t| Instant::now() >= t) {
-                let implementation = st.spec.implementation.clone();
-                if let Err(e) = st.start(&a.prefix, implementation.as_deref(), instances.next()) {
-                    failure = Some(e);
-                    return CallbackProgression::Stop;
+/// Reaps the stages that ended, schedules the restart of those whose policy asks for one
+/// (with backoff, their dead nodes cleaned up), and starts those that are due. An error when
+/// a stage cannot be started again.
+fn reap_and_restart(stages: &mut [StageProcess], prefix: &str, instances: &mut Instances) -> Result<()> {
+    for st in stages.iter_mut() {
+        let exited = st.child.as_mut().and_then(|c| c.try_wait().ok().flatten());
+        if let Some(status) = exited {
+            st.child = None;
+            if st.should_restart(&status) {
+                let removed = messages::cleanup_dead_nodes();
+                eprintln!(
+                    "supervisor: stage {} ended ({status}); restarting in {:?} ({removed} dead nodes cleaned)",
+                    st.spec.name,
+                    st.backoff()
+                );
+                st.restart_at = Some(Instant::now() + st.backoff());
+                st.restarts += 1;
+            } else {
+                st.finished = true;
+                if !status.success() {
+                    eprintln!("supervisor: stage {} ended ({status}), not restarted", st.spec.name);
                 }
             }
         }
-        // hot swaps
-        if swap.is_none() {
-            match Swap::accept(&server, &mut stages, &a.prefix, || instances.next()) {
-                Ok(s) => swap = s,
-                Err(e) => eprintln!("supervisor: {e:#}"),
+        if st.restart_at.is_some_and(|t| Instant::now() >= t) {
+            let implementation = st.spec.implementation.clone();
+            st.start(prefix, implementation.as_deref(), instances.next())?;
+        }
+    }
+    Ok(())
+}
+
+/// Takes a hot-swap request when none is in progress, and advances the one that is.
+fn hot_swap(
+    swap: &mut Option<Swap>,
+    server: &messages::iceoryx2::port::server::Server<ipc::Service, ControlRequest, (), ControlReply, ()>,
+    stages: &mut [StageProcess],
+    prefix: &str,
+    seen: &HashSet<usize>,
+    instances: &mut Instances,
+) {
+    if swap.is_none() {
+        match Swap::accept(server, stages, prefix, || instances.next()) {
+            Ok(s) => *swap = s,
+            Err(e) => eprintln!("supervisor: {e:#}"),
+        }
+    }
+    if let Some(s) = swap.as_mut() {
+        match s.progress(seen, stages) {
+            SwapOutcome::Pending => {}
+            SwapOutcome::Done(message) | SwapOutcome::Failed(message) => {
+                eprintln!("supervisor: {message}");
+                *swap = None;
             }
         }
-        if let Some(s) = swap.as_mut() {
-            match s.progress(&seen, &mut stages) {
-                SwapOutcome::Pending => {}
-                SwapOutcome::Done(message) | SwapOutcome::Failed(message) => {
-                    eprintln!("supervisor: {message}");
-                    swap = None;
-                }
-            }
-        }
-        // done?
-        let sources_done = stages.iter().filter(|s| s.spec.kind == Kind::Acquire).all(|s| s.finished);
-        let all_in = scans.is_some_and(|n| monitor.received >= n);
-        let quiet = sources_done && last_pose.elapsed() > Duration::from_secs(2);
-        let timed_out = a.timeout.is_some_and(|t| started.elapsed().as_secs_f64() > t);
-        if all_in || quiet || timed_out {
-            if timed_out {
-                eprintln!("supervisor: timed out after {:?}", started.elapsed());
-            }
-            return CallbackProgression::Stop;
-        }
-        CallbackProgression::Continue
-    };
-    let waited = messages::run_waitset(&node, &waitset, on_event);
-    // stop every stage: SIGTERM, a grace period, then SIGKILL; then clean up
-    // the recorder last, so it records everything the others sent; it flushes on SIGTERM
+    }
+}
+
+/// Stops every stage: SIGTERM, a grace period, then SIGKILL. The recorder goes last, so it
+/// records everything the others sent; it flushes on SIGTERM.
+fn stop_all(stages: &mut [StageProcess]) {
     for st in stages.iter_mut().filter(|s| s.spec.kind != Kind::Viewer) {
         if let Some(mut c) = st.child.take() {
             stop(&mut c, Duration::from_secs(3));
@@ -258,17 +321,16 @@ pub fn run(a: RunArgs) -> Result<()> {
             stop(&mut c, Duration::from_secs(30));
         }
     }
-    drop(swap);
-    messages::cleanup_dead_nodes();
-    waited.map_err(|e| anyhow!("waitset: {e:?}"))?;
-    if let Some(e) = failure {
-        return Err(e);
-    }
+}
+
+/// Prints the latency and accuracy figures and the restarts, and writes the poses received
+/// to `out` as CSV.
+fn report(monitor: &Monitor, stages: &[StageProcess], scans: Option<u64>, out: Option<&Path>) -> Result<()> {
     println!("{}", monitor.render(scans));
     for st in stages.iter().filter(|s| s.restarts > 0) {
         println!("stage {} restarted {} times", st.spec.name, st.restarts);
     }
-    if let Some(path) = &a.out {
+    if let Some(path) = out {
         let mut f = std::io::BufWriter::new(
             std::fs::File::create(path).with_context(|| format!("creating {}", path.display()))?,
         );
