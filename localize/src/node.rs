@@ -4,10 +4,10 @@
 //! hot swap) is skipped; gaps are fine.
 
 use crate::slide::SlideLine;
-use crate::{Gema2Config, Localizer, MapModel, Status};
+use crate::{Gema2Config, Localization, Localizer, MapModel, Status};
 use anyhow::{anyhow, Context, Result};
 use clap::Args;
-use laser::pose_theta;
+use laser::{pose_theta, ScanView};
 use mapserver::wire::map_from_msg;
 use messages::iceoryx2::prelude::*;
 use messages::{
@@ -77,17 +77,10 @@ pub fn run(a: LocalizeArgs) -> Result<()> {
                     Ok(walls) if localizer.as_ref().is_none_or(|(_, v)| *v != m.version) => {
                         let model = Arc::new(MapModel::new(walls, &config.map_corners));
                         eprintln!("localize: map version {} ({} walls)", m.version, m.count);
-                        match localizer.as_mut() {
-                            Some((l, v)) => {
-                                l.set_model(model);
-                                *v = m.version;
-                            }
-                            None => {
-                                localizer = Some((Localizer::new(model, config.localizer), m.version));
-                                // ready once there is a map to localize against
-                                if let Err(e) = messages::announce_ready(&node, &a.stage.prefix) {
-                                    eprintln!("localize: {e}");
-                                }
+                        if take_map(&mut localizer, model, m.version, &config) {
+                            // ready once there is a map to localize against
+                            if let Err(e) = messages::announce_ready(&node, &a.stage.prefix) {
+                                eprintln!("localize: {e}");
                             }
                         }
                     }
@@ -130,47 +123,11 @@ pub fn run(a: LocalizeArgs) -> Result<()> {
                         continue;
                     }
                 };
-                seg.noise_scale = usable_scale(msg.noise_scale);
-                let error = config.segmenter.error.scaled(seg.noise_scale);
-                build_samples(&view, &error, config.segmenter.averaging, &mut seg.samples);
-                seg.corners.clear();
-                let n = (msg.count as usize).min(msg.corners.len());
-                seg.corners.extend(msg.corners[..n].iter().filter_map(corner_from_msg));
+                segmentation_from(msg, &view, &config, &mut seg);
                 let lines = msg.lines[..(msg.line_count as usize).min(msg.lines.len())].iter().filter_map(slide_line);
                 let result = loc.locate_with_lines(&view, &seg, lines);
                 let version = *version;
-                let sent = pose_out.send(|p: &mut PoseMsg| {
-                    p.header = msg.scan.header;
-                    p.header.span(Stage::Localize).enter_ns = enter;
-                    p.header.set_producer("gema2");
-                    p.status = match result.status {
-                        Status::Ok => STATUS_OK,
-                        Status::Ambiguous => STATUS_AMBIGUOUS,
-                        Status::Failed => STATUS_FAILED,
-                    };
-                    p.candidates = result.candidates as u32;
-                    p.map_version = version;
-                    p.has_truth = msg.scan.has_truth;
-                    p.truth = msg.scan.truth;
-                    let k = result.hypotheses.len().min(MAX_HYPOTHESES);
-                    p.count = k as u32;
-                    for (slot, h) in p.hypotheses.iter_mut().zip(&result.hypotheses[..k]) {
-                        *slot = HypothesisMsg {
-                            pose: PoseMsgXyt {
-                                x: h.pose.translation.x,
-                                y: h.pose.translation.y,
-                                theta: pose_theta(&h.pose),
-                            },
-                            cost: h.cost.value,
-                            inliers: h.cost.inliers,
-                            through: h.cost.through,
-                            scan_corner: h.scan_corner as u32,
-                            map_corner: h.map_corner,
-                        };
-                    }
-                    // the stage ends as the message is sent: the hop after it is transport only
-                    p.header.span(Stage::Localize).leave_ns = monotonic_ns();
-                });
+                let sent = pose_out.send(|p: &mut PoseMsg| write_pose(p, msg, result, version, enter));
                 if let Err(e) = sent {
                     failure = Some(anyhow!("localize: publishing pose {seq}: {e}"));
                     return CallbackProgression::Stop;
@@ -197,6 +154,70 @@ pub fn run(a: LocalizeArgs) -> Result<()> {
         None => Ok(()),
     }
     .context("localize")
+}
+
+/// Puts `model` (map version `version`) into the stage's localizer, making the localizer when
+/// this is the first map; returns whether it was.
+fn take_map(
+    localizer: &mut Option<(Localizer, u32)>,
+    model: Arc<MapModel>,
+    version: u32,
+    config: &Gema2Config,
+) -> bool {
+    match localizer.as_mut() {
+        Some((l, v)) => {
+            l.set_model(model);
+            *v = version;
+            false
+        }
+        None => {
+            *localizer = Some((Localizer::new(model, config.localizer), version));
+            true
+        }
+    }
+}
+
+/// The segmentation the localizer reads, from the segment stage's message: the scan's samples
+/// rebuilt with the error model widened as the segmenter widened its own, and the corners.
+/// The lines travel separately ([`slide_line`]).
+fn segmentation_from(msg: &CornersMsg, view: &ScanView<'_>, config: &Gema2Config, seg: &mut Segmentation) {
+    seg.noise_scale = usable_scale(msg.noise_scale);
+    let error = config.segmenter.error.scaled(seg.noise_scale);
+    build_samples(view, &error, config.segmenter.averaging, &mut seg.samples);
+    seg.corners.clear();
+    let n = (msg.count as usize).min(msg.corners.len());
+    seg.corners.extend(msg.corners[..n].iter().filter_map(corner_from_msg));
+}
+
+/// Writes the outcome of the scan `msg` carried into the pose message `p`: status, the best
+/// hypotheses, the map version, the scan's truth when it has one, and the stage's span.
+fn write_pose(p: &mut PoseMsg, msg: &CornersMsg, result: &Localization, map_version: u32, enter_ns: u64) {
+    p.header = msg.scan.header;
+    p.header.span(Stage::Localize).enter_ns = enter_ns;
+    p.header.set_producer("gema2");
+    p.status = match result.status {
+        Status::Ok => STATUS_OK,
+        Status::Ambiguous => STATUS_AMBIGUOUS,
+        Status::Failed => STATUS_FAILED,
+    };
+    p.candidates = result.candidates as u32;
+    p.map_version = map_version;
+    p.has_truth = msg.scan.has_truth;
+    p.truth = msg.scan.truth;
+    let k = result.hypotheses.len().min(MAX_HYPOTHESES);
+    p.count = k as u32;
+    for (slot, h) in p.hypotheses.iter_mut().zip(&result.hypotheses[..k]) {
+        *slot = HypothesisMsg {
+            pose: PoseMsgXyt { x: h.pose.translation.x, y: h.pose.translation.y, theta: pose_theta(&h.pose) },
+            cost: h.cost.value,
+            inliers: h.cost.inliers,
+            through: h.cost.through,
+            scan_corner: h.scan_corner as u32,
+            map_corner: h.map_corner,
+        };
+    }
+    // the stage ends as the message is sent: the hop after it is transport only
+    p.header.span(Stage::Localize).leave_ns = monotonic_ns();
 }
 
 /// A line from the wire as the slide search reads it; `None` if any number is not finite.

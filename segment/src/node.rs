@@ -6,12 +6,12 @@
 
 use crate::split_merge::{segmenter_by_name, SEGMENTERS};
 use crate::wire::{corner_to_msg, line_to_msg, scan_view};
-use crate::SegmenterConfig;
+use crate::{Segmentation, SegmenterConfig};
 use anyhow::{anyhow, Context, Result};
 use clap::Args;
 use messages::iceoryx2::prelude::*;
 use messages::{
-    monotonic_ns, open_topic, CornersMsg, Freshness, LinesMsg, ListenerDrain, Outlet, ScanMsg, Stage, Topic,
+    monotonic_ns, open_topic, CornersMsg, Freshness, Header, LinesMsg, ListenerDrain, Outlet, ScanMsg, Stage, Topic,
     MAX_CORNERS, MAX_LINES,
 };
 
@@ -95,35 +95,8 @@ pub fn run(a: SegmentArgs) -> Result<()> {
                 header.span(Stage::Segment).enter_ns = enter;
                 header.set_producer(name);
                 let sent = lines_out
-                    .send(|m: &mut LinesMsg| {
-                        m.header = header;
-                        m.raw_count = seg.raw_lines.len() as u32;
-                        let n = seg.lines.len().min(MAX_LINES);
-                        m.count = n as u32;
-                        for (slot, l) in m.lines.iter_mut().zip(&seg.lines[..n]) {
-                            *slot = line_to_msg(l);
-                        }
-                        // each message leaves the stage as it is sent: the hop after it is transport
-                        m.header.span(Stage::Segment).leave_ns = monotonic_ns();
-                    })
-                    .and_then(|_| {
-                        corners_out.send(|m: &mut CornersMsg| {
-                            m.scan = *scan;
-                            m.scan.header = header;
-                            m.noise_scale = seg.noise_scale;
-                            let n = seg.corners.len().min(MAX_CORNERS);
-                            m.count = n as u32;
-                            for (slot, c) in m.corners.iter_mut().zip(&seg.corners[..n]) {
-                                *slot = corner_to_msg(c);
-                            }
-                            let n = seg.lines.len().min(MAX_LINES);
-                            m.line_count = n as u32;
-                            for (slot, l) in m.lines.iter_mut().zip(&seg.lines[..n]) {
-                                *slot = line_to_msg(l);
-                            }
-                            m.scan.header.span(Stage::Segment).leave_ns = monotonic_ns();
-                        })
-                    });
+                    .send(|m: &mut LinesMsg| write_lines(m, header, seg))
+                    .and_then(|_| corners_out.send(|m: &mut CornersMsg| write_corners(m, scan, header, seg)));
                 if let Err(e) = sent {
                     failure = Some(anyhow!("segment: publishing scan {}: {e}", header.seq));
                     return CallbackProgression::Stop;
@@ -150,4 +123,37 @@ pub fn run(a: SegmentArgs) -> Result<()> {
         None => Ok(()),
     }
     .context("segment")
+}
+
+/// Writes a scan's lines into `m` (the viewer's record of them). The message leaves the
+/// stage as it is sent: the hop after it is transport only.
+fn write_lines(m: &mut LinesMsg, header: Header, seg: &Segmentation) {
+    m.header = header;
+    m.raw_count = seg.raw_lines.len() as u32;
+    let n = seg.lines.len().min(MAX_LINES);
+    m.count = n as u32;
+    for (slot, l) in m.lines.iter_mut().zip(&seg.lines[..n]) {
+        *slot = line_to_msg(l);
+    }
+    m.header.span(Stage::Segment).leave_ns = monotonic_ns();
+}
+
+/// Writes what the localizer needs of a scan into `m`: the scan itself (the localizer casts
+/// its beams), its corners, its lines (for the slide search) and the noise scale the
+/// segmenter found.
+fn write_corners(m: &mut CornersMsg, scan: &ScanMsg, header: Header, seg: &Segmentation) {
+    m.scan = *scan;
+    m.scan.header = header;
+    m.noise_scale = seg.noise_scale;
+    let n = seg.corners.len().min(MAX_CORNERS);
+    m.count = n as u32;
+    for (slot, c) in m.corners.iter_mut().zip(&seg.corners[..n]) {
+        *slot = corner_to_msg(c);
+    }
+    let n = seg.lines.len().min(MAX_LINES);
+    m.line_count = n as u32;
+    for (slot, l) in m.lines.iter_mut().zip(&seg.lines[..n]) {
+        *slot = line_to_msg(l);
+    }
+    m.scan.header.span(Stage::Segment).leave_ns = monotonic_ns();
 }
