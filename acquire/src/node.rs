@@ -143,31 +143,13 @@ pub fn run(a: AcquireArgs) -> Result<()> {
         install_stop_handlers();
     }
     a.stage.place()?;
-    let period = match a.rate.as_str() {
-        // a sensor paces itself
-        _ if a.serial.is_some() => None,
-        "max" => None,
-        r => match r.parse::<f64>() {
-            Ok(hz) if hz > 0.0 && hz.is_finite() => Some(Duration::from_secs_f64(1.0 / hz)),
-            _ => bail!("--rate {r}: a positive number of scans per second, or max"),
-        },
-    };
+    let period = period(&a)?;
     let (mut scans, producer) = source(&a)?;
     let node = messages::create_node("acquire")?;
     let strategy =
         if period.is_none() { BackpressureStrategy::RetryUntilDelivered } else { BackpressureStrategy::DiscardData };
     let mut scans_out = Outlet::<ScanMsg>::open(&node, &a.stage.prefix, Topic::Scan, strategy)?;
-    let mut carmen = match &a.carmen_out {
-        Some(p) => {
-            let mut w =
-                std::io::BufWriter::new(std::fs::File::create(p).with_context(|| format!("creating {}", p.display()))?);
-            if a.serial.is_some() || a.urg_log.is_some() {
-                std::io::Write::write_all(&mut w, format!("{}\n", crate::NO_TRUTH_MARKER).as_bytes())?;
-            }
-            Some(w)
-        }
-        None => None,
-    };
+    let mut carmen = carmen_out(&a)?;
     let mut seq = a.first_seq;
     let mut skipped = 0u64;
     let mut next = monotonic_ns();
@@ -178,23 +160,12 @@ pub fn run(a: AcquireArgs) -> Result<()> {
         // Wait first, then acquire and publish, then go straight back to waiting: work done
         // after publishing (simulating or parsing the next scan) would hold up a consumer that
         // shares this core, and count as transport in the hop after this stage.
-        if let Some(p) = period {
-            let lead = a.warm_up_us.saturating_mul(1000);
-            let warm_up_at = next.saturating_sub(lead);
-            let now = monotonic_ns();
-            if lead > 0 && next > now {
-                if warm_up_at > now && !messages::sleep(&node, Duration::from_nanos(warm_up_at - now)) {
-                    break;
-                }
-                scans_out.warm_up().map_err(|e| anyhow!("acquire: {e}"))?;
-            }
-            let now = monotonic_ns();
-            if next > now && !messages::sleep(&node, Duration::from_nanos(next - now)) {
-                break; // SIGINT or SIGTERM
-            }
-            next = next.max(now) + p.as_nanos() as u64;
-        } else if messages::termination_requested(&node) || stop_requested() {
-            break;
+        let go_on = match period {
+            Some(p) => wait_for_turn(&node, &mut scans_out, &mut next, p, a.warm_up_us.saturating_mul(1000))?,
+            None => !(messages::termination_requested(&node) || stop_requested()),
+        };
+        if !go_on {
+            break; // SIGINT or SIGTERM
         }
         let enter = monotonic_ns();
         let scan = match scans.next() {
@@ -231,4 +202,54 @@ pub fn run(a: AcquireArgs) -> Result<()> {
         eprintln!("acquire: {r}");
     }
     Ok(())
+}
+
+/// The time between published scans: `--rate` as a period, `None` for `max` and for a sensor,
+/// which paces itself.
+fn period(a: &AcquireArgs) -> Result<Option<Duration>> {
+    Ok(match a.rate.as_str() {
+        _ if a.serial.is_some() => None,
+        "max" => None,
+        r => match r.parse::<f64>() {
+            Ok(hz) if hz > 0.0 && hz.is_finite() => Some(Duration::from_secs_f64(1.0 / hz)),
+            _ => bail!("--rate {r}: a positive number of scans per second, or max"),
+        },
+    })
+}
+
+/// The `--carmen-out` file, when asked for. A sensor's scans carry no truth, and the file
+/// says so on its first line.
+fn carmen_out(a: &AcquireArgs) -> Result<Option<std::io::BufWriter<std::fs::File>>> {
+    let Some(p) = &a.carmen_out else { return Ok(None) };
+    let mut w = std::io::BufWriter::new(std::fs::File::create(p).with_context(|| format!("creating {}", p.display()))?);
+    if a.serial.is_some() || a.urg_log.is_some() {
+        std::io::Write::write_all(&mut w, format!("{}\n", crate::NO_TRUTH_MARKER).as_bytes())?;
+    }
+    Ok(Some(w))
+}
+
+/// Sleeps until the next scan is due at `next` (monotonic ns), waking the scan's readers
+/// `lead` ns ahead of it, and sets `next` one `period` on. `false` when SIGINT or SIGTERM
+/// came instead.
+fn wait_for_turn(
+    node: &Node<ipc::Service>,
+    scans_out: &mut Outlet<ScanMsg>,
+    next: &mut u64,
+    period: Duration,
+    lead: u64,
+) -> Result<bool> {
+    let warm_up_at = next.saturating_sub(lead);
+    let now = monotonic_ns();
+    if lead > 0 && *next > now {
+        if warm_up_at > now && !messages::sleep(node, Duration::from_nanos(warm_up_at - now)) {
+            return Ok(false);
+        }
+        scans_out.warm_up().map_err(|e| anyhow!("acquire: {e}"))?;
+    }
+    let now = monotonic_ns();
+    if *next > now && !messages::sleep(node, Duration::from_nanos(*next - now)) {
+        return Ok(false);
+    }
+    *next = (*next).max(now) + period.as_nanos() as u64;
+    Ok(true)
 }
