@@ -3,7 +3,7 @@
 use anyhow::{bail, Context, Result};
 use clap::Subcommand;
 use mapserver::{procedural, MapCornerConfig};
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 #[derive(Subcommand)]
 pub enum MapCommand {
@@ -78,94 +78,112 @@ pub enum MapCommand {
 
 pub fn run(c: MapCommand) -> Result<()> {
     match c {
-        MapCommand::Generate { kind, seed, out } => {
-            let map = if let Some(n) = kind.strip_prefix("office-") {
-                procedural::office_with_walls(seed.unwrap_or(1), n.parse().context("office-N needs a number")?)
-            } else {
-                let map = match seed {
-                    None => procedural::by_name(&kind),
-                    Some(seed) => procedural::by_name_seeded(&kind, seed),
-                };
-                match map {
-                    Some(m) => m,
-                    None => bail!("unknown map kind {kind:?}: office, apartment, warehouse, radial or office-N"),
-                }
-            };
-            std::fs::write(&out, map.to_json(&kind)).with_context(|| format!("writing {}", out.display()))?;
-            eprintln!("{}: {} walls", out.display(), map.walls.len());
-            Ok(())
-        }
+        MapCommand::Generate { kind, seed, out } => generate(&kind, seed, &out),
         MapCommand::Build(a) => super::build_map::run(a),
-        MapCommand::Thicken { map, thickness, out } => {
-            if !(thickness.is_finite() && thickness > 0.0) {
-                bail!("--thickness {thickness}: a wall thickness is a positive number of metres");
-            }
-            let m = mapserver::load_map(&map)?;
-            let thick = mapserver::thick::thicken(&m, thickness);
-            let name = format!("{}-thick", out.file_stem().map_or("map".into(), |s| s.to_string_lossy()));
-            std::fs::write(&out, thick.to_json(&name)).with_context(|| format!("writing {}", out.display()))?;
-            eprintln!("{}: {} walls (from {})", out.display(), thick.walls.len(), m.walls.len());
-            Ok(())
-        }
+        MapCommand::Thicken { map, thickness, out } => thicken(&map, thickness, &out),
         MapCommand::ImportRos { yaml, tolerance, min_cells, face_depth, sigma, out } => {
-            let cells = [min_cells, face_depth];
-            if !(tolerance.is_finite() && tolerance > 0.0 && cells.iter().all(|v| v.is_finite() && *v >= 0.0)) {
-                bail!(
-                    "--tolerance {tolerance} --min-cells {min_cells} --face-depth {face_depth}: a positive number of \
-                     cells, then two non-negative ones"
-                );
-            }
-            if let Some(s) = sigma.filter(|s| !(s.is_finite() && *s >= 0.0)) {
-                bail!("--sigma {s}: a map's accuracy is a non-negative number of metres");
-            }
-            let grid = mapserver::OccupancyGrid::load(&yaml)?;
             let trace = mapserver::trace::TraceConfig { tolerance, min_cells, face_depth };
-            let map = grid.to_wall_map(&trace, sigma).map_err(|e| anyhow::anyhow!("{}: {e}", yaml.display()))?;
-            let name = yaml.file_stem().map_or("map".into(), |s| s.to_string_lossy());
-            std::fs::write(&out, map.to_json(&name)).with_context(|| format!("writing {}", out.display()))?;
-            eprintln!(
-                "{}: {} walls from a {} x {} grid of {} m",
-                out.display(),
-                map.walls.len(),
-                grid.width,
-                grid.height,
-                grid.resolution
-            );
-            Ok(())
+            import_ros(&yaml, trace, sigma, &out)
         }
-        MapCommand::ExportRos { map, resolution, thickness, out } => {
-            let m = mapserver::load_map(&map)?;
-            let grid = mapserver::OccupancyGrid::from_walls(&m, resolution, thickness).map_err(anyhow::Error::msg)?;
-            grid.save(&out)?;
-            eprintln!("{}: a {} x {} grid of {resolution} m", out.display(), grid.width, grid.height);
-            Ok(())
-        }
-        MapCommand::Info { map } => {
-            // what the localizer prepares from the map: its corners and what it rules out
-            let model = localize::model::MapModel::new(mapserver::load_map(&map)?, &MapCornerConfig::default());
-            let m = &model.map;
-            let (lo, hi) = m.bounds();
-            println!(
-                "{}: {} walls, {} corners, {:.1} x {:.1} m",
-                map,
-                m.walls.len(),
-                model.corners.corners().len(),
-                hi.x - lo.x,
-                hi.y - lo.y
-            );
-            if m.sigma > 0.0 {
-                println!("  accuracy (sigma) {} m", m.sigma);
-            }
-            if let Some(seen) = &m.seen_free {
-                let (cols, rows) = seen.size();
-                println!(
-                    "  free space seen by its survey: {} of {cols} x {rows} cells of {} m",
-                    seen.seen_cells(),
-                    seen.cell()
-                );
-            }
-            println!("  outline {}", if model.outside.is_some() { "closed: no answer outside it" } else { "open" });
-            Ok(())
-        }
+        MapCommand::ExportRos { map, resolution, thickness, out } => export_ros(&map, resolution, thickness, &out),
+        MapCommand::Info { map } => info(&map),
     }
+}
+
+/// `map generate`: a bundled or procedural map, as JSON.
+fn generate(kind: &str, seed: Option<u64>, out: &Path) -> Result<()> {
+    let map = if let Some(n) = kind.strip_prefix("office-") {
+        procedural::office_with_walls(seed.unwrap_or(1), n.parse().context("office-N needs a number")?)
+    } else {
+        let map = match seed {
+            None => procedural::by_name(kind),
+            Some(seed) => procedural::by_name_seeded(kind, seed),
+        };
+        match map {
+            Some(m) => m,
+            None => bail!("unknown map kind {kind:?}: office, apartment, warehouse, radial or office-N"),
+        }
+    };
+    std::fs::write(out, map.to_json(kind)).with_context(|| format!("writing {}", out.display()))?;
+    eprintln!("{}: {} walls", out.display(), map.walls.len());
+    Ok(())
+}
+
+/// `map thicken`: the walls drawn with a thickness.
+fn thicken(map: &str, thickness: f64, out: &Path) -> Result<()> {
+    if !(thickness.is_finite() && thickness > 0.0) {
+        bail!("--thickness {thickness}: a wall thickness is a positive number of metres");
+    }
+    let m = mapserver::load_map(map)?;
+    let thick = mapserver::thick::thicken(&m, thickness);
+    let name = format!("{}-thick", out.file_stem().map_or("map".into(), |s| s.to_string_lossy()));
+    std::fs::write(out, thick.to_json(&name)).with_context(|| format!("writing {}", out.display()))?;
+    eprintln!("{}: {} walls (from {})", out.display(), thick.walls.len(), m.walls.len());
+    Ok(())
+}
+
+/// `map import-ros`: a map_server grid traced into walls.
+fn import_ros(yaml: &Path, trace: mapserver::trace::TraceConfig, sigma: Option<f64>, out: &Path) -> Result<()> {
+    let mapserver::trace::TraceConfig { tolerance, min_cells, face_depth } = trace;
+    let cells = [min_cells, face_depth];
+    if !(tolerance.is_finite() && tolerance > 0.0 && cells.iter().all(|v| v.is_finite() && *v >= 0.0)) {
+        bail!(
+            "--tolerance {tolerance} --min-cells {min_cells} --face-depth {face_depth}: a positive number of \
+             cells, then two non-negative ones"
+        );
+    }
+    if let Some(s) = sigma.filter(|s| !(s.is_finite() && *s >= 0.0)) {
+        bail!("--sigma {s}: a map's accuracy is a non-negative number of metres");
+    }
+    let grid = mapserver::OccupancyGrid::load(yaml)?;
+    let map = grid.to_wall_map(&trace, sigma).map_err(|e| anyhow::anyhow!("{}: {e}", yaml.display()))?;
+    let name = yaml.file_stem().map_or("map".into(), |s| s.to_string_lossy());
+    std::fs::write(out, map.to_json(&name)).with_context(|| format!("writing {}", out.display()))?;
+    eprintln!(
+        "{}: {} walls from a {} x {} grid of {} m",
+        out.display(),
+        map.walls.len(),
+        grid.width,
+        grid.height,
+        grid.resolution
+    );
+    Ok(())
+}
+
+/// `map export-ros`: the walls drawn as a map_server grid.
+fn export_ros(map: &str, resolution: f64, thickness: f64, out: &Path) -> Result<()> {
+    let m = mapserver::load_map(map)?;
+    let grid = mapserver::OccupancyGrid::from_walls(&m, resolution, thickness).map_err(anyhow::Error::msg)?;
+    grid.save(out)?;
+    eprintln!("{}: a {} x {} grid of {resolution} m", out.display(), grid.width, grid.height);
+    Ok(())
+}
+
+/// `map info`: what the localizer prepares from the map, in brief.
+fn info(map: &str) -> Result<()> {
+    // its corners and what it rules out
+    let model = localize::model::MapModel::new(mapserver::load_map(map)?, &MapCornerConfig::default());
+    let m = &model.map;
+    let (lo, hi) = m.bounds();
+    println!(
+        "{}: {} walls, {} corners, {:.1} x {:.1} m",
+        map,
+        m.walls.len(),
+        model.corners.corners().len(),
+        hi.x - lo.x,
+        hi.y - lo.y
+    );
+    if m.sigma > 0.0 {
+        println!("  accuracy (sigma) {} m", m.sigma);
+    }
+    if let Some(seen) = &m.seen_free {
+        let (cols, rows) = seen.size();
+        println!(
+            "  free space seen by its survey: {} of {cols} x {rows} cells of {} m",
+            seen.seen_cells(),
+            seen.cell()
+        );
+    }
+    println!("  outline {}", if model.outside.is_some() { "closed: no answer outside it" } else { "open" });
+    Ok(())
 }
