@@ -230,6 +230,32 @@ fn a_second_run_under_a_prefix_in_use_refuses_to_start() {
     assert!(again.status.success(), "{}", String::from_utf8_lossy(&again.stderr));
 }
 
+/// A pipeline pinning a stage to a core this machine does not have (written for a larger
+/// one) is refused before anything starts, naming the stage and the cores there are. Before,
+/// a source restarted on failure was restarted for ever, and another stage ended the run with
+/// the kernel's "Invalid argument".
+#[test]
+fn a_stage_pinned_to_a_missing_core_is_refused_before_anything_starts() {
+    let dir = tempfile::tempdir().unwrap();
+    let written = common::write_pipeline(dir.path(), "p.toml", "office", &["--scans", "5"]);
+    let text = std::fs::read_to_string(&written).unwrap().replace("restart = \"never\"", "restart = \"on-failure\"");
+    for stage in ["segment", "acquire"] {
+        let pinned = text.replace(&format!("name = \"{stage}\"\n"), &format!("name = \"{stage}\"\ncpu = 1023\n"));
+        let pipeline = dir.path().join(format!("{stage}.toml"));
+        std::fs::write(&pipeline, pinned).unwrap();
+        let p = prefix(&format!("nocore_{stage}"));
+        let start = Instant::now();
+        let out = gema2(&["run", "--pipeline", pipeline.to_str().unwrap(), "--prefix", &p, "--timeout", "20"]);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success(), "{stage}: {err}");
+        let why = format!("stage \"{stage}\": cpu 1023 is not one this machine lets the pipeline use");
+        assert!(err.contains(&why), "{stage}: {err}");
+        assert!(!err.contains("restarting"), "{stage}: {err}");
+        assert!(start.elapsed() < Duration::from_secs(15), "{stage}: {:?}", start.elapsed());
+        assert!(stage_pids("segment", &p).is_empty() && stage_pids("mapserver", &p).is_empty());
+    }
+}
+
 /// A corrupt line in a replayed log costs that scan only: the source names the line, skips
 /// it and publishes the rest.
 #[test]

@@ -39,11 +39,15 @@ pub enum PlacementError {
 /// Lowest and highest `SCHED_FIFO` priority Linux accepts.
 pub const REALTIME_PRIORITIES: std::ops::RangeInclusive<u8> = 1..=99;
 
-/// Pins the calling thread (and what it forks from now on) to one CPU core.
+/// Pins the calling thread (and what it forks from now on) to one CPU core, which must be one
+/// it may run on now.
 pub fn pin_to_cpu(cpu: usize) -> Result<(), PlacementError> {
-    let cores = std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1);
-    if cpu >= cores.max(libc::CPU_SETSIZE as usize) {
-        return Err(PlacementError::Pin { cpu, message: format!("this machine has {cores} cores") });
+    let allowed = Affinity::current()?.cores();
+    if !allowed.contains(&cpu) {
+        return Err(PlacementError::Pin {
+            cpu,
+            message: format!("this process may run on cores {}", ranges(&allowed)),
+        });
     }
     // SAFETY: `set` is a plain bit set on the stack; sched_setaffinity reads it.
     let rc = unsafe {
@@ -72,6 +76,31 @@ impl Affinity {
             }
             Ok(Affinity(set))
         }
+    }
+
+    /// The cores the set allows, lowest first.
+    pub fn cores(&self) -> Vec<usize> {
+        // SAFETY: CPU_ISSET reads a bit below CPU_SETSIZE of a set we own.
+        (0..libc::CPU_SETSIZE as usize).filter(|&c| unsafe { libc::CPU_ISSET(c, &self.0) }).collect()
+    }
+}
+
+/// `cores` (ascending) as ranges: "0-3, 6".
+pub fn ranges(cores: &[usize]) -> String {
+    let mut out: Vec<String> = Vec::new();
+    let mut k = 0;
+    while k < cores.len() {
+        let start = cores[k];
+        while k + 1 < cores.len() && cores[k + 1] == cores[k] + 1 {
+            k += 1;
+        }
+        out.push(if cores[k] == start { start.to_string() } else { format!("{start}-{}", cores[k]) });
+        k += 1;
+    }
+    if out.is_empty() {
+        "none".to_owned()
+    } else {
+        out.join(", ")
     }
 }
 
@@ -168,10 +197,26 @@ mod tests {
     fn bad_requests_are_refused_with_the_reason() {
         let e = pin_to_cpu(100_000).unwrap_err().to_string();
         assert!(e.contains("CPU 100000") && e.contains("cores"), "{e}");
+        // a core that exists in the set's range but not for this process: refused before the
+        // kernel is asked, naming the cores it may use
+        let allowed = Affinity::current().unwrap().cores();
+        let outside = allowed.last().unwrap() + 1;
+        if outside < libc::CPU_SETSIZE as usize {
+            let e = pin_to_cpu(outside).unwrap_err().to_string();
+            assert!(e.contains(&format!("CPU {outside}")) && e.contains(&ranges(&allowed)), "{e}");
+        }
         for p in [0, 100] {
             let e = set_realtime_priority(p, true).unwrap_err().to_string();
             assert!(e.contains(&format!("priority {p}")) && e.contains("1 to 99"), "{e}");
         }
+    }
+
+    #[test]
+    fn core_lists_read_as_ranges() {
+        assert_eq!(ranges(&[0, 1, 2, 3, 6, 8, 9]), "0-3, 6, 8-9");
+        assert_eq!(ranges(&[5]), "5");
+        assert_eq!(ranges(&[]), "none");
+        assert!(!Affinity::current().unwrap().cores().is_empty());
     }
 
     /// Where the system allows it (root), a real-time priority takes effect and, with

@@ -83,6 +83,9 @@ pub struct Pipeline {
     pub stages: Vec<StageSpec>,
 }
 
+/// How errors name the embedded default pipeline.
+pub const EMBEDDED: &str = "<embedded default pipeline>";
+
 impl Pipeline {
     pub fn parse(text: &str, origin: &Path) -> Result<Self> {
         let p: Pipeline = toml::from_str(text).with_context(|| format!("{}: not a pipeline", origin.display()))?;
@@ -104,10 +107,27 @@ impl Pipeline {
         Ok(p)
     }
 
+    /// Refuses a `cpu` (a stage's or the supervisor's) that is not among `allowed`, the cores
+    /// the supervisor may run on: a pipeline written for a larger machine would otherwise
+    /// restart its pinned stages for ever.
+    pub fn check_cores(&self, origin: &Path, allowed: &[usize]) -> Result<()> {
+        let pinned = self.stages.iter().map(|s| (format!("stage {:?}", s.name), s.cpu));
+        for (who, cpu) in pinned.chain([("[supervisor]".to_owned(), self.supervisor.cpu)]) {
+            if let Some(c) = cpu.filter(|c| !allowed.contains(c)) {
+                bail!(
+                    "{}: {who}: cpu {c} is not one this machine lets the pipeline use (cores {})",
+                    origin.display(),
+                    messages::placement::ranges(allowed)
+                );
+            }
+        }
+        Ok(())
+    }
+
     pub fn load(path: Option<&Path>) -> Result<Self> {
         match path {
             Some(p) => Self::parse(&std::fs::read_to_string(p).with_context(|| format!("reading {}", p.display()))?, p),
-            None => Self::parse(DEFAULT_PIPELINE, Path::new("<embedded default pipeline>")),
+            None => Self::parse(DEFAULT_PIPELINE, Path::new(EMBEDDED)),
         }
     }
 }
@@ -153,6 +173,19 @@ mod tests {
         )
         .unwrap_err();
         assert!(format!("{err:#}").contains("[supervisor] priority 100"), "{err:#}");
+        let p = Pipeline::parse(
+            "[supervisor]\ncpu = 1\n[[stage]]\nname = \"a\"\nkind = \"acquire\"\ncpu = 3\n",
+            Path::new("p.toml"),
+        )
+        .unwrap();
+        assert!(p.check_cores(Path::new("p.toml"), &[0, 1, 2, 3]).is_ok());
+        let err = p.check_cores(Path::new("p.toml"), &[0, 1]).unwrap_err();
+        assert_eq!(
+            format!("{err:#}"),
+            "p.toml: stage \"a\": cpu 3 is not one this machine lets the pipeline use (cores 0-1)"
+        );
+        let err = p.check_cores(Path::new("p.toml"), &[2, 3]).unwrap_err();
+        assert!(format!("{err:#}").starts_with("p.toml: [supervisor]: cpu 1 "), "{err:#}");
         let mut args = vec!["--rate".to_owned(), "10".to_owned()];
         set_arg(&mut args, "--rate", "max");
         set_arg(&mut args, "--scans", "5");

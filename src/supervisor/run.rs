@@ -2,7 +2,7 @@
 
 use super::child::{stop, StageProcess};
 use super::monitor::Monitor;
-use super::pipeline::{set_arg, Kind, Pipeline, Restart, StageSpec, SupervisorSpec};
+use super::pipeline::{set_arg, Kind, Pipeline, Restart, StageSpec, SupervisorSpec, EMBEDDED};
 use super::swap::{Swap, SwapOutcome};
 use anyhow::{anyhow, bail, Context, Result};
 use clap::Args;
@@ -81,6 +81,8 @@ fn wait_ready(
 
 pub fn run(a: RunArgs) -> Result<()> {
     let mut pipeline = Pipeline::load(a.pipeline.as_deref())?;
+    let origin = a.pipeline.as_deref().unwrap_or(Path::new(EMBEDDED));
+    pipeline.check_cores(origin, &messages::placement::Affinity::current()?.cores())?;
     let scans = apply_overrides(&mut pipeline, &a);
     // the supervisor's own place: it consumes the poses, and holds the wake-up latency request
     let _placement = Placement::take(&pipeline.supervisor)?;
