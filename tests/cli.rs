@@ -144,6 +144,28 @@ fn bad_settings_are_refused_by_locate_and_the_stages() {
     let out = gema2(&["stage", "localize", "--set", "refined=-1"]);
     assert!(!out.status.success());
     assert!(text(&out.stderr).contains("refined: -1 is not a whole number"), "{}", text(&out.stderr));
+    // a log of no scans, or an offset past its last, is no answer: an error naming the log
+    let dir = tempfile::tempdir().unwrap();
+    let log = dir.path().join("s.log");
+    let out = gema2(&["sim", "--map", "office", "--scans", "3", "--out", log.to_str().unwrap()]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    for (file, offset) in [("/dev/null", "0"), (log.to_str().unwrap(), "3")] {
+        let out = gema2(&["locate", "--map", "office", "--log", file, "--offset", offset]);
+        assert!(!out.status.success(), "{file} --offset {offset}");
+        let err = text(&out.stderr);
+        assert!(err.contains(&format!("{file}: no laser scan located")), "{err}");
+    }
+    let out = gema2(&["locate", "--map", "office", "--log", log.to_str().unwrap(), "--offset", "2"]);
+    assert!(out.status.success() && text(&out.stderr).starts_with("scans 1 "), "{}", text(&out.stderr));
+    // every 0th scan selects nothing: refused, not reported as an empty log
+    for args in [
+        &["locate", "--map", "office", "--log", "/dev/null", "--every", "0"][..],
+        &["map", "build", "--log", "/dev/null", "--out", "/dev/null", "--every", "0"],
+    ] {
+        let out = gema2(args);
+        assert!(!out.status.success(), "{args:?}");
+        assert!(text(&out.stderr).contains("--every <EVERY>': must be at least 1"), "{}", text(&out.stderr));
+    }
 }
 
 /// A sensor other than the URG-04LX: a SICK-like 180-degree, 361-beam, 30 m scanner. The log

@@ -23,7 +23,7 @@ pub struct BuildArgs {
     #[arg(long)]
     pub log: PathBuf,
     /// Use every K-th scan...
-    #[arg(long, default_value_t = 2)]
+    #[arg(long, default_value_t = 2, value_parser = super::positive_count)]
     pub every: usize,
     /// ...starting at this one.
     #[arg(long, default_value_t = 0)]
@@ -196,8 +196,7 @@ pub(crate) fn survey_grid(a: &BuildArgs) -> Result<mapserver::OccupancyGrid> {
 /// The scans the map is built from (every `every`-th from `offset`), each with its true pose.
 fn survey(a: &BuildArgs) -> Result<impl Iterator<Item = Result<(LaserScan, Pose)>> + '_> {
     let reader = CarmenReader::open(&a.log, FlaserLayout::default())?;
-    let every = a.every.max(1);
-    Ok(reader.enumerate().filter(move |(k, _)| k % every == a.offset % every).map(move |(k, item)| {
+    Ok(reader.enumerate().filter(move |(k, _)| super::selected(*k, a.every, a.offset)).map(move |(k, item)| {
         let scan = item?.scan;
         let truth = scan
             .truth

@@ -20,7 +20,7 @@ pub struct LocateArgs {
     #[arg(long)]
     pub log: PathBuf,
     /// Locate every K-th laser line...
-    #[arg(long, default_value_t = 1)]
+    #[arg(long, default_value_t = 1, value_parser = super::positive_count)]
     pub every: usize,
     /// ...starting at this one.
     #[arg(long, default_value_t = 0)]
@@ -94,7 +94,7 @@ pub fn run(a: LocateArgs) -> Result<()> {
     let mut judge = None;
     for (index, item) in reader.enumerate() {
         let item = item?;
-        if a.every == 0 || index % a.every != a.offset % a.every.max(1) {
+        if !super::selected(index, a.every, a.offset) {
             continue;
         }
         let scan = &item.scan;
@@ -151,6 +151,15 @@ pub fn run(a: LocateArgs) -> Result<()> {
     eprint!("{}", summary.render());
     if a.diagnose {
         eprint!("{}", diagnosis.render());
+    }
+    if summary.outcomes.is_empty() {
+        // an empty result is no answer: a script must not take it for one
+        anyhow::bail!(
+            "{}: no laser scan located (no ROBOTLASER1 or FLASER line, or none that --every {} --offset {} selects)",
+            a.log.display(),
+            a.every,
+            a.offset
+        );
     }
     Ok(())
 }

@@ -10,3 +10,41 @@ pub mod lines;
 pub mod locate;
 pub mod map;
 pub mod sim;
+
+/// Parses a count that must be at least 1 (`--every`: every 0th scan selects nothing).
+pub fn positive_count(s: &str) -> Result<usize, String> {
+    match s.parse::<usize>() {
+        Ok(0) => Err("must be at least 1".to_owned()),
+        Ok(n) => Ok(n),
+        Err(e) => Err(e.to_string()),
+    }
+}
+
+/// Whether laser line `index` (from 0) is one of every `every`-th from `offset` on
+/// (`--every`, `--offset`); `every` is at least 1 (see [`positive_count`]).
+pub fn selected(index: usize, every: usize, offset: usize) -> bool {
+    index >= offset && (index - offset).is_multiple_of(every.max(1))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_and_offset_select_from_the_offset_on() {
+        let picked = |every, offset| (0..10).filter(|&k| selected(k, every, offset)).collect::<Vec<_>>();
+        assert_eq!(picked(1, 0), (0..10).collect::<Vec<_>>());
+        assert_eq!(picked(2, 1), [1, 3, 5, 7, 9]);
+        assert_eq!(picked(3, 4), [4, 7]);
+        // an offset past the last line selects nothing, not the offset's residue
+        assert!(picked(1, 10).is_empty());
+        assert_eq!(picked(2, 5), [5, 7, 9]);
+    }
+
+    #[test]
+    fn counts_must_be_positive() {
+        assert_eq!(positive_count("3"), Ok(3));
+        assert!(positive_count("0").unwrap_err().contains("at least 1"));
+        assert!(positive_count("-1").is_err());
+    }
+}
