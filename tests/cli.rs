@@ -166,6 +166,8 @@ fn bad_settings_are_refused_by_locate_and_the_stages() {
         assert!(!out.status.success(), "{args:?}");
         assert!(text(&out.stderr).contains("--every <EVERY>': must be at least 1"), "{}", text(&out.stderr));
     }
+    let out = gema2(&["sim", "--map", "office", "--scans", "0", "--out", log.to_str().unwrap()]);
+    assert!(!out.status.success() && text(&out.stderr).contains("must be at least 1"), "{}", text(&out.stderr));
 }
 
 /// A sensor other than the URG-04LX: a SICK-like 180-degree, 361-beam, 30 m scanner. The log

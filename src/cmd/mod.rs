@@ -11,7 +11,8 @@ pub mod locate;
 pub mod map;
 pub mod sim;
 
-/// Parses a count that must be at least 1 (`--every`: every 0th scan selects nothing).
+/// Parses a count that must be at least 1: `--every` (every 0th scan selects nothing),
+/// `sim --scans` (an empty log is no test of anything).
 pub fn positive_count(s: &str) -> Result<usize, String> {
     match s.parse::<usize>() {
         Ok(0) => Err("must be at least 1".to_owned()),

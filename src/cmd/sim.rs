@@ -15,7 +15,7 @@ pub struct SimArgs {
     /// clean, people or furniture.
     #[arg(long, default_value = "clean")]
     pub scenario: Scenario,
-    #[arg(long, default_value_t = 300)]
+    #[arg(long, default_value_t = 300, value_parser = super::positive_count)]
     pub scans: usize,
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
