@@ -230,6 +230,39 @@ fn a_second_run_under_a_prefix_in_use_refuses_to_start() {
     assert!(again.status.success(), "{}", String::from_utf8_lossy(&again.stderr));
 }
 
+/// A source that ends at once (three scans as fast as it can) keeps its port up until they
+/// are taken: iceoryx2 drops what a publisher sent once the publisher is gone, and before the
+/// source lingered, 5 of 6 such runs received no pose at all.
+#[test]
+fn a_short_burst_reaches_the_end_of_the_pipeline() {
+    for k in 0..3 {
+        let p = prefix(&format!("burst{k}"));
+        let out = gema2(&["run", "--prefix", &p, "--scans", "3", "--rate", "max", "--timeout", "30"]);
+        let report = String::from_utf8_lossy(&out.stdout);
+        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+        assert!(report.contains("poses received 3 of 3"), "run {k}: {report}");
+    }
+}
+
+/// A run that gets no pose back (here a pipeline without its segment stage) fails, saying so,
+/// instead of printing a report of nothing and exiting 0.
+#[test]
+fn a_run_with_no_pose_back_is_an_error() {
+    let dir = tempfile::tempdir().unwrap();
+    let written = common::write_pipeline(dir.path(), "p.toml", "office", &["--rate", "max"]);
+    let text = std::fs::read_to_string(&written).unwrap();
+    let without_segment =
+        text.replace("[[stage]]\nname = \"segment\"\nkind = \"segment\"\nimplementation = \"line-visibility\"\n\n", "");
+    assert_ne!(without_segment, text);
+    std::fs::write(&written, without_segment).unwrap();
+    let p = prefix("nopose");
+    let out =
+        gema2(&["run", "--pipeline", written.to_str().unwrap(), "--prefix", &p, "--scans", "3", "--timeout", "30"]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success(), "{err}");
+    assert!(err.contains("no pose came back of the 3 scans asked for"), "{err}");
+}
+
 /// A pipeline pinning a stage to a core this machine does not have (written for a larger
 /// one) is refused before anything starts, naming the stage and the cores there are. Before,
 /// a source restarted on failure was restarted for ever, and another stage ended the run with

@@ -54,6 +54,11 @@ pub struct AcquireArgs {
     /// message (`messages::WARM_UP`), so that the scan's own wake-ups find a warm path; 0: never.
     #[arg(long, default_value_t = DEFAULT_WARM_UP_US)]
     pub warm_up_us: u64,
+    /// Seconds the source stays up after its last scan (SIGINT or SIGTERM end it sooner), so
+    /// the segment stage can take that scan: iceoryx2 drops what a publisher sent once the
+    /// publisher is gone, and a short replay ends before its first scan is read.
+    #[arg(long, default_value_t = 1.0)]
+    pub linger: f64,
 }
 
 /// The source's default warm-up lead, microseconds (`--warm-up-us`): on this project's VM
@@ -153,6 +158,7 @@ pub fn run(a: AcquireArgs) -> Result<()> {
     let mut seq = a.first_seq;
     let mut skipped = 0u64;
     let mut next = monotonic_ns();
+    let mut signalled = false;
     loop {
         if a.scans > 0 && seq - a.first_seq >= a.scans {
             break;
@@ -165,7 +171,8 @@ pub fn run(a: AcquireArgs) -> Result<()> {
             None => !(messages::termination_requested(&node) || stop_requested()),
         };
         if !go_on {
-            break; // SIGINT or SIGTERM
+            signalled = true; // SIGINT or SIGTERM
+            break;
         }
         let enter = monotonic_ns();
         let scan = match scans.next() {
@@ -195,6 +202,10 @@ pub fn run(a: AcquireArgs) -> Result<()> {
         std::io::Write::flush(&mut w).context("acquire: writing --carmen-out")?;
     }
     eprintln!("acquire: published {} scans", seq - a.first_seq);
+    if !signalled && !stop_requested() && seq > a.first_seq && a.linger > 0.0 {
+        // the scans still in the segment stage's queue live in this process's memory
+        messages::sleep(&node, Duration::from_secs_f64(a.linger.min(3600.0)));
+    }
     if skipped > 0 {
         eprintln!("acquire: skipped {skipped} malformed log lines");
     }

@@ -326,7 +326,7 @@ fn stop_all(stages: &mut [StageProcess]) {
 }
 
 /// Prints the latency and accuracy figures and the restarts, and writes the poses received
-/// to `out` as CSV.
+/// to `out` as CSV. A run asked for scans that got no pose back is an error.
 fn report(monitor: &Monitor, stages: &[StageProcess], scans: Option<u64>, out: Option<&Path>) -> Result<()> {
     println!("{}", monitor.render(scans));
     for st in stages.iter().filter(|s| s.restarts > 0) {
@@ -337,6 +337,9 @@ fn report(monitor: &Monitor, stages: &[StageProcess], scans: Option<u64>, out: O
             std::fs::File::create(path).with_context(|| format!("creating {}", path.display()))?,
         );
         monitor.write_csv(&mut f).with_context(|| format!("writing {}", path.display()))?;
+    }
+    if let Some(n) = scans.filter(|&n| n > 0 && monitor.received == 0) {
+        bail!("no pose came back of the {n} scans asked for: see the stages' messages above");
     }
     Ok(())
 }
