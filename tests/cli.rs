@@ -155,6 +155,8 @@ fn bad_settings_are_refused_by_locate_and_the_stages() {
         let err = text(&out.stderr);
         assert!(err.contains(&format!("{file}: no laser scan located")), "{err}");
     }
+    let out = gema2(&["lines", "--log", "/dev/null"]);
+    assert!(!out.status.success() && text(&out.stderr).contains("/dev/null: no laser scan"), "{}", text(&out.stderr));
     let out = gema2(&["locate", "--map", "office", "--log", log.to_str().unwrap(), "--offset", "2"]);
     assert!(out.status.success() && text(&out.stderr).starts_with("scans 1 "), "{}", text(&out.stderr));
     // every 0th scan selects nothing: refused, not reported as an empty log

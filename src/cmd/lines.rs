@@ -73,6 +73,12 @@ pub fn run(a: LinesArgs) -> Result<()> {
         valid.push(scan.view().valid_count() as f64);
     }
     let n = lines.len();
+    if n == 0 {
+        bail!(
+            "{}: no laser scan to segment",
+            a.urg_log.as_ref().or(a.log.as_ref()).map_or("".into(), |p| p.display().to_string())
+        );
+    }
     let row = |name: &str, v: &mut Vec<f64>| {
         let (p10, p50, p90) = (quantile(v, 0.1), quantile(v, 0.5), quantile(v, 0.9));
         println!("  {name:24} p10 {p10:8.1}  median {p50:8.1}  p90 {p90:8.1}");
