@@ -144,6 +144,11 @@ fn bad_settings_are_refused_by_locate_and_the_stages() {
     let out = gema2(&["stage", "localize", "--set", "refined=-1"]);
     assert!(!out.status.success());
     assert!(text(&out.stderr).contains("refined: -1 is not a whole number"), "{}", text(&out.stderr));
+}
+
+/// Selections of no scan are errors naming the log, not empty reports that exit 0.
+#[test]
+fn a_selection_of_no_scan_is_an_error() {
     // a log of no scans, or an offset past its last, is no answer: an error naming the log
     let dir = tempfile::tempdir().unwrap();
     let log = dir.path().join("s.log");
