@@ -65,17 +65,30 @@ pub struct AcquireArgs {
 /// 200 us left hops faster than 500 or 2000 (the warmth fades) in `gema2 bench --pipeline`.
 pub const DEFAULT_WARM_UP_US: u64 = 200;
 
-/// Writes a scan into a message.
+/// Every how many beams a scan of `beams` beams is thinned to fit a message of [`MAX_BEAMS`]:
+/// 1 for any scan that fits.
+pub fn thinning(beams: usize) -> usize {
+    beams.div_ceil(MAX_BEAMS).max(1)
+}
+
+/// Writes a scan into a message. A scan of more than [`MAX_BEAMS`] beams keeps every
+/// [`thinning`]-th beam, over the whole field of view, with the angle between beams widened to
+/// match: the localizer works with any number of beams, and cutting the scan short would
+/// lose part of its view.
 pub fn scan_to_msg(scan: &LaserScan, seq: u64, stamp_ns: u64, m: &mut ScanMsg) {
     m.header = Header::new(seq, stamp_ns);
     let g = &scan.geometry;
+    let every = thinning(scan.ranges.len());
     m.angle_min = g.angle_min;
-    m.angle_increment = g.angle_increment;
+    m.angle_increment = g.angle_increment * every as f64;
     m.range_min = g.range_min;
     m.range_max = g.range_max;
-    let n = scan.ranges.len().min(MAX_BEAMS);
+    let kept = scan.ranges.iter().step_by(every);
+    let n = kept.len().min(MAX_BEAMS);
     m.count = n as u32;
-    m.ranges[..n].copy_from_slice(&scan.ranges[..n]);
+    for (slot, &r) in m.ranges.iter_mut().zip(kept) {
+        *slot = r;
+    }
     if let Some(t) = &scan.truth {
         m.has_truth = 1;
         m.truth = PoseMsgXyt { x: t.translation.x, y: t.translation.y, theta: pose_theta(t) };
@@ -159,6 +172,7 @@ pub fn run(a: AcquireArgs) -> Result<()> {
     let mut skipped = 0u64;
     let mut next = monotonic_ns();
     let mut signalled = false;
+    let mut thinned = false;
     loop {
         if a.scans > 0 && seq - a.first_seq >= a.scans {
             break;
@@ -187,6 +201,14 @@ pub fn run(a: AcquireArgs) -> Result<()> {
         };
         if let Some(w) = carmen.as_mut() {
             crate::write_robotlaser1(w, &scan).context("acquire: writing --carmen-out")?;
+        }
+        let every = thinning(scan.ranges.len());
+        if every > 1 && !thinned {
+            thinned = true;
+            eprintln!(
+                "acquire: scans of {} beams keep one beam in {every} to fit a message of {MAX_BEAMS}",
+                scan.ranges.len()
+            );
         }
         scans_out
             .send(|m: &mut ScanMsg| {
@@ -263,4 +285,56 @@ fn wait_for_turn(
     }
     *next = (*next).max(now) + period.as_nanos() as u64;
     Ok(true)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use laser::ScanGeometry;
+
+    fn scan(beams: usize) -> LaserScan {
+        LaserScan {
+            geometry: ScanGeometry::centred(beams, 270f64.to_radians(), 30.0),
+            ranges: (0..beams).map(|k| k as f32).collect(),
+            stamp: 0.0,
+            truth: None,
+        }
+    }
+
+    /// A scan that fits goes whole; a larger one keeps every k-th beam over its whole field of
+    /// view, its last beam no further round than the sensor's.
+    #[test]
+    fn a_scan_larger_than_a_message_is_thinned_over_its_whole_view() {
+        let mut m = ScanMsg {
+            header: Header::new(0, 0),
+            angle_min: 0.0,
+            angle_increment: 0.0,
+            range_min: 0.0,
+            range_max: 0.0,
+            has_truth: 0,
+            count: 0,
+            truth: PoseMsgXyt::default(),
+            ranges: [0.0; MAX_BEAMS],
+        };
+        for beams in [1, 682, MAX_BEAMS] {
+            let s = scan(beams);
+            scan_to_msg(&s, 7, 0, &mut m);
+            assert_eq!(m.count as usize, beams);
+            assert_eq!(m.angle_increment, s.geometry.angle_increment);
+            assert_eq!(&m.ranges[..beams], &s.ranges[..]);
+        }
+        for (beams, every) in [(MAX_BEAMS + 1, 2), (3240, 2), (4 * MAX_BEAMS + 5, 5)] {
+            let s = scan(beams);
+            scan_to_msg(&s, 7, 0, &mut m);
+            let n = m.count as usize;
+            assert_eq!(thinning(beams), every);
+            assert_eq!(n, beams.div_ceil(every));
+            assert!(n <= MAX_BEAMS);
+            assert_eq!(m.angle_increment, s.geometry.angle_increment * every as f64);
+            assert!((0..n).all(|i| m.ranges[i] == (i * every) as f32));
+            let last = m.angle_min + (n - 1) as f64 * m.angle_increment;
+            let sensor_last = s.geometry.angle_min + (beams - 1) as f64 * s.geometry.angle_increment;
+            assert!(last <= sensor_last + 1e-9 && sensor_last - last < m.angle_increment);
+        }
+    }
 }
