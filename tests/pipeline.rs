@@ -263,6 +263,40 @@ fn a_run_with_no_pose_back_is_an_error() {
     assert!(err.contains("no pose came back of the 3 scans asked for"), "{err}");
 }
 
+/// A source waiting for a serial port that is not there stops on SIGTERM, as the supervisor
+/// stops it. Before, iceoryx2's node replaced the source's own handler, and the wait went on
+/// until the supervisor's SIGKILL.
+#[test]
+fn a_source_waiting_for_its_serial_port_stops_on_sigterm() {
+    let p = prefix("noport");
+    let mut child = Command::new(exe())
+        .args(["stage", "acquire", "--serial", "/dev/gema2-no-such-port", "--prefix", &p])
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    // let it fail to open the port a few times
+    std::thread::sleep(Duration::from_millis(1500));
+    unsafe { libc_kill(child.id() as i32, 15) };
+    let asked = Instant::now();
+    let status = loop {
+        if let Some(status) = child.try_wait().unwrap() {
+            break Some(status);
+        }
+        if asked.elapsed() > Duration::from_secs(3) {
+            unsafe { libc_kill(child.id() as i32, 9) };
+            let _ = child.wait();
+            break None;
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    };
+    let mut err = String::new();
+    std::io::Read::read_to_string(child.stderr.as_mut().unwrap(), &mut err).unwrap();
+    assert!(err.contains("retrying"), "{err}");
+    let status = status.unwrap_or_else(|| panic!("still waiting 3 s after SIGTERM: {err}"));
+    assert!(status.success(), "{status}: {err}");
+}
+
 /// A pipeline pinning a stage to a core this machine does not have (written for a larger
 /// one) is refused before anything starts, naming the stage and the cores there are. Before,
 /// a source restarted on failure was restarted for ever, and another stage ended the run with

@@ -102,14 +102,20 @@ fn is_malformed_line(e: &anyhow::Error) -> bool {
 
 type Source = Box<dyn Iterator<Item = Result<LaserScan>>>;
 
+/// How often a serial source waiting to reconnect looks for SIGINT/SIGTERM.
+const STOP_POLL: Duration = Duration::from_millis(20);
+
 fn source(a: &AcquireArgs) -> Result<(Source, &'static str)> {
     if let Some(port) = &a.serial {
         let mut serial = crate::scip::SerialSource::new(port, a.baud);
         let scans = std::iter::from_fn(move || {
-            // stops when iceoryx2 saw SIGINT/SIGTERM; waits for reconnection otherwise
+            // stops on SIGINT/SIGTERM, also in the middle of a wait for reconnection
             serial
                 .next_scan(&mut |wait| {
-                    std::thread::sleep(wait);
+                    let until = std::time::Instant::now() + wait;
+                    while !stop_requested() && std::time::Instant::now() < until {
+                        std::thread::sleep(until.saturating_duration_since(std::time::Instant::now()).min(STOP_POLL));
+                    }
                     !stop_requested()
                 })
                 .map(|r| r.map_err(anyhow::Error::from))
@@ -142,28 +148,49 @@ pub fn stop_flag() -> &'static std::sync::atomic::AtomicBool {
     &STOP
 }
 
-extern "C" fn on_stop(_: libc::c_int) {
+/// The handlers [`install_stop_handlers`] found for SIGINT and SIGTERM, called on after it.
+static PREVIOUS: [std::sync::atomic::AtomicUsize; 2] =
+    [std::sync::atomic::AtomicUsize::new(0), std::sync::atomic::AtomicUsize::new(0)];
+
+extern "C" fn on_stop(signal: libc::c_int) {
     STOP.store(true, std::sync::atomic::Ordering::Relaxed);
+    let previous = PREVIOUS[usize::from(signal == libc::SIGTERM)].load(std::sync::atomic::Ordering::Relaxed);
+    if previous != libc::SIG_DFL && previous != libc::SIG_IGN && previous != libc::SIG_ERR {
+        // SAFETY: `previous` is a plain handler sigaction returned for this signal; calling it
+        // is what the signal would have done without this one.
+        let handler: extern "C" fn(libc::c_int) = unsafe { std::mem::transmute(previous) };
+        handler(signal);
+    }
 }
 
-/// Makes SIGINT and SIGTERM set [`stop_requested`].
+/// Makes SIGINT and SIGTERM set [`stop_requested`], and still do what they did before: a
+/// process with an iceoryx2 node installs this after the node's own handler (see
+/// [`messages::termination_requested`]), which records them for the node's waits; without
+/// that order one of the two handlers never ran, and a serial source waiting for its port
+/// ignored SIGTERM.
 pub fn install_stop_handlers() {
-    // SAFETY: the handler only stores to an atomic.
-    unsafe {
-        libc::signal(libc::SIGINT, on_stop as *const () as libc::sighandler_t);
-        libc::signal(libc::SIGTERM, on_stop as *const () as libc::sighandler_t);
+    let ours = on_stop as *const () as libc::sighandler_t;
+    for (slot, signal) in PREVIOUS.iter().zip([libc::SIGINT, libc::SIGTERM]) {
+        // SAFETY: the handler stores to an atomic and calls the handler it replaced.
+        let previous = unsafe { libc::signal(signal, ours) };
+        if previous != ours {
+            slot.store(previous, std::sync::atomic::Ordering::Relaxed);
+        }
     }
 }
 
 pub fn run(a: AcquireArgs) -> Result<()> {
-    if a.serial.is_some() {
-        // a sensor source can block on the port: notice SIGINT/SIGTERM ourselves too
-        install_stop_handlers();
-    }
     a.stage.place()?;
     let period = period(&a)?;
-    let (mut scans, producer) = source(&a)?;
     let node = messages::create_node("acquire")?;
+    if a.serial.is_some() {
+        // a sensor source can block on the port, away from the node's waits: notice SIGINT
+        // and SIGTERM there too, after the node's own handler is in place (its first look
+        // puts it there), so that both see them
+        let _ = messages::termination_requested(&node);
+        install_stop_handlers();
+    }
+    let (mut scans, producer) = source(&a)?;
     let strategy =
         if period.is_none() { BackpressureStrategy::RetryUntilDelivered } else { BackpressureStrategy::DiscardData };
     let mut scans_out = Outlet::<ScanMsg>::open(&node, &a.stage.prefix, Topic::Scan, strategy)?;
