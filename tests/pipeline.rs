@@ -297,6 +297,18 @@ fn a_source_waiting_for_its_serial_port_stops_on_sigterm() {
     assert!(status.success(), "{status}: {err}");
 }
 
+/// An output that cannot be written is refused before the run, not after it: the poses of a
+/// finished run were lost when the CSV could not be created at its end.
+#[test]
+fn an_unwritable_output_is_refused_before_the_run() {
+    let p = prefix("noout");
+    let out = gema2(&["run", "--prefix", &p, "--scans", "5", "--out", "/nonexistent-dir/poses.csv"]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success(), "{err}");
+    assert!(err.contains("creating /nonexistent-dir/poses.csv"), "{err}");
+    assert!(!err.contains("stages running"), "{err}");
+}
+
 /// A pipeline pinning a stage to a core this machine does not have (written for a larger
 /// one) is refused before anything starts, naming the stage and the cores there are. Before,
 /// a source restarted on failure was restarted for ever, and another stage ended the run with

@@ -13,6 +13,7 @@ use messages::{
     Topic, MAX_INSTANCE,
 };
 use std::collections::HashSet;
+use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
@@ -84,6 +85,16 @@ pub fn run(a: RunArgs) -> Result<()> {
     let origin = a.pipeline.as_deref().unwrap_or(Path::new(EMBEDDED));
     pipeline.check_cores(origin, &messages::placement::Affinity::current()?.cores())?;
     let scans = apply_overrides(&mut pipeline, &a);
+    // created before anything runs: a path that cannot be written must not cost the run
+    let out = match &a.out {
+        Some(path) => Some((
+            std::io::BufWriter::new(
+                std::fs::File::create(path).with_context(|| format!("creating {}", path.display()))?,
+            ),
+            path.as_path(),
+        )),
+        None => None,
+    };
     // the supervisor's own place: it consumes the poses, and holds the wake-up latency request
     let _placement = Placement::take(&pipeline.supervisor)?;
     let stale = messages::cleanup_dead_nodes();
@@ -163,7 +174,7 @@ pub fn run(a: RunArgs) -> Result<()> {
     if let Some(e) = failure {
         return Err(e);
     }
-    report(&monitor, &stages, scans, a.out.as_deref())
+    report(&monitor, &stages, scans, out)
 }
 
 /// Applies the command line's `--scans`, `--rate` and `--record` to the pipeline; returns the
@@ -327,16 +338,18 @@ fn stop_all(stages: &mut [StageProcess]) {
 
 /// Prints the latency and accuracy figures and the restarts, and writes the poses received
 /// to `out` as CSV. A run asked for scans that got no pose back is an error.
-fn report(monitor: &Monitor, stages: &[StageProcess], scans: Option<u64>, out: Option<&Path>) -> Result<()> {
+fn report(
+    monitor: &Monitor,
+    stages: &[StageProcess],
+    scans: Option<u64>,
+    out: Option<(std::io::BufWriter<std::fs::File>, &Path)>,
+) -> Result<()> {
     println!("{}", monitor.render(scans));
     for st in stages.iter().filter(|s| s.restarts > 0) {
         println!("stage {} restarted {} times", st.spec.name, st.restarts);
     }
-    if let Some(path) = out {
-        let mut f = std::io::BufWriter::new(
-            std::fs::File::create(path).with_context(|| format!("creating {}", path.display()))?,
-        );
-        monitor.write_csv(&mut f).with_context(|| format!("writing {}", path.display()))?;
+    if let Some((mut f, path)) = out {
+        monitor.write_csv(&mut f).and_then(|_| f.flush()).with_context(|| format!("writing {}", path.display()))?;
     }
     if let Some(n) = scans.filter(|&n| n > 0 && monitor.received == 0) {
         bail!("no pose came back of the {n} scans asked for: see the stages' messages above");
