@@ -146,6 +146,40 @@ fn bad_settings_are_refused_by_locate_and_the_stages() {
     assert!(text(&out.stderr).contains("refined: -1 is not a whole number"), "{}", text(&out.stderr));
 }
 
+/// A FLASER log of a sensor other than a SICK LMS (541 beams over 270 degrees, 30 m) is
+/// located once the command line gives its layout, as well as the same scans in ROBOTLASER1;
+/// read as the default 180 degrees, it is not.
+#[test]
+fn a_flaser_log_of_another_sensor_is_read_with_its_layout() {
+    let dir = tempfile::tempdir().unwrap();
+    let log = dir.path().join("wide.log");
+    let args = ["sim", "--map", "apartment", "--scans", "12", "--beams", "541", "--fov", "270", "--range-max", "30"];
+    let out = gema2(&[&args[..], &["--out", log.to_str().unwrap()]].concat());
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    // the same scans as FLASER lines: n, ranges, the laser's pose twice, a timestamp
+    let mut flaser = String::new();
+    for line in std::fs::read_to_string(&log).unwrap().lines().filter(|l| l.starts_with("ROBOTLASER1")) {
+        let f: Vec<&str> = line.split_whitespace().collect();
+        let n: usize = f[8].parse().unwrap();
+        let m: usize = f[9 + n].parse().unwrap();
+        let pose = f[10 + n + m..13 + n + m].join(" ");
+        flaser += &format!("FLASER {n} {} {pose} {pose} 0.0 h 0.0\n", f[9..9 + n].join(" "));
+    }
+    let flaser_log = dir.path().join("wide-flaser.log");
+    std::fs::write(&flaser_log, flaser).unwrap();
+    let success = |log: &std::path::Path, extra: &[&str]| {
+        let out = gema2(&[&["locate", "--map", "apartment", "--log", log.to_str().unwrap()][..], extra].concat());
+        assert!(out.status.success(), "{}", text(&out.stderr));
+        number_after(&text(&out.stderr), "success ")
+    };
+    let layout = ["--flaser-fov", "270", "--flaser-range-max", "30"];
+    assert_eq!(success(&flaser_log, &layout), success(&log, &[]));
+    assert!(success(&flaser_log, &layout) >= 90.0);
+    assert!(success(&flaser_log, &[]) < 50.0);
+    let out = gema2(&["locate", "--map", "apartment", "--log", flaser_log.to_str().unwrap(), "--flaser-fov", "400"]);
+    assert!(!out.status.success() && text(&out.stderr).contains("--flaser-fov 400"), "{}", text(&out.stderr));
+}
+
 /// Selections of no scan are errors naming the log, not empty reports that exit 0.
 #[test]
 fn a_selection_of_no_scan_is_an_error() {

@@ -38,13 +38,64 @@ pub struct FlaserLayout {
     pub start_angle: f64,
     /// Beam spacing; `None` derives it from n as described in the module docs.
     pub increment: Option<f64>,
+    /// Angle from the first beam to the last, when `increment` is `None`: the spacing is then
+    /// this over n - 1 whatever n is.
+    pub field_of_view: Option<f64>,
     /// Readings at or beyond this are "no return" (SICK logs use 50-82 m for that).
     pub range_max: f64,
 }
 
 impl Default for FlaserLayout {
     fn default() -> Self {
-        FlaserLayout { start_angle: -std::f64::consts::FRAC_PI_2, increment: None, range_max: 50.0 }
+        FlaserLayout {
+            start_angle: -std::f64::consts::FRAC_PI_2,
+            increment: None,
+            field_of_view: None,
+            range_max: 50.0,
+        }
+    }
+}
+
+/// The command line's say over [`FlaserLayout`], for FLASER logs of a sensor other than a
+/// SICK LMS's 180 degrees.
+#[derive(clap::Args, Clone, Copy, Debug, Default)]
+pub struct FlaserArgs {
+    /// FLASER lines: degrees from the first beam to the last (default: 180, spaced as a SICK
+    /// LMS by the reading count).
+    #[arg(long)]
+    pub flaser_fov: Option<f64>,
+    /// FLASER lines: angle of the first beam, degrees (default: minus half the field of view).
+    #[arg(long, allow_negative_numbers = true)]
+    pub flaser_start: Option<f64>,
+    /// FLASER lines: readings at or beyond this many metres are no return [default: 50].
+    #[arg(long)]
+    pub flaser_range_max: Option<f64>,
+}
+
+impl FlaserArgs {
+    /// The layout these arguments describe, or why they describe none.
+    pub fn layout(&self) -> Result<FlaserLayout, String> {
+        let mut layout = FlaserLayout::default();
+        if let Some(fov) = self.flaser_fov {
+            if !(fov > 0.0 && fov <= 360.0) {
+                return Err(format!("--flaser-fov {fov}: a field of view is more than 0 and at most 360 degrees"));
+            }
+            layout.field_of_view = Some(fov.to_radians());
+            layout.start_angle = -fov.to_radians() / 2.0;
+        }
+        if let Some(start) = self.flaser_start {
+            if !start.is_finite() {
+                return Err(format!("--flaser-start {start}: an angle in degrees"));
+            }
+            layout.start_angle = start.to_radians();
+        }
+        if let Some(r) = self.flaser_range_max {
+            if !(r.is_finite() && r > laser::MIN_VALID_RANGE) {
+                return Err(format!("--flaser-range-max {r}: a range in metres"));
+            }
+            layout.range_max = r;
+        }
+        Ok(layout)
     }
 }
 
@@ -235,9 +286,10 @@ fn parse_flaser(t: &[&str], layout: &FlaserLayout) -> Result<LaserScan, String> 
     let r = ranges(t, 1, n)?;
     let truth = finite_pose(num(t, n + 1, "x")?, num(t, n + 2, "y")?, num(t, n + 3, "theta")?)?;
     let pi = std::f64::consts::PI;
-    let increment = layout.increment.unwrap_or(match n {
-        180 | 360 => pi / n as f64,
-        _ => pi / (n - 1) as f64,
+    let increment = layout.increment.unwrap_or(match (layout.field_of_view, n) {
+        (Some(fov), _) => fov / (n - 1) as f64,
+        (None, 180 | 360) => pi / n as f64,
+        (None, _) => pi / (n - 1) as f64,
     });
     let geometry = ScanGeometry {
         angle_min: layout.start_angle,
@@ -345,6 +397,31 @@ mod tests {
             assert!((got.scan.geometry.angle_increment.to_degrees() - inc).abs() < 1e-9, "{n}");
             assert!((got.scan.geometry.angle_min + std::f64::consts::FRAC_PI_2).abs() < 1e-12);
         }
+    }
+
+    #[test]
+    fn a_flaser_layout_from_the_command_line_spreads_any_count_over_its_view() {
+        let layout = FlaserArgs { flaser_fov: Some(240.0), ..FlaserArgs::default() }.layout().unwrap();
+        let ranges = vec!["1.5"; 682].join(" ");
+        let line = format!("FLASER 682 {ranges} 1 2 0.1 1 2 0.1 7.0 host 7.0\n");
+        let reader = Box::new(std::io::Cursor::new(line.into_bytes()));
+        let got = CarmenReader::from_reader(reader, Path::new("t.log"), layout).next().unwrap().unwrap();
+        let g = got.scan.geometry;
+        assert!((g.angle_min.to_degrees() + 120.0).abs() < 1e-9);
+        assert!((g.angle(681).to_degrees() - 120.0).abs() < 1e-9);
+        let layout = FlaserArgs { flaser_start: Some(-100.0), flaser_range_max: Some(30.0), ..FlaserArgs::default() };
+        let layout = layout.layout().unwrap();
+        assert!((layout.start_angle.to_degrees() + 100.0).abs() < 1e-9 && layout.range_max == 30.0);
+        assert_eq!(layout.field_of_view, None);
+        for bad in [
+            FlaserArgs { flaser_fov: Some(0.0), ..FlaserArgs::default() },
+            FlaserArgs { flaser_fov: Some(f64::NAN), ..FlaserArgs::default() },
+            FlaserArgs { flaser_start: Some(f64::INFINITY), ..FlaserArgs::default() },
+            FlaserArgs { flaser_range_max: Some(-1.0), ..FlaserArgs::default() },
+        ] {
+            assert!(bad.layout().is_err(), "{bad:?}");
+        }
+        assert_eq!(FlaserArgs::default().layout().unwrap(), FlaserLayout::default());
     }
 
     #[test]

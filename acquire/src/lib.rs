@@ -7,5 +7,5 @@ pub mod scip;
 pub mod sim;
 pub mod urg_log;
 
-pub use carmen::{write_robotlaser1, CarmenReader, FlaserLayout, LogError, LogScan, NO_TRUTH_MARKER};
+pub use carmen::{write_robotlaser1, CarmenReader, FlaserArgs, FlaserLayout, LogError, LogScan, NO_TRUTH_MARKER};
 pub use sim::{Obstacles, Scenario, SensorModel, Simulator};

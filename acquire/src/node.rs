@@ -3,7 +3,7 @@
 //! in the subscribers' buffers, so no scan is dropped; at a fixed rate a scan that finds a full
 //! buffer is not delivered to that subscriber (the stage is too slow), and the run goes on.
 
-use crate::{CarmenReader, FlaserLayout, Scenario, SensorModel, Simulator};
+use crate::{CarmenReader, Scenario, SensorModel, Simulator};
 use anyhow::{anyhow, bail, Context, Result};
 use clap::Args;
 use laser::{pose_theta, LaserScan};
@@ -20,6 +20,8 @@ pub struct AcquireArgs {
     /// line) and skipped, as a corrupt frame from a sensor would be; the replay goes on.
     #[arg(long)]
     pub log: Option<PathBuf>,
+    #[command(flatten)]
+    pub flaser: crate::FlaserArgs,
     /// Replay a URG-04LX log (the format of datasets/urg04lx) instead of simulating.
     #[arg(long)]
     pub urg_log: Option<PathBuf>,
@@ -127,7 +129,7 @@ fn source(a: &AcquireArgs) -> Result<(Source, &'static str)> {
         return Ok((Box::new(reader.map(|r| r.map_err(anyhow::Error::from))), "urg04lx-log"));
     }
     if let Some(path) = &a.log {
-        let reader = CarmenReader::open(path, FlaserLayout::default())?;
+        let reader = CarmenReader::open(path, a.flaser.layout().map_err(anyhow::Error::msg)?)?;
         return Ok((Box::new(reader.map(|r| r.map(|s| s.scan).map_err(anyhow::Error::from))), "carmen-log"));
     }
     let map = mapserver::load_map(&a.map)?;

@@ -7,7 +7,7 @@
 //! seen through and go; a door frame seen by one scan stays. Evaluate on scans the map was not
 //! built from (`--every 2` here, `locate --every 2 --offset 1` there).
 
-use acquire::{CarmenReader, FlaserLayout};
+use acquire::CarmenReader;
 use anyhow::{bail, Context, Result};
 use clap::Args;
 use laser::{LaserScan, Pose, Reading};
@@ -22,6 +22,8 @@ pub struct BuildArgs {
     /// A CARMEN log with true poses.
     #[arg(long)]
     pub log: PathBuf,
+    #[command(flatten)]
+    pub flaser: acquire::FlaserArgs,
     /// Use every K-th scan...
     #[arg(long, default_value_t = 2, value_parser = super::positive_count)]
     pub every: usize,
@@ -195,7 +197,7 @@ pub(crate) fn survey_grid(a: &BuildArgs) -> Result<mapserver::OccupancyGrid> {
 
 /// The scans the map is built from (every `every`-th from `offset`), each with its true pose.
 fn survey(a: &BuildArgs) -> Result<impl Iterator<Item = Result<(LaserScan, Pose)>> + '_> {
-    let reader = CarmenReader::open(&a.log, FlaserLayout::default())?;
+    let reader = CarmenReader::open(&a.log, a.flaser.layout().map_err(anyhow::Error::msg)?)?;
     Ok(reader.enumerate().filter(move |(k, _)| super::selected(*k, a.every, a.offset)).map(move |(k, item)| {
         let scan = item?.scan;
         let truth = scan

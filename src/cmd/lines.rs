@@ -3,7 +3,7 @@
 
 use crate::report::quantile;
 use acquire::urg_log::UrgLogReader;
-use acquire::{CarmenReader, FlaserLayout};
+use acquire::CarmenReader;
 use anyhow::{anyhow, bail, Result};
 use clap::Args;
 use laser::LaserScan;
@@ -19,6 +19,8 @@ pub struct LinesArgs {
     /// A CARMEN log.
     #[arg(long)]
     pub log: Option<PathBuf>,
+    #[command(flatten)]
+    pub flaser: acquire::FlaserArgs,
     /// Segmenter: line-visibility or split-and-merge.
     #[arg(long = "impl", default_value = "line-visibility")]
     pub implementation: String,
@@ -31,7 +33,8 @@ pub fn run(a: LinesArgs) -> Result<()> {
     let scans: Box<dyn Iterator<Item = Result<LaserScan>>> = match (&a.urg_log, &a.log) {
         (Some(p), None) => Box::new(UrgLogReader::open(p)?.map(|r| r.map_err(anyhow::Error::from))),
         (None, Some(p)) => Box::new(
-            CarmenReader::open(p, FlaserLayout::default())?.map(|r| r.map(|s| s.scan).map_err(anyhow::Error::from)),
+            CarmenReader::open(p, a.flaser.layout().map_err(anyhow::Error::msg)?)?
+                .map(|r| r.map(|s| s.scan).map_err(anyhow::Error::from)),
         ),
         _ => bail!("give exactly one of --urg-log and --log"),
     };

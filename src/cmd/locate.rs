@@ -2,7 +2,7 @@
 //! DESIGN.md and prints timing and, when the log holds truth, accuracy.
 
 use crate::report::{Outcome, Summary};
-use acquire::{CarmenReader, FlaserLayout};
+use acquire::CarmenReader;
 use anyhow::{Context, Result};
 use clap::Args;
 use localize::{Gema2, Gema2Config, MapModel, Status};
@@ -19,6 +19,8 @@ pub struct LocateArgs {
     /// CARMEN log (ROBOTLASER1 or FLASER; .gz is fine).
     #[arg(long)]
     pub log: PathBuf,
+    #[command(flatten)]
+    pub flaser: acquire::FlaserArgs,
     /// Locate every K-th laser line...
     #[arg(long, default_value_t = 1, value_parser = super::positive_count)]
     pub every: usize,
@@ -79,7 +81,7 @@ pub fn run(a: LocateArgs) -> Result<()> {
     let loc_cfg = config.localizer;
     let model = Arc::new(MapModel::new(map, &config.map_corners));
     let mut gema2 = Gema2::new(Arc::clone(&model), config.segmenter, config.localizer);
-    let reader = CarmenReader::open(&a.log, FlaserLayout::default())?;
+    let reader = CarmenReader::open(&a.log, a.flaser.layout().map_err(anyhow::Error::msg)?)?;
     let mut csv = match &a.out {
         Some(p) => {
             let f = std::fs::File::create(p).with_context(|| format!("creating {}", p.display()))?;
