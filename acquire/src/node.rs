@@ -173,10 +173,21 @@ extern "C" fn on_stop(signal: libc::c_int) {
 pub fn install_stop_handlers() {
     let ours = on_stop as *const () as libc::sighandler_t;
     for (slot, signal) in PREVIOUS.iter().zip([libc::SIGINT, libc::SIGTERM]) {
-        // SAFETY: the handler stores to an atomic and calls the handler it replaced.
-        let previous = unsafe { libc::signal(signal, ours) };
-        if previous != ours {
-            slot.store(previous, std::sync::atomic::Ordering::Relaxed);
+        // SAFETY: sigaction reads `action` and writes `previous`, both ours; the handler stores
+        // to an atomic and calls the handler it replaced.
+        unsafe {
+            let mut action: libc::sigaction = std::mem::zeroed();
+            action.sa_sigaction = ours;
+            action.sa_flags = libc::SA_RESTART;
+            libc::sigemptyset(&mut action.sa_mask);
+            let mut previous: libc::sigaction = std::mem::zeroed();
+            if libc::sigaction(signal, &action, &mut previous) != 0 {
+                continue;
+            }
+            // only a one-argument handler can be called on as one (not an SA_SIGINFO one)
+            if previous.sa_sigaction != ours && previous.sa_flags & libc::SA_SIGINFO == 0 {
+                slot.store(previous.sa_sigaction, std::sync::atomic::Ordering::Relaxed);
+            }
         }
     }
 }
