@@ -84,11 +84,14 @@ fn a_malformed_log_line_is_rejected_naming_file_and_line() {
     let log = dir.path().join("bad.log");
     std::fs::write(&log, "PARAM a b\nFLASER 3 1.0 1.0 1.0 0 0 0 0 0 0 1 h 1\nFLASER 3 1.0 x 1.0 0 0 0 0 0 0 1 h 1\n")
         .unwrap();
-    let out = gema2(&["locate", "--map", "apartment", "--log", log.to_str().unwrap()]);
+    let csv = dir.path().join("bad.csv");
+    let out = gema2(&["locate", "--map", "apartment", "--log", log.to_str().unwrap(), "--out", csv.to_str().unwrap()]);
     assert!(!out.status.success());
     let err = text(&out.stderr);
     assert!(err.contains("bad.log:3") && err.contains("\"x\""), "{err}");
-    assert!(!Path::new("bad.csv").exists());
+    // the scan before the bad line is located, written and summed up, not lost with it
+    assert!(err.starts_with("scans 1 ") && err.contains("stopped there, after 1 scans"), "{err}");
+    assert_eq!(std::fs::read_to_string(&csv).unwrap().lines().count(), 2);
 }
 
 #[test]

@@ -94,8 +94,17 @@ pub fn run(a: LocateArgs) -> Result<()> {
     let mut summary = Summary::default();
     let mut diagnosis = crate::diagnose::Diagnosis::default();
     let mut judge = None;
+    // a line that cannot be read ends the run with its error, after the scans before it are
+    // written and summed up: they are not lost with it
+    let mut unreadable = None;
     for (index, item) in reader.enumerate() {
-        let item = item?;
+        let item = match item {
+            Ok(item) => item,
+            Err(e) => {
+                unreadable = Some(e);
+                break;
+            }
+        };
         if !super::selected(index, a.every, a.offset) {
             continue;
         }
@@ -153,6 +162,9 @@ pub fn run(a: LocateArgs) -> Result<()> {
     eprint!("{}", summary.render());
     if a.diagnose {
         eprint!("{}", diagnosis.render());
+    }
+    if let Some(e) = unreadable {
+        anyhow::bail!("{e}; stopped there, after {} scans", summary.outcomes.len());
     }
     if summary.outcomes.is_empty() {
         // an empty result is no answer: a script must not take it for one
