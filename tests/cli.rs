@@ -170,7 +170,7 @@ fn a_flaser_log_of_another_sensor_is_read_with_its_layout() {
     }
     let flaser_log = dir.path().join("wide-flaser.log");
     std::fs::write(&flaser_log, flaser).unwrap();
-    let success = |log: &std::path::Path, extra: &[&str]| {
+    let success = |log: &Path, extra: &[&str]| {
         let out = gema2(&[&["locate", "--map", "apartment", "--log", log.to_str().unwrap()][..], extra].concat());
         assert!(out.status.success(), "{}", text(&out.stderr));
         number_after(&text(&out.stderr), "success ")
@@ -455,7 +455,7 @@ fn a_survey_grid_of_a_log_locates_the_scans_it_was_not_built_from() {
     let build = ["map", "build", "--log", &p("survey.log"), "--grid", &p("grid.yaml"), "--out", &p("built.json")];
     let out = gema2(&build);
     assert!(out.status.success() && text(&out.stderr).contains("grid.yaml: a "), "{}", text(&out.stderr));
-    let grid = mapserver::OccupancyGrid::load(std::path::Path::new(&p("grid.yaml"))).unwrap();
+    let grid = mapserver::OccupancyGrid::load(Path::new(&p("grid.yaml"))).unwrap();
     assert!(grid.cells.contains(&mapserver::ros::Cell::Occupied) && grid.cells.contains(&mapserver::ros::Cell::Free));
     let out = gema2(&["locate", "--map", &p("grid.yaml"), "--log", &p("survey.log"), "--every", "2", "--offset", "1"]);
     assert!(out.status.success(), "{}", text(&out.stderr));
