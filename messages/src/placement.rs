@@ -39,26 +39,45 @@ pub enum PlacementError {
 /// Lowest and highest `SCHED_FIFO` priority Linux accepts.
 pub const REALTIME_PRIORITIES: std::ops::RangeInclusive<u8> = 1..=99;
 
-/// Pins the calling thread (and what it forks from now on) to one CPU core, which must be one
-/// it may run on now.
+/// Pins the calling thread (and what it forks from now on) to one CPU core. When the kernel
+/// refuses, the error names the cores it would accept ([`allowed_cores`]).
 pub fn pin_to_cpu(cpu: usize) -> Result<(), PlacementError> {
-    let allowed = Affinity::current()?.cores();
-    if !allowed.contains(&cpu) {
-        return Err(PlacementError::Pin {
-            cpu,
-            message: format!("this process may run on cores {}", ranges(&allowed)),
-        });
+    if set_affinity_to(cpu) {
+        return Ok(());
     }
-    // SAFETY: `set` is a plain bit set on the stack; sched_setaffinity reads it.
-    let rc = unsafe {
+    let error = std::io::Error::last_os_error();
+    let allowed = allowed_cores()?;
+    Err(PlacementError::Pin { cpu, message: format!("{error}; this process may run on cores {}", ranges(&allowed)) })
+}
+
+/// Sets the calling thread's affinity to `cpu` alone; whether the kernel accepted it (a core
+/// beyond the set's size never is).
+fn set_affinity_to(cpu: usize) -> bool {
+    if cpu >= libc::CPU_SETSIZE as usize {
+        return false;
+    }
+    // SAFETY: `set` is a plain bit set on the stack and `cpu` lies within it; sched_setaffinity
+    // reads it.
+    unsafe {
         let mut set: libc::cpu_set_t = std::mem::zeroed();
         libc::CPU_SET(cpu, &mut set);
-        libc::sched_setaffinity(0, std::mem::size_of::<libc::cpu_set_t>(), &set)
-    };
-    if rc != 0 {
-        return Err(PlacementError::Pin { cpu, message: std::io::Error::last_os_error().to_string() });
+        libc::sched_setaffinity(0, std::mem::size_of::<libc::cpu_set_t>(), &set) == 0
     }
-    Ok(())
+}
+
+/// The cores the kernel lets the calling thread be pinned to, lowest first: asked of the kernel
+/// core by core, the thread's affinity put back after. That is wider than the current
+/// affinity (`taskset -c 0` still lets a process pin itself to core 1) and narrower than the
+/// machine's cores (a cpuset, a container's `--cpuset-cpus`).
+pub fn allowed_cores() -> Result<Vec<usize>, PlacementError> {
+    let saved = Affinity::current()?;
+    // no core is numbered beyond those the system has configured
+    // SAFETY: sysconf only reads a system value.
+    let configured = usize::try_from(unsafe { libc::sysconf(libc::_SC_NPROCESSORS_CONF) }).unwrap_or(0);
+    let cores = if configured > 0 { configured.min(libc::CPU_SETSIZE as usize) } else { libc::CPU_SETSIZE as usize };
+    let allowed = (0..cores).filter(|&c| set_affinity_to(c)).collect();
+    restore_affinity(&saved).map_err(|e| PlacementError::Affinity(e.to_string()))?;
+    Ok(allowed)
 }
 
 /// The calling thread's CPU affinity, to hand back to processes it starts after pinning itself
@@ -76,12 +95,6 @@ impl Affinity {
             }
             Ok(Affinity(set))
         }
-    }
-
-    /// The cores the set allows, lowest first.
-    pub fn cores(&self) -> Vec<usize> {
-        // SAFETY: CPU_ISSET reads a bit below CPU_SETSIZE of a set we own.
-        (0..libc::CPU_SETSIZE as usize).filter(|&c| unsafe { libc::CPU_ISSET(c, &self.0) }).collect()
     }
 }
 
@@ -197,9 +210,9 @@ mod tests {
     fn bad_requests_are_refused_with_the_reason() {
         let e = pin_to_cpu(100_000).unwrap_err().to_string();
         assert!(e.contains("CPU 100000") && e.contains("cores"), "{e}");
-        // a core that exists in the set's range but not for this process: refused before the
-        // kernel is asked, naming the cores it may use
-        let allowed = Affinity::current().unwrap().cores();
+        // a core within the set's range that the kernel refuses: the error names the cores it
+        // would accept
+        let allowed = allowed_cores().unwrap();
         let outside = allowed.last().unwrap() + 1;
         if outside < libc::CPU_SETSIZE as usize {
             let e = pin_to_cpu(outside).unwrap_err().to_string();
@@ -216,7 +229,30 @@ mod tests {
         assert_eq!(ranges(&[0, 1, 2, 3, 6, 8, 9]), "0-3, 6, 8-9");
         assert_eq!(ranges(&[5]), "5");
         assert_eq!(ranges(&[]), "none");
-        assert!(!Affinity::current().unwrap().cores().is_empty());
+    }
+
+    /// The cores the kernel accepts include those the thread runs on, and asking leaves its
+    /// affinity as it was.
+    #[test]
+    fn allowed_cores_are_asked_of_the_kernel_and_leave_the_affinity_alone() {
+        std::thread::spawn(|| {
+            let before = Affinity::current().unwrap();
+            let allowed = allowed_cores().unwrap();
+            assert!(!allowed.is_empty());
+            // SAFETY: CPU_ISSET reads bits below CPU_SETSIZE of a set we own.
+            let running: Vec<usize> =
+                (0..libc::CPU_SETSIZE as usize).filter(|&c| unsafe { libc::CPU_ISSET(c, &before.0) }).collect();
+            assert!(running.iter().all(|c| allowed.contains(c)), "{running:?} {allowed:?}");
+            // pinned to one core, the others it could run on are still allowed
+            pin_to_cpu(running[0]).unwrap();
+            assert_eq!(allowed_cores().unwrap(), allowed);
+            restore_affinity(&before).unwrap();
+            let after = Affinity::current().unwrap();
+            // SAFETY: CPU_EQUAL compares two bit sets we own.
+            assert!(unsafe { libc::CPU_EQUAL(&before.0, &after.0) });
+        })
+        .join()
+        .unwrap();
     }
 
     /// Where the system allows it (root), a real-time priority takes effect and, with

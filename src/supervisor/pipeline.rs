@@ -108,8 +108,9 @@ impl Pipeline {
     }
 
     /// Refuses a `cpu` (a stage's or the supervisor's) that is not among `allowed`, the cores
-    /// the supervisor may run on: a pipeline written for a larger machine would otherwise
-    /// restart its pinned stages for ever.
+    /// the kernel lets the supervisor pin to ([`messages::placement::allowed_cores`]): a
+    /// pipeline written for a larger machine would otherwise restart its pinned stages for
+    /// ever.
     pub fn check_cores(&self, origin: &Path, allowed: &[usize]) -> Result<()> {
         let pinned = self.stages.iter().map(|s| (format!("stage {:?}", s.name), s.cpu));
         for (who, cpu) in pinned.chain([("[supervisor]".to_owned(), self.supervisor.cpu)]) {

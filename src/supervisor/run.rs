@@ -83,7 +83,7 @@ fn wait_ready(
 pub fn run(a: RunArgs) -> Result<()> {
     let mut pipeline = Pipeline::load(a.pipeline.as_deref())?;
     let origin = a.pipeline.as_deref().unwrap_or(Path::new(EMBEDDED));
-    pipeline.check_cores(origin, &messages::placement::Affinity::current()?.cores())?;
+    pipeline.check_cores(origin, &messages::placement::allowed_cores()?)?;
     let scans = apply_overrides(&mut pipeline, &a);
     // created before anything runs: a path that cannot be written must not cost the run
     let out = match &a.out {
