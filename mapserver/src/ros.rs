@@ -12,6 +12,7 @@
 //! Only PGM images (P5 binary, P2 text; 8 or 16 bits) are read: a PNG map converts with any
 //! image tool (`convert map.png map.pgm`).
 
+use crate::bitgrid::Grid;
 use crate::map::{Wall, WallMap, MIN_WALL_LENGTH};
 use crate::trace::{Raster, TraceConfig};
 use crate::SeenFree;
@@ -511,10 +512,7 @@ impl OccupancyGrid {
 /// [`OccupancyGrid::to_wall_map`] on.
 #[derive(Clone, Debug)]
 pub struct SurveyGrid {
-    origin: Point2<f64>,
-    cell: f64,
-    width: usize,
-    height: usize,
+    grid: Grid,
     log_odds: Vec<f32>,
 }
 
@@ -537,24 +535,17 @@ impl SurveyGrid {
         if w * h > MAX_CELLS as f64 {
             return None;
         }
-        let (width, height) = (w as usize, h as usize);
-        Some(SurveyGrid { origin: lo, cell, width, height, log_odds: vec![0.0; width * height] })
-    }
-
-    fn index(&self, q: Point2<f64>) -> Option<usize> {
-        crate::grid::cell_holding(self.origin, self.cell, (self.width, self.height), q).map(|(c, r)| r * self.width + c)
+        let grid = Grid { origin: lo, cell, cols: w as usize, rows: h as usize };
+        Some(SurveyGrid { grid, log_odds: vec![0.0; grid.cells()] })
     }
 
     /// A beam from `sensor` whose end lies at `end`: the cells it crosses before its end's
     /// cell lose evidence, and that cell gains it when `hit` (a return; a beam that ran out of
     /// range only crossed).
     pub fn add_beam(&mut self, sensor: Point2<f64>, end: Point2<f64>, hit: bool) {
-        let last = self.index(end);
-        let steps = ((end - sensor).norm() / (0.5 * self.cell)).ceil();
-        let steps = if steps.is_finite() { steps.min(1e7) as usize } else { return };
+        let last = self.grid.index(end);
         let mut previous = None;
-        for k in 0..steps {
-            let i = self.index(sensor + (end - sensor) * (k as f64 / steps as f64));
+        for i in self.grid.points_along(sensor, end).map(|q| self.grid.index(q)) {
             if let Some(j) = i.filter(|_| i != previous && i != last) {
                 self.log_odds[j] -= PASS_LOG_ODDS;
             }
@@ -576,11 +567,12 @@ impl SurveyGrid {
                 _ => Cell::Unknown,
             })
             .collect();
+        let g = &self.grid;
         OccupancyGrid {
-            resolution: self.cell,
-            origin: [self.origin.x, self.origin.y, 0.0],
-            width: self.width,
-            height: self.height,
+            resolution: g.cell,
+            origin: [g.origin.x, g.origin.y, 0.0],
+            width: g.cols,
+            height: g.rows,
             cells,
         }
     }
@@ -766,7 +758,7 @@ mod tests {
             }
         }
         let g = grid.to_occupancy_grid();
-        let at = |x: f64, y: f64| g.cells[grid.index(Point2::new(x, y)).unwrap()];
+        let at = |x: f64, y: f64| g.cells[grid.grid.index(Point2::new(x, y)).unwrap()];
         // each wall's cells: the cell either side of its line holds its hits
         let wall = |a: Point2<f64>, b: Point2<f64>| at(a.x, a.y) == Cell::Occupied || at(b.x, b.y) == Cell::Occupied;
         for (x, y, dx, dy) in
