@@ -435,16 +435,13 @@ impl OccupancyGrid {
             return Err(format!("{width} x {height} cells of {resolution} m: at most {MAX_CELLS} are written"));
         }
         let mut occupied = vec![false; width * height];
-        let cell_of = |p: Point2<f64>| {
-            crate::grid::cell_holding(origin, resolution, (width, height), p).map(|(c, r)| r * width + c)
-        };
-        let centre = |c: usize, r: usize| crate::grid::centre_of(origin, resolution, c, r);
+        let grid = Grid { origin, cell: resolution, cols: width, rows: height };
         let half = thickness / 2.0;
         for w in &map.walls {
             // the cells the wall crosses, at quarter-cell steps
             let steps = (w.length() / (0.25 * resolution)).ceil().max(1.0) as usize;
             for k in 0..=steps {
-                if let Some(i) = cell_of(w.a + (w.b - w.a) * (k as f64 / steps as f64)) {
+                if let Some(i) = grid.index(w.a + (w.b - w.a) * (k as f64 / steps as f64)) {
                     occupied[i] = true;
                 }
             }
@@ -456,7 +453,7 @@ impl OccupancyGrid {
             let r1 = (((wh.y - origin.y) / resolution).ceil() as usize).min(height);
             for r in r0..r1 {
                 for c in c0..c1 {
-                    if w.closest(centre(c, r)).0 <= half {
+                    if w.closest(grid.centre(c, r)).0 <= half {
                         occupied[r * width + c] = true;
                     }
                 }
@@ -468,7 +465,7 @@ impl OccupancyGrid {
                 if occupied[i] {
                     Cell::Occupied
                 } else if !inside[i]
-                    || map.seen_free.as_ref().is_some_and(|s| !s.contains(centre(i % width, i / width)))
+                    || map.seen_free.as_ref().is_some_and(|s| !s.contains(grid.centre(i % width, i / width)))
                 {
                     Cell::Unknown
                 } else {
