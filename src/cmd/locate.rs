@@ -159,7 +159,10 @@ pub fn run(a: LocateArgs) -> Result<()> {
     if let Some(mut w) = csv {
         w.flush()?;
     }
-    eprint!("{}", summary.render());
+    // with no scan there is nothing to sum up: the error below says why
+    if !summary.outcomes.is_empty() {
+        eprint!("{}", summary.render());
+    }
     if a.diagnose {
         eprint!("{}", diagnosis.render());
     }
