@@ -47,9 +47,13 @@ enum Command {
 
 #[derive(Subcommand)]
 enum StageCommand {
+    #[command(about = acquire::node::ABOUT)]
     Acquire(acquire::node::AcquireArgs),
+    #[command(about = segment::node::ABOUT)]
     Segment(segment::node::SegmentArgs),
+    #[command(about = localize::node::ABOUT)]
     Localize(localize::node::LocalizeArgs),
+    #[command(about = mapserver::node::ABOUT)]
     Mapserver(mapserver::node::MapServerArgs),
 }
 
@@ -87,5 +91,45 @@ fn main() -> anyhow::Result<()> {
             StageCommand::Mapserver(a) => mapserver::node::run(a),
         },
         None => cmd::demo::run(cmd::demo::DemoArgs::default()),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::Cli;
+    use clap::CommandFactory;
+
+    /// Where an `Args` struct's doc comment leaks into `--help` as a command's description
+    /// (clap takes a flattened struct's doc when the command has none of its own), the text is
+    /// written for Rust readers: `gema2 stage --help` once described three stages as "The
+    /// arguments every stage process takes, declared once".
+    #[test]
+    fn every_command_describes_itself_for_a_user() {
+        fn check(cmd: &clap::Command, path: &str, problems: &mut Vec<String>) {
+            let mut seen = std::collections::HashMap::new();
+            for sub in cmd.get_subcommands().filter(|s| s.get_name() != "help") {
+                let here = format!("{path} {}", sub.get_name());
+                let about = sub.get_about().map(|a| a.to_string()).unwrap_or_default();
+                if about.is_empty() {
+                    problems.push(format!("{here}: no description"));
+                }
+                if about.contains("[`") || about.contains("declared once") {
+                    problems.push(format!("{here}: a doc comment for Rust readers: {about:?}"));
+                }
+                if let Some(other) = seen.insert(about.clone(), here.clone()) {
+                    problems.push(format!("{here} and {other} share the description {about:?}"));
+                }
+                for arg in sub.get_arguments() {
+                    let help = arg.get_help().map(|h| h.to_string()).unwrap_or_default();
+                    if help.contains("[`") {
+                        problems.push(format!("{here} --{}: rustdoc link in its help: {help:?}", arg.get_id()));
+                    }
+                }
+                check(sub, &here, problems);
+            }
+        }
+        let mut problems = Vec::new();
+        check(&Cli::command(), "gema2", &mut problems);
+        assert!(problems.is_empty(), "{problems:#?}");
     }
 }

@@ -3,7 +3,7 @@
 use clap::Parser;
 
 #[derive(Parser)]
-#[command(name = "acquire", about = "GEMA2 acquisition stage: a simulated laser or a log, published as scans")]
+#[command(name = "acquire", about = acquire::node::ABOUT)]
 struct Cli {
     #[command(flatten)]
     args: acquire::node::AcquireArgs,

@@ -12,6 +12,9 @@ use messages::{monotonic_ns, Header, Outlet, PoseMsgXyt, ScanMsg, Stage, Topic, 
 use std::path::PathBuf;
 use std::time::Duration;
 
+/// What the stage is, for its `--help` (its own program's and `gema2 stage acquire`'s).
+pub const ABOUT: &str = "GEMA2 acquisition stage: a simulated laser or a log, published as scans";
+
 #[derive(Args, Debug, Clone)]
 pub struct AcquireArgs {
     #[command(flatten)]

@@ -3,7 +3,7 @@
 use clap::Parser;
 
 #[derive(Parser)]
-#[command(name = "localize", about = "GEMA2 localization stage: corners and map in, ranked poses out")]
+#[command(name = "localize", about = localize::node::ABOUT)]
 struct Cli {
     #[command(flatten)]
     args: localize::node::LocalizeArgs,

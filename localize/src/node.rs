@@ -20,6 +20,9 @@ use segment::wire::{corner_from_msg, scan_view};
 use segment::Segmentation;
 use std::sync::Arc;
 
+/// What the stage is, for its `--help` (its own program's and `gema2 stage localize`'s).
+pub const ABOUT: &str = "GEMA2 localization stage: corners and map in, ranked poses out";
+
 #[derive(Args, Debug, Clone)]
 pub struct LocalizeArgs {
     #[command(flatten)]

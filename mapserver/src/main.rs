@@ -3,7 +3,7 @@
 use clap::Parser;
 
 #[derive(Parser)]
-#[command(name = "mapserver", about = "GEMA2 map server: the map with history, corner queries, reload on change")]
+#[command(name = "mapserver", about = mapserver::node::ABOUT)]
 struct Cli {
     #[command(flatten)]
     args: mapserver::node::MapServerArgs,

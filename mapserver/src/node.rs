@@ -15,6 +15,9 @@ use std::path::Path;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, SystemTime};
 
+/// What the stage is, for its `--help` (its own program's and `gema2 stage mapserver`'s).
+pub const ABOUT: &str = "GEMA2 map server: the map with history, corner queries, reload on change";
+
 #[derive(Args, Debug, Clone)]
 pub struct MapServerArgs {
     #[command(flatten)]

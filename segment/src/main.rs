@@ -3,7 +3,7 @@
 use clap::Parser;
 
 #[derive(Parser)]
-#[command(name = "segment", about = "GEMA2 segmentation stage: scans in, lines and corners out")]
+#[command(name = "segment", about = segment::node::ABOUT)]
 struct Cli {
     #[command(flatten)]
     args: segment::node::SegmentArgs,

@@ -15,6 +15,9 @@ use messages::{
     MAX_CORNERS, MAX_LINES,
 };
 
+/// What the stage is, for its `--help` (its own program's and `gema2 stage segment`'s).
+pub const ABOUT: &str = "GEMA2 segmentation stage: scans in, lines and corners out";
+
 #[derive(Args, Debug, Clone)]
 pub struct SegmentArgs {
     #[command(flatten)]
