@@ -64,58 +64,57 @@ impl LocalizerConfig {
     /// Applies `s` when it names a localization parameter: `Ok(true)`; `Ok(false)` when it
     /// names none.
     pub fn set(&mut self, s: &Setting<'_>) -> Result<bool, SettingError> {
-        let v = s.value;
         match s.key {
             "corners" => self.corners_tried = s.count()?,
             "screen_points" => self.screen_points = s.count()?,
-            "prescreen_step" => self.prescreen_step = s.count()?,
+            "prescreen_step" => self.prescreen_step = s.step()?,
             "prescreened" => self.prescreened = s.count()?,
-            "screen_cap" => self.screen_cap = v,
+            "screen_cap" => self.screen_cap = s.positive()?,
             "screened" => self.screened = s.count()?,
             "refined" => self.refined = s.count()?,
             "refine_points" => self.refine_points = s.count()?,
             "refine_iterations" => self.refine.iterations = s.count()?,
             "polish_points" => self.polish_points = s.count()?,
-            "polish_margin" => self.polish_margin = v,
+            "polish_margin" => self.polish_margin = s.non_negative()?,
             "polish_iterations" => self.polish_iterations = s.count()?,
             "first_corners" => self.first_look.corners = s.count()?,
             "first_prescreened" => self.first_look.prescreened = s.count()?,
             "first_screened" => self.first_look.screened = s.count()?,
             "first_refined" => self.first_look.refined = s.count()?,
-            "first_inliers" => self.first_look.min_inliers = v,
-            "first_through" => self.first_look.max_through = v,
+            "first_inliers" => self.first_look.min_inliers = s.fraction()?,
+            "first_through" => self.first_look.max_through = s.fraction()?,
             "coarse_beams" => self.coarse_beams = s.count()?,
-            "coarse_sigma" => self.coarse_sigma = v,
+            "coarse_sigma" => self.coarse_sigma = s.positive()?,
             "sparse_beams" => self.sparse_beams = s.count()?,
             "sparse_kept" => self.sparse_kept = s.count()?,
-            "arm_slack" => self.arm_slack = v,
-            "map_sigma" => self.cost.sigma_floor = v,
-            "cost_stride" => self.cost.stride = s.count()?,
-            "front_cap" => self.cost.front_cap = v,
-            "through_cap" => self.cost.through_cap = v,
-            "grazing_cap" => self.cost.grazing_cap = v,
+            "arm_slack" => self.arm_slack = s.non_negative()?,
+            "map_sigma" => self.cost.sigma_floor = s.non_negative()?,
+            "cost_stride" => self.cost.stride = s.step()?,
+            "front_cap" => self.cost.front_cap = s.non_negative()?,
+            "through_cap" => self.cost.through_cap = s.non_negative()?,
+            "grazing_cap" => self.cost.grazing_cap = s.within(1.0, f64::INFINITY, "at least 1 (1: off)")?,
             "paper_cost" => self.cost.kind = if s.switch() { CostKind::Paper } else { CostKind::OneSided },
             "surface_dropouts" => self.surface_dropouts = s.count()?,
             "inside_only" => self.inside_only = s.switch(),
-            "ambiguity" => self.ambiguity_margin = v,
-            "cornerless_tie" => self.cornerless_tie = v,
-            "min_inliers" => self.min_inliers = v,
-            "max_through" => self.max_through = v,
-            "max_through_approximate" => self.max_through_approximate = v,
-            "front_cap_approximate" => self.front_cap_approximate = v,
-            "max_through_ok" => self.max_through_ok = v,
-            "track" => self.track_radius = (v > 0.0).then_some(v),
+            "ambiguity" => self.ambiguity_margin = s.non_negative()?,
+            "cornerless_tie" => self.cornerless_tie = s.non_negative()?,
+            "min_inliers" => self.min_inliers = s.fraction()?,
+            "max_through" => self.max_through = s.fraction()?,
+            "max_through_approximate" => self.max_through_approximate = s.fraction()?,
+            "front_cap_approximate" => self.front_cap_approximate = s.non_negative()?,
+            "max_through_ok" => self.max_through_ok = s.fraction()?,
+            "track" => self.track_radius = Some(s.non_negative()?).filter(|&r| r > 0.0),
             "slide_lines" => self.slide.lines = s.count()?,
-            "slide_min_length" => self.slide.min_length = v,
-            "slide_step" => self.slide.step = v,
-            "slide_slack" => self.slide.slack = v,
-            "slide_shorter" => self.slide.shorter_walls = v,
+            "slide_min_length" => self.slide.min_length = s.non_negative()?,
+            "slide_step" => self.slide.step = s.positive()?,
+            "slide_slack" => self.slide.slack = s.non_negative()?,
+            "slide_shorter" => self.slide.shorter_walls = s.non_negative()?,
             "slide_screened" => self.slide.screened = s.count()?,
             "slide_max_poses" => self.slide.max_poses = s.count()?,
-            "slide_sigma_deg" => self.slide.max_direction_sigma = s.degrees(),
-            "slide_min_inliers_ok" => self.slide.min_inliers_ok = v,
-            "error_constant" => self.error.constant = v,
-            "error_proportional" => self.error.proportional = v,
+            "slide_sigma_deg" => self.slide.max_direction_sigma = s.degrees()?,
+            "slide_min_inliers_ok" => self.slide.min_inliers_ok = s.fraction()?,
+            "error_constant" => self.error.constant = s.positive()?,
+            "error_proportional" => self.error.proportional = s.non_negative()?,
             _ => return Ok(false),
         }
         Ok(true)
@@ -143,7 +142,7 @@ impl Gema2Config {
         let mut known = self.segmenter.set(s)?;
         known |= self.localizer.set(s)?;
         match s.key {
-            "map_reach" => self.map_corners.reach = s.value,
+            "map_reach" => self.map_corners.reach = s.non_negative()?,
             "wall_ends" => self.map_corners.wall_ends = s.switch(),
             _ if known => {}
             _ => return Err(SettingError::Unknown { key: s.key.to_string(), known: Self::settings() }),
@@ -189,6 +188,33 @@ mod tests {
         assert!(c.apply(&["screened=100", "refined=-1"]).is_err());
         assert!(c.apply(&["screened=100", "front_cap=NaN"]).is_err());
         assert_eq!(format!("{c:?}"), before);
+    }
+
+    #[test]
+    fn a_value_outside_its_parameter_s_range_is_refused() {
+        let mut c = Gema2Config::default();
+        let before = format!("{c:?}");
+        for bad in [
+            "front_cap=-3",
+            "screen_cap=0",
+            "first_inliers=2",
+            "max_through=-0.1",
+            "slide_step=0",
+            "slide_sigma_deg=400",
+            "grazing_cap=0.5",
+            "cost_stride=0",
+            "prescreen_step=0",
+            "track=-1",
+            "map_reach=-1",
+            "error_constant=0",
+        ] {
+            let err = c.apply(&[bad]).unwrap_err();
+            assert!(matches!(err, SettingError::OutOfRange { .. }), "{bad}: {err}");
+            assert!(err.to_string().contains(bad.split('=').next().unwrap_or(bad)), "{err}");
+        }
+        assert_eq!(format!("{c:?}"), before);
+        c.apply(&["track=0", "grazing_cap=1", "min_inliers=0", "max_through_ok=1"]).unwrap();
+        assert_eq!(c.localizer.track_radius, None);
     }
 
     #[test]

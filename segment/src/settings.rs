@@ -14,6 +14,8 @@ pub enum SettingError {
     NotANumber { key: String, value: String },
     #[error("setting {key}: {value} is not a whole number of at least 0")]
     NotACount { key: String, value: f64 },
+    #[error("setting {key}: {value} is out of range: it must be {range}")]
+    OutOfRange { key: String, value: f64, range: &'static str },
     #[error("unknown setting {key:?}; known here: {}", known.join(", "))]
     Unknown { key: String, known: Vec<&'static str> },
 }
@@ -45,9 +47,48 @@ impl<'a> Setting<'a> {
         Ok(self.value as usize)
     }
 
-    /// The value, given in degrees, in radians.
-    pub fn degrees(&self) -> f64 {
-        self.value.to_radians()
+    /// The value as a count of at least 1 (a step, a stride).
+    pub fn step(&self) -> Result<usize, SettingError> {
+        match self.count()? {
+            0 => Err(self.out_of_range("a whole number of at least 1")),
+            n => Ok(n),
+        }
+    }
+
+    /// The value, given in degrees from 0 to 90 (an angle between directions, a direction's
+    /// uncertainty), in radians.
+    pub fn degrees(&self) -> Result<f64, SettingError> {
+        self.within(0.0, 90.0, "from 0 to 90 degrees").map(f64::to_radians)
+    }
+
+    /// The value, when it is at least 0 (a distance, a cap, a margin).
+    pub fn non_negative(&self) -> Result<f64, SettingError> {
+        self.within(0.0, f64::INFINITY, "at least 0")
+    }
+
+    /// The value, when it is above 0 (a noise scale, a step along a wall).
+    pub fn positive(&self) -> Result<f64, SettingError> {
+        match self.value > 0.0 {
+            true => Ok(self.value),
+            false => Err(self.out_of_range("above 0")),
+        }
+    }
+
+    /// The value, when it is a fraction from 0 to 1 (of beams, of a line).
+    pub fn fraction(&self) -> Result<f64, SettingError> {
+        self.within(0.0, 1.0, "a fraction from 0 to 1")
+    }
+
+    /// The value, when it is at least `lo` and at most `hi`.
+    pub fn within(&self, lo: f64, hi: f64, range: &'static str) -> Result<f64, SettingError> {
+        match (lo..=hi).contains(&self.value) {
+            true => Ok(self.value),
+            false => Err(self.out_of_range(range)),
+        }
+    }
+
+    fn out_of_range(&self, range: &'static str) -> SettingError {
+        SettingError::OutOfRange { key: self.key.to_string(), value: self.value, range }
     }
 
     /// The value as a switch: 0 is off, anything else on.
@@ -77,20 +118,20 @@ impl SegmenterConfig {
     /// names none. `wall_ends` and the error model's keys also concern localization, which
     /// must agree with segmentation on them.
     pub fn set(&mut self, s: &Setting<'_>) -> Result<bool, SettingError> {
-        let v = s.value;
         match s.key {
-            "reach" => self.corner.reach = v,
-            "long_reach" => self.corner.long_reach = v,
-            "long_line" => self.corner.long_line = v,
-            "min_arm" => self.corner.min_arm_length = v,
-            "max_direction_sigma" => self.corner.max_direction_sigma = s.degrees(),
+            "reach" => self.corner.reach = s.non_negative()?,
+            "long_reach" => self.corner.long_reach = s.non_negative()?,
+            "long_line" => self.corner.long_line = s.non_negative()?,
+            "min_arm" => self.corner.min_arm_length = s.non_negative()?,
+            "max_direction_sigma" => self.corner.max_direction_sigma = s.degrees()?,
             "wall_ends" => self.ends.enabled = s.switch(),
-            "merge_angle" => self.filter.merge_angle = s.degrees(),
+            "merge_angle" => self.filter.merge_angle = s.degrees()?,
             "min_samples" => self.filter.min_samples = s.count()? as u32,
-            "averaging" => self.averaging = s.count()?.max(1),
-            "noise_tolerance" => self.noise_tolerance = v,
-            "error_constant" => self.error.constant = v,
-            "error_proportional" => self.error.proportional = v,
+            "averaging" => self.averaging = s.step()?,
+            "noise_tolerance" => self.noise_tolerance = s.non_negative()?,
+            // a range sensor's error is never nil, however close the wall (eqs. 1-2)
+            "error_constant" => self.error.constant = s.positive()?,
+            "error_proportional" => self.error.proportional = s.non_negative()?,
             _ => return Ok(false),
         }
         Ok(true)
@@ -128,6 +169,20 @@ mod tests {
         for bad in ["n=-1", "n=2.5", "n=1e12"] {
             assert!(matches!(count(bad), Err(SettingError::NotACount { .. })), "{bad}");
         }
+    }
+
+    #[test]
+    fn a_value_outside_its_parameter_s_range_is_refused_with_the_range() {
+        let mut c = SegmenterConfig::default();
+        let before = c;
+        for bad in ["reach=-0.5", "max_direction_sigma=120", "merge_angle=-2", "averaging=0", "error_constant=0"] {
+            let err = c.apply(&[bad]).unwrap_err();
+            assert!(matches!(err, SettingError::OutOfRange { .. }), "{bad}: {err}");
+        }
+        let err = c.apply(&["error_proportional=-0.01"]).unwrap_err().to_string();
+        assert_eq!(err, "setting error_proportional: -0.01 is out of range: it must be at least 0");
+        assert_eq!(c, before);
+        c.apply(&["reach=0", "max_direction_sigma=90", "averaging=2", "error_proportional=0"]).unwrap();
     }
 
     #[test]
