@@ -21,13 +21,19 @@ pub enum RuntimeError {
     Placement(#[from] crate::placement::PlacementError),
 }
 
+/// iceoryx2 warns, the first time its configuration is read, that it runs without a config
+/// file: errors only, unless the environment asks for more (IOX2_LOG_LEVEL). Called before
+/// every first use of iceoryx2 in a process, as `gema2 run` lists dead nodes before it makes
+/// its own.
+fn quiet_iceoryx2() {
+    set_log_level_from_env_or(LogLevel::Error);
+}
+
 /// Creates this process's node. Termination signals (SIGINT, SIGTERM) are left to iceoryx2,
 /// which records them for the node; [`crate::run_waitset`] and [`crate::sleep`] then return so
 /// the process can finish cleanly (and, unlike iceoryx2's own loops, only then).
 pub fn create_node(name: &str) -> Result<Node<ipc::Service>, RuntimeError> {
-    // iceoryx2 warns on every start that it runs without a config file; errors only, unless the
-    // environment asks for more (IOX2_LOG_LEVEL)
-    set_log_level_from_env_or(LogLevel::Error);
+    quiet_iceoryx2();
     let node_name =
         NodeName::new(name).map_err(|e| RuntimeError::Node { name: name.into(), message: format!("{e:?}") })?;
     NodeBuilder::new()
@@ -75,6 +81,7 @@ pub fn monotonic_ns() -> u64 {
 /// Removes the shared-memory resources of nodes whose process died; returns how many.
 pub fn cleanup_dead_nodes() -> usize {
     let mut removed = 0;
+    quiet_iceoryx2();
     let _ = Node::<ipc::Service>::list(Config::global_config(), |state| {
         if let NodeState::Dead(view) = state {
             if view.try_remove_stale_resources().is_ok() {
@@ -92,6 +99,7 @@ pub fn cleanup_dead_nodes() -> usize {
 pub fn dead_node_pids() -> Vec<u32> {
     use iceoryx2::node::NodeView;
     let mut pids = Vec::new();
+    quiet_iceoryx2();
     let _ = Node::<ipc::Service>::list(Config::global_config(), |state| {
         if let NodeState::Dead(view) = state {
             if let Ok(pid) = view.id().pid::<ipc::Service>() {
