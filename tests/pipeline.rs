@@ -244,6 +244,30 @@ fn a_short_burst_reaches_the_end_of_the_pipeline() {
     }
 }
 
+/// The stages start in the order the pipeline needs, whatever the file's: a file listing the
+/// localizer before the map server once waited 30 s for a map that was never started and failed.
+/// The run also prints no iceoryx2 warning about its missing config file.
+#[test]
+fn a_pipeline_file_in_any_stage_order_runs() {
+    let dir = tempfile::tempdir().unwrap();
+    let written = common::write_pipeline(dir.path(), "p.toml", "office", &["--rate", "max"]);
+    let text = std::fs::read_to_string(&written).unwrap();
+    let mut stages: Vec<&str> = text.split("[[stage]]").skip(1).collect();
+    assert!(stages.len() >= 4, "{text}");
+    stages.reverse();
+    let reversed = stages.iter().map(|s| format!("[[stage]]{s}")).collect::<String>();
+    std::fs::write(&written, &reversed).unwrap();
+    let p = prefix("order");
+    let start = Instant::now();
+    let out =
+        gema2(&["run", "--pipeline", written.to_str().unwrap(), "--prefix", &p, "--scans", "3", "--timeout", "30"]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{reversed}\n{err}");
+    assert!(String::from_utf8_lossy(&out.stdout).contains("poses received 3 of 3"), "{err}");
+    assert!(start.elapsed() < Duration::from_secs(20), "{:?}", start.elapsed());
+    assert!(!err.contains("No config file"), "{err}");
+}
+
 /// A run that gets no pose back (here a pipeline without its segment stage) fails, saying so,
 /// instead of printing a report of nothing and exiting 0.
 #[test]

@@ -37,6 +37,19 @@ impl Kind {
             Kind::Viewer => "viewer",
         }
     }
+
+    /// When a stage of this kind starts, earliest first: each stage is started once what it
+    /// waits for runs (the localizer is ready only with a map) and before what feeds it (so no
+    /// message is published before its consumer listens), whatever the file's order.
+    pub fn start_rank(self) -> u8 {
+        match self {
+            Kind::Mapserver => 0,
+            Kind::Localize => 1,
+            Kind::Segment => 2,
+            Kind::Viewer => 3,
+            Kind::Acquire => 4,
+        }
+    }
 }
 
 #[derive(Clone, Debug, Deserialize)]

@@ -243,8 +243,9 @@ impl Placement {
     }
 }
 
-/// Starts every stage: all but the sources first, each connected before the next starts, so
-/// that no scan is published before its consumers listen.
+/// Starts every stage in [`Kind::start_rank`] order (the file's order among stages of a kind):
+/// all but the sources each connected before the next starts, so that no scan is published
+/// before its consumers listen, then the sources.
 fn start_all(
     stages: &mut [StageProcess],
     prefix: &str,
@@ -252,13 +253,28 @@ fn start_all(
     seen: &mut HashSet<usize>,
     instances: &mut Instances,
 ) -> Result<()> {
-    for st in stages.iter_mut().filter(|s| s.spec.kind != Kind::Acquire) {
-        let k = instances.next();
+    let mut order: Vec<usize> = (0..stages.len()).collect();
+    order.sort_by_key(|&i| stages[i].spec.kind.start_rank());
+    let (sources, others): (Vec<usize>, Vec<usize>) =
+        order.into_iter().partition(|&i| stages[i].spec.kind == Kind::Acquire);
+    let has_mapserver = stages.iter().any(|s| s.spec.kind == Kind::Mapserver);
+    for i in others {
+        let (k, st) = (instances.next(), &mut stages[i]);
         st.start(prefix, None, k)?;
-        wait_ready(ready, seen, k, st, Duration::from_secs(30))?;
+        let started = wait_ready(ready, seen, k, st, Duration::from_secs(30));
+        if st.spec.kind == Kind::Localize && !has_mapserver {
+            started.with_context(|| {
+                format!(
+                    "stage {:?} got no map: the pipeline has no mapserver stage, and none runs under prefix {prefix:?}",
+                    st.spec.name
+                )
+            })?;
+        } else {
+            started?;
+        }
     }
-    for st in stages.iter_mut().filter(|s| s.spec.kind == Kind::Acquire) {
-        st.start(prefix, None, instances.next())?;
+    for i in sources {
+        stages[i].start(prefix, None, instances.next())?;
     }
     Ok(())
 }
