@@ -178,6 +178,20 @@ fn a_recorded_run_holds_every_scan_with_the_counts_the_run_published() {
     // gema2 inspect hands the file to the same decoder
     let out = Command::new(gema2()).arg("inspect").arg(&file).output().unwrap();
     assert!(out.status.success() && String::from_utf8_lossy(&out.stdout).contains("scans: 120"));
+
+    // a recording cut short (a recorder killed mid-write, a full disk) keeps what it holds up
+    // to the cut: inspect reports it, says it is damaged, and fails
+    let bytes = std::fs::read(&file).unwrap();
+    let cut = dir.path().join("cut.rrd");
+    std::fs::write(&cut, &bytes[..bytes.len() * 3 / 5]).unwrap();
+    let out = Command::new(gema2()).arg("inspect").arg(&cut).output().unwrap();
+    let (stdout, stderr) = (String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr));
+    assert!(!out.status.success(), "{stdout}");
+    assert!(stdout.contains("damaged: ") && stdout.contains("cut.rrd"), "{stdout}");
+    assert!(stderr.contains("1 of 1 parts damaged") && !stderr.contains("exit status"), "{stderr}");
+    let line = stdout.lines().find(|l| l.starts_with("scans: ")).unwrap_or_else(|| panic!("{stdout}"));
+    let kept: usize = line["scans: ".len()..].split(' ').next().unwrap().parse().unwrap();
+    assert!((20..120).contains(&kept), "{line}");
 }
 
 fn signal(pid: u32, sig: i32) {

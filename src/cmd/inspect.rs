@@ -24,8 +24,10 @@ pub fn run(a: InspectArgs) -> Result<()> {
         cmd.arg("--per-scan");
     }
     let status = cmd.status().with_context(|| format!("running {}", viewer.display()))?;
-    if !status.success() {
-        bail!("{} inspect: {status}", viewer.display());
+    match status.code() {
+        Some(0) => Ok(()),
+        // the viewer said why
+        Some(code) => std::process::exit(code),
+        None => bail!("{} inspect: {status}", viewer.display()),
     }
-    Ok(())
 }

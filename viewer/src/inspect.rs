@@ -42,6 +42,9 @@ pub struct Inspection {
     pub map_corners: usize,
     /// Cells drawn as seen free by the map's survey ([`MAP_SEEN_FREE`]), 0 without.
     pub map_seen_free: usize,
+    /// Where a part is damaged (cut short, never closed, a message that does not decode): the
+    /// figures are of the messages before the damage, and of the parts after it.
+    pub damage: Vec<String>,
     map_seen_free_row: Option<rerun::log::RowId>,
 }
 
@@ -58,11 +61,19 @@ fn counted_component(path: &str) -> Option<rerun::ComponentIdentifier> {
 }
 
 impl Inspection {
-    /// Decodes the parts of one recording, in order.
+    /// Decodes the parts of one recording, in order. A part that cannot be opened is an error;
+    /// a damaged one (a recorder killed mid-write, a full disk) gives what it holds up to the
+    /// damage, which [`damage`](Self::damage) describes: a recording that lost its end keeps
+    /// everything before it.
     pub fn read(paths: &[PathBuf]) -> Result<Self, InspectError> {
         let mut out = Inspection::default();
         for p in paths {
-            out.read_part(p)?;
+            if let Err(e) = out.read_part(p) {
+                match e {
+                    InspectError::Open { .. } => return Err(e),
+                    InspectError::Decode { .. } => out.damage.push(e.to_string()),
+                }
+            }
         }
         Ok(out)
     }
@@ -73,21 +84,25 @@ impl Inspection {
         let decode_err =
             |index: usize, message: String| InspectError::Decode { path: path.to_path_buf(), index, message };
         let size = file.metadata().map(|m| m.len()).unwrap_or(0);
+        if size == 0 {
+            return Err(decode_err(0, "the file is empty".into()));
+        }
         let mut messages = DecoderApp::decode_lazy(BufReader::new(file));
         let mut index = 0;
-        for msg in messages.by_ref() {
+        let decoded_all = messages.by_ref().try_for_each(|msg| {
             let msg = msg.map_err(|e| decode_err(index, e.to_string()))?;
             index += 1;
             // the recording's data; the layout (a blueprint store) says nothing about the run
             if let LogMsg::ArrowMsg(store, arrow) = msg {
-                if store.kind() != rerun::StoreKind::Recording {
-                    continue;
+                if store.kind() == rerun::StoreKind::Recording {
+                    let chunk = Chunk::from_arrow_msg(&arrow).map_err(|e| decode_err(index, e.to_string()))?;
+                    self.add_chunk(&chunk);
                 }
-                let chunk = Chunk::from_arrow_msg(&arrow).map_err(|e| decode_err(index, e.to_string()))?;
-                self.add_chunk(&chunk);
             }
-        }
+            Ok(())
+        });
         self.messages += index;
+        decoded_all?;
         let decoded = messages.num_bytes_processed();
         if decoded < size {
             return Err(decode_err(index, format!("truncated: only {decoded} of {size} bytes form whole messages")));
@@ -187,6 +202,9 @@ impl Inspection {
     /// The human summary `viewer inspect` prints.
     pub fn render(&self) -> String {
         let mut out = Vec::new();
+        for d in &self.damage {
+            out.push(format!("damaged: {d}; what follows is what could be read"));
+        }
         match (self.scans.keys().next(), self.scans.keys().next_back()) {
             (Some(a), Some(b)) => out.push(format!("scans: {} (seq {a}..={b})", self.scans.len())),
             _ => out.push("scans: 0".to_owned()),

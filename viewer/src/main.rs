@@ -42,7 +42,10 @@ fn main() -> Result<()> {
             if a.per_scan {
                 println!("{}", inspection.render_per_scan());
             }
-            Ok(())
+            match inspection.damage.len() {
+                0 => Ok(()),
+                n => anyhow::bail!("{n} of {} parts damaged (see above)", a.files.len()),
+            }
         }
         Some(Command::Record(r)) => viewer::node::run(r).map(|_| ()),
         None => viewer::node::run(cli.record).map(|_| ()),
