@@ -452,6 +452,9 @@ fn a_hot_swap_of_segment_loses_at_most_two_scans() {
     assert_ne!(now, old);
     let bad = gema2(&["swap", "segment", "--impl", "no-such", "--prefix", &p]);
     assert!(!bad.status.success() && String::from_utf8_lossy(&bad.stderr).contains("no-such"));
+    let other = gema2(&["swap", "localize", "--impl", "split-and-merge", "--prefix", &p]);
+    let why = String::from_utf8_lossy(&other.stderr);
+    assert!(!other.status.success() && why.contains("is a localize stage, which has one implementation"), "{why}");
     let out = run.wait_with_output().unwrap();
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let seqs: BTreeSet<u64> = rows(&csv).iter().map(|r| r[0].parse().unwrap()).collect();

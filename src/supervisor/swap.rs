@@ -61,10 +61,16 @@ impl Swap {
         let Some(stage) = stages.iter().position(|s| s.spec.name == name) else {
             return refuse(format!("no stage called {name:?}"));
         };
-        if stages[stage].spec.kind != Kind::Segment || !SEGMENTERS.contains(&implementation.as_str()) {
+        let kind = stages[stage].spec.kind;
+        if kind != Kind::Segment {
             return refuse(format!(
-                "stage {name:?} has no implementation {implementation:?} (segment: {SEGMENTERS:?})"
+                "stage {name:?} is a {} stage, which has one implementation: only a segment stage can be \
+                 swapped (to one of {SEGMENTERS:?})",
+                kind.as_str()
             ));
+        }
+        if !SEGMENTERS.contains(&implementation.as_str()) {
+            return refuse(format!("stage {name:?} has no implementation {implementation:?}: one of {SEGMENTERS:?}"));
         }
         let instance = instance();
         let new = match spawn(&stages[stage].spec, prefix, Some(&implementation), instance) {
