@@ -62,3 +62,22 @@ proptest! {
         }
     }
 }
+
+proptest! {
+    /// Every info line a sensor can send parses back to its key and value, whatever bytes its
+    /// encoded value and its checksum are: both range over `0`..`o`, which holds `;`.
+    #[test]
+    fn an_info_line_holding_semicolons_parses(time in 0u32..(1 << 24), key in "[A-Z]{4}", text in "[ -~]{0,20}") {
+        use acquire::scip::codec::{checksum, encode};
+        use acquire::scip::driver::parse_info_line;
+        let mut encoded = Vec::new();
+        encode(time, 4, &mut encoded);
+        for value in [String::from_utf8(encoded).unwrap(), text] {
+            let body = format!("{key}:{value}");
+            let mut line = body.clone().into_bytes();
+            line.push(b';');
+            line.push(checksum(body.as_bytes()));
+            prop_assert_eq!(parse_info_line(&line).unwrap(), (key.clone(), value));
+        }
+    }
+}

@@ -382,13 +382,17 @@ fn check_request(first: u32, last: u32, cluster: u32, scans: u32) -> Result<(), 
 
 /// `KEY:value;` followed by its checksum, which covers the bytes before the `;` (some firmware
 /// includes the `;`: both are accepted).
+///
+/// The `;` is found by its place, the byte before the checksum, not by its value: a checksum is
+/// any byte from `0` to `o`, `;` among them, and so is every character of an encoded value
+/// such as II's `TIME`. Looking for the last `;` refused one connection in a dozen to the
+/// emulated sensor, whose II answer held `TIME:00G;;;` (value `00G;`, checksum `;`).
 pub fn parse_info_line(line: &[u8]) -> Result<(String, String), ScipError> {
     let text = || String::from_utf8_lossy(line).into_owned();
     let colon =
         line.iter().position(|&b| b == b':').ok_or_else(|| ScipError::Malformed(format!("no ':' in {:?}", text())))?;
-    let semi =
-        line.iter().rposition(|&b| b == b';').ok_or_else(|| ScipError::Malformed(format!("no ';' in {:?}", text())))?;
-    if semi < colon || semi + 2 != line.len() {
+    let semi = line.len().saturating_sub(2);
+    if line.len() < 2 || line[semi] != b';' || semi < colon {
         return Err(ScipError::Malformed(format!("not KEY:value;sum: {:?}", text())));
     }
     let sum = line[semi + 1];
