@@ -212,6 +212,16 @@ fn a_selection_of_no_scan_is_an_error() {
     }
     let out = gema2(&["sim", "--map", "office", "--scans", "0", "--out", log.to_str().unwrap()]);
     assert!(!out.status.success() && text(&out.stderr).contains("must be at least 1"), "{}", text(&out.stderr));
+    // measurements of nothing: bench and demo printed tables of NaN and exited 0
+    for (args, why) in [
+        (&["bench", "--scans", "0"][..], "must be at least 1"),
+        (&["bench", "--beams", "68,1"], "a scan needs at least 2 beams"),
+        (&["bench", "--pipeline", "--seconds", "0"], "must be a number of seconds above 0"),
+        (&["demo", "--scans", "0"], "must be at least 1"),
+    ] {
+        let out = gema2(args);
+        assert!(!out.status.success() && text(&out.stderr).contains(why), "{args:?}: {}", text(&out.stderr));
+    }
 }
 
 /// A sensor other than the URG-04LX: a SICK-like 180-degree, 361-beam, 30 m scanner. The log

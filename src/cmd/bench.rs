@@ -15,13 +15,13 @@ use std::time::Instant;
 #[derive(Args)]
 pub struct BenchArgs {
     /// Scans per measurement.
-    #[arg(long, default_value_t = 200)]
+    #[arg(long, default_value_t = 200, value_parser = super::positive_count)]
     pub scans: usize,
     /// Skip the scaling table.
     #[arg(long)]
     pub stages_only: bool,
     /// Beam counts of the scaling table.
-    #[arg(long, value_delimiter = ',', default_value = "68,170,341,682,1364")]
+    #[arg(long, value_delimiter = ',', default_value = "68,170,341,682,1364", value_parser = super::beam_count)]
     pub beams: Vec<usize>,
     /// Wall counts of the scaling table.
     #[arg(long, value_delimiter = ',', default_value = "50,200,1000,5000")]
@@ -32,7 +32,7 @@ pub struct BenchArgs {
     #[arg(long)]
     pub pipeline: bool,
     /// Seconds of each pipeline measurement.
-    #[arg(long, default_value_t = 10.0)]
+    #[arg(long, default_value_t = 10.0, value_parser = super::positive_seconds)]
     pub seconds: f64,
     /// The source's warm-up lead at 10 Hz (acquire's --warm-up-us; 0: none), to compare.
     #[arg(long, default_value_t = acquire::node::DEFAULT_WARM_UP_US)]
@@ -111,7 +111,7 @@ fn bench_pipeline(a: &BenchArgs) -> Result<()> {
             }
             println!("(the viewer's own counts, recorded and missed per topic, are on stderr)");
         }
-        let scans = (hz * a.seconds).round() as u64;
+        let scans = ((hz * a.seconds).round() as u64).max(1);
         let outcome = crate::supervisor::run(crate::supervisor::RunArgs {
             pipeline: Some(file),
             scans: Some(scans),

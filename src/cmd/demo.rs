@@ -16,7 +16,7 @@ pub struct DemoArgs {
     #[arg(long, default_value = "office")]
     pub map: String,
     /// Scans per scenario.
-    #[arg(long, default_value_t = 300)]
+    #[arg(long, default_value_t = 300, value_parser = super::positive_count)]
     pub scans: usize,
     #[arg(long, default_value_t = 1)]
     pub seed: u64,

@@ -21,6 +21,24 @@ pub fn positive_count(s: &str) -> Result<usize, String> {
     }
 }
 
+/// Parses a beam count of a simulated scan: at least 2, so that there are beams to space.
+pub fn beam_count(s: &str) -> Result<usize, String> {
+    match s.parse::<usize>() {
+        Ok(n) if n < 2 => Err("a scan needs at least 2 beams".to_owned()),
+        Ok(n) => Ok(n),
+        Err(e) => Err(e.to_string()),
+    }
+}
+
+/// Parses a duration in seconds: a finite number above 0.
+pub fn positive_seconds(s: &str) -> Result<f64, String> {
+    match s.parse::<f64>() {
+        Ok(v) if v.is_finite() && v > 0.0 => Ok(v),
+        Ok(_) => Err("must be a number of seconds above 0".to_owned()),
+        Err(e) => Err(e.to_string()),
+    }
+}
+
 /// Whether laser line `index` (from 0) is one of every `every`-th from `offset` on
 /// (`--every`, `--offset`); `every` is at least 1 (see [`positive_count`]).
 pub fn selected(index: usize, every: usize, offset: usize) -> bool {
@@ -30,6 +48,18 @@ pub fn selected(index: usize, every: usize, offset: usize) -> bool {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn counts_and_durations_that_measure_nothing_are_refused() {
+        assert_eq!(positive_count("3"), Ok(3));
+        assert!(positive_count("0").is_err() && positive_count("-1").is_err());
+        assert_eq!(beam_count("2"), Ok(2));
+        assert!(beam_count("1").is_err() && beam_count("0").is_err());
+        assert_eq!(positive_seconds("0.5"), Ok(0.5));
+        for bad in ["0", "-2", "inf", "NaN", "x"] {
+            assert!(positive_seconds(bad).is_err(), "{bad}");
+        }
+    }
 
     #[test]
     fn every_and_offset_select_from_the_offset_on() {
