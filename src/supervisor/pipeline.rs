@@ -40,13 +40,14 @@ impl Kind {
 
     /// When a stage of this kind starts, earliest first: each stage is started once what it
     /// waits for runs (the localizer is ready only with a map) and before what feeds it (so no
-    /// message is published before its consumer listens), whatever the file's order.
+    /// message is published before its consumer listens), whatever the file's order. The
+    /// recorder listens to every topic, the map among them, so it comes first.
     pub fn start_rank(self) -> u8 {
         match self {
-            Kind::Mapserver => 0,
-            Kind::Localize => 1,
-            Kind::Segment => 2,
-            Kind::Viewer => 3,
+            Kind::Viewer => 0,
+            Kind::Mapserver => 1,
+            Kind::Localize => 2,
+            Kind::Segment => 3,
             Kind::Acquire => 4,
         }
     }
