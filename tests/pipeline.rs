@@ -268,6 +268,30 @@ fn a_pipeline_file_in_any_stage_order_runs() {
     assert!(!err.contains("No config file"), "{err}");
 }
 
+/// `run --scans 0` runs until the sources end or the timeout, as `acquire --scans 0` does: it
+/// used to stop at once, with "poses received 0 of 0" though a scan had gone out. A rate or a
+/// timeout that is none is refused before anything starts.
+#[test]
+fn run_with_no_scan_limit_goes_on_until_the_timeout() {
+    let p = prefix("nolimit");
+    let out = gema2(&["run", "--prefix", &p, "--scans", "0", "--rate", "20", "--timeout", "2"]);
+    let (stdout, stderr) = (String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr));
+    assert!(out.status.success(), "{stderr}");
+    assert!(stderr.contains("timed out after"), "{stderr}");
+    let line = stdout.lines().find(|l| l.starts_with("poses received ")).unwrap_or_else(|| panic!("{stdout}"));
+    let received: u64 = line["poses received ".len()..].split([' ', ',']).next().unwrap().parse().unwrap();
+    assert!(received >= 10 && !line.contains(" of "), "{line}");
+    for (args, why) in [
+        (&["--rate", "fast"][..], "a positive number of scans per second, or max"),
+        (&["--rate", "0"], "a positive number of scans per second, or max"),
+        (&["--timeout", "0"], "must be a number of seconds above 0"),
+    ] {
+        let out = gema2(&[&["run", "--prefix", &p][..], args].concat());
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success() && err.contains(why) && !err.contains("supervisor:"), "{args:?}: {err}");
+    }
+}
+
 /// A run that gets no pose back (here a pipeline without its segment stage) fails, saying so,
 /// instead of printing a report of nothing and exiting 0.
 #[test]

@@ -4,7 +4,7 @@
 //! buffer is not delivered to that subscriber (the stage is too slow), and the run goes on.
 
 use crate::{CarmenReader, Scenario, SensorModel, Simulator};
-use anyhow::{anyhow, bail, Context, Result};
+use anyhow::{anyhow, Context, Result};
 use clap::Args;
 use laser::{pose_theta, LaserScan};
 use messages::iceoryx2::prelude::*;
@@ -50,7 +50,7 @@ pub struct AcquireArgs {
     #[arg(long, default_value_t = 0)]
     pub scans: u64,
     /// Scans per second, or `max`.
-    #[arg(long, default_value = "10")]
+    #[arg(long, default_value = "10", value_parser = rate_arg)]
     pub rate: String,
     /// Number of the first scan.
     #[arg(long, default_value_t = 0)]
@@ -283,14 +283,25 @@ pub fn run(a: AcquireArgs) -> Result<()> {
 /// The time between published scans: `--rate` as a period, `None` for `max` and for a sensor,
 /// which paces itself.
 fn period(a: &AcquireArgs) -> Result<Option<Duration>> {
-    Ok(match a.rate.as_str() {
-        _ if a.serial.is_some() => None,
-        "max" => None,
-        r => match r.parse::<f64>() {
-            Ok(hz) if hz > 0.0 && hz.is_finite() => Some(Duration::from_secs_f64(1.0 / hz)),
-            _ => bail!("--rate {r}: a positive number of scans per second, or max"),
-        },
-    })
+    match a.serial {
+        Some(_) => Ok(None),
+        None => parse_rate(&a.rate).map_err(|e| anyhow!("--rate {e}")),
+    }
+}
+
+/// A `--rate`: scans per second as the time between them, or `max` (`None`: as fast as the
+/// pipeline takes them).
+pub fn parse_rate(r: &str) -> Result<Option<Duration>, String> {
+    match (r, r.parse::<f64>()) {
+        ("max", _) => Ok(None),
+        (_, Ok(hz)) if hz > 0.0 && hz.is_finite() => Ok(Some(Duration::from_secs_f64(1.0 / hz))),
+        _ => Err(format!("{r}: a positive number of scans per second, or max")),
+    }
+}
+
+/// [`parse_rate`] as a command line's check: the rate as given, when it is one.
+pub fn rate_arg(r: &str) -> Result<String, String> {
+    parse_rate(r).map(|_| r.to_owned())
 }
 
 /// The `--carmen-out` file, when asked for. A sensor's scans carry no truth, and the file

@@ -22,11 +22,13 @@ pub struct RunArgs {
     /// Pipeline file (TOML); the embedded default runs the simulator in the bundled office.
     #[arg(long)]
     pub pipeline: Option<PathBuf>,
-    /// Scans the sources publish (default: the pipeline's; 300 with the embedded pipeline).
+    /// Scans the sources publish (default: the pipeline's; 300 with the embedded pipeline). 0:
+    /// until the sources end (a log's last scan), or for ever (a simulator, a sensor) until
+    /// Ctrl-C or --timeout.
     #[arg(long)]
     pub scans: Option<u64>,
     /// Scans per second of the sources, or `max`.
-    #[arg(long)]
+    #[arg(long, value_parser = acquire::node::rate_arg)]
     pub rate: Option<String>,
     /// Service name prefix, so several pipelines can share a machine.
     #[arg(long, default_value = "gema2")]
@@ -35,7 +37,7 @@ pub struct RunArgs {
     #[arg(long)]
     pub out: Option<PathBuf>,
     /// Give up after this many seconds.
-    #[arg(long)]
+    #[arg(long, value_parser = crate::cmd::positive_seconds)]
     pub timeout: Option<f64>,
     /// Record every message to this rerun file through the `viewer` program.
     #[arg(long)]
@@ -178,7 +180,8 @@ pub fn run(a: RunArgs) -> Result<()> {
 }
 
 /// Applies the command line's `--scans`, `--rate` and `--record` to the pipeline; returns the
-/// scans the sources publish, when known.
+/// scans the sources publish, when known (not for `--scans 0`, which a source takes as no
+/// limit).
 fn apply_overrides(pipeline: &mut Pipeline, a: &RunArgs) -> Option<u64> {
     let scans = a.scans.or(if a.pipeline.is_none() { Some(300) } else { None });
     for s in pipeline.stages.iter_mut().filter(|s| s.kind == Kind::Acquire) {
@@ -209,7 +212,7 @@ fn apply_overrides(pipeline: &mut Pipeline, a: &RunArgs) -> Option<u64> {
             },
         );
     }
-    scans
+    scans.filter(|&n| n > 0)
 }
 
 /// The supervisor's own placement while the pipeline runs (its `[supervisor]` table): put
