@@ -203,8 +203,10 @@ fn malformed_messages_are_logged_not_recorded_and_the_file_stays_clean() {
     assert!(got.log.iter().all(|(_, t)| t.contains("bad map") || t.contains("unusable")));
 }
 
+/// A damaged file is not refused whole: what it holds up to the damage is read, and the damage
+/// is named (`viewer inspect` then prints both and fails).
 #[test]
-fn a_truncated_or_foreign_file_is_a_decode_error_naming_it() {
+fn a_truncated_or_foreign_file_is_damage_naming_it_and_keeps_what_it_holds() {
     let dir = tempfile::tempdir().unwrap();
     let file = dir.path().join("run.rrd");
     let mut r = Recorder::new(Output::open(OutputSpec { file: Some(file.clone()), ..Default::default() }).unwrap());
@@ -215,11 +217,19 @@ fn a_truncated_or_foreign_file_is_a_decode_error_naming_it() {
     let bytes = std::fs::read(&file).unwrap();
     let cut = dir.path().join("cut.rrd");
     std::fs::write(&cut, &bytes[..bytes.len() / 2]).unwrap();
-    let err = Inspection::read(std::slice::from_ref(&cut)).unwrap_err().to_string();
-    assert!(err.contains("cut.rrd"), "{err}");
+    let got = Inspection::read(std::slice::from_ref(&cut)).unwrap();
+    assert!(got.damage.len() == 1 && got.damage[0].contains("cut.rrd"), "{:?}", got.damage);
+    let kept = got.scans.values().filter(|e| e.contains_key(SCAN_READINGS)).count();
+    assert!((1..=20).contains(&kept), "{kept} of 20 scans read before the cut");
+    assert!(got.render().starts_with("damaged: "), "{}", got.render());
     let foreign = dir.path().join("foreign.rrd");
     std::fs::write(&foreign, b"this is not a recording at all").unwrap();
-    assert!(Inspection::read(&[foreign]).unwrap_err().to_string().contains("foreign.rrd"));
+    let got = Inspection::read(&[foreign, file]).unwrap();
+    assert!(got.damage.len() == 1 && got.damage[0].contains("foreign.rrd"), "{:?}", got.damage);
+    // the sound part after the foreign one is read whole
+    assert_eq!(got.scans.values().filter(|e| e.contains_key(SCAN_READINGS)).count(), 20);
+    let missing = dir.path().join("missing.rrd");
+    assert!(Inspection::read(&[missing]).unwrap_err().to_string().contains("missing.rrd"));
 }
 
 #[test]
