@@ -145,28 +145,12 @@ impl UrgEmulator {
         out.push(b'\n');
         let code = cmd.get(..2).unwrap_or("");
         if self.scip11 {
-            // SCIP 1.1 status lines carry no checksum
-            if cmd == "SCIP2.0" {
-                self.scip11 = false;
-                out.extend_from_slice(b"0\n");
-            } else {
-                out.extend_from_slice(b"E\n");
-            }
-            out.push(b'\n');
-            return out;
-        }
-        if self.time_adjust && code != "TM" {
-            status("0E", &mut out);
-            out.push(b'\n');
+            self.answer_in_scip11(cmd, &mut out);
             return out;
         }
         match code {
-            "QT" => {
-                self.stream = None;
-                self.laser_on = false;
-                status("00", &mut out);
-            }
-            "RS" => {
+            _ if self.time_adjust && code != "TM" => status("0E", &mut out),
+            "QT" | "RS" => {
                 self.stream = None;
                 self.laser_on = false;
                 status("00", &mut out);
@@ -176,16 +160,41 @@ impl UrgEmulator {
                 status(if self.laser_on { "02" } else { "00" }, &mut out);
                 self.laser_on = true;
             }
+            "VV" | "PP" | "II" => self.describe(code, &mut out),
+            "TM" => self.time_command(cmd, &mut out),
+            "MD" | "MS" | "GD" | "GS" => self.scan_command(cmd, &mut out),
+            "SS" => self.switch_bit_rate(cmd, &mut out),
+            // an unknown command, or SCIP2.0 to a sensor already speaking it
+            _ => status("0E", &mut out),
+        }
+        out.push(b'\n');
+        out
+    }
+
+    /// A sensor still speaking SCIP 1.1 knows only the switch to 2.0; its status lines carry no
+    /// checksum.
+    fn answer_in_scip11(&mut self, cmd: &str, out: &mut Vec<u8>) {
+        if cmd == "SCIP2.0" {
+            self.scip11 = false;
+            out.extend_from_slice(b"0\n");
+        } else {
+            out.extend_from_slice(b"E\n");
+        }
+        out.push(b'\n');
+    }
+
+    /// VV (version), PP (parameters) and II (state): a status, then `KEY:value;sum` lines.
+    fn describe(&self, code: &str, out: &mut Vec<u8>) {
+        status("00", out);
+        match code {
             "VV" => {
-                status("00", &mut out);
-                info_line("VEND", "Hokuyo Automatic Co.,Ltd.", &mut out);
-                info_line("PROD", "SOKUIKI Sensor URG-04LX", &mut out);
-                info_line("FIRM", "3.4.03(gema2 emulator)", &mut out);
-                info_line("PROT", "SCIP 2.0", &mut out);
-                info_line("SERI", "H0000000", &mut out);
+                info_line("VEND", "Hokuyo Automatic Co.,Ltd.", out);
+                info_line("PROD", "SOKUIKI Sensor URG-04LX", out);
+                info_line("FIRM", "3.4.03(gema2 emulator)", out);
+                info_line("PROT", "SCIP 2.0", out);
+                info_line("SERI", "H0000000", out);
             }
             "PP" => {
-                status("00", &mut out);
                 for (k, v) in [
                     ("MODL", "URG-04LX(Hokuyo Automatic Co.,Ltd.)"),
                     ("DMIN", "20"),
@@ -196,59 +205,59 @@ impl UrgEmulator {
                     ("AFRT", "384"),
                     ("SCAN", "600"),
                 ] {
-                    info_line(k, v, &mut out);
+                    info_line(k, v, out);
                 }
             }
-            "II" => {
-                status("00", &mut out);
+            _ => {
                 let mut t = Vec::new();
                 encode(self.now_ms(), 4, &mut t);
-                info_line("MODL", "URG-04LX(Hokuyo Automatic Co.,Ltd.)", &mut out);
-                info_line("LASR", if self.laser_on { "ON" } else { "OFF" }, &mut out);
-                info_line("SCSP", "600", &mut out);
-                info_line("MESM", "Measuring mode", &mut out);
-                info_line("SBPS", "115200", &mut out);
-                info_line("TIME", &String::from_utf8_lossy(&t), &mut out);
-                info_line("STAT", "Sensor works well.", &mut out);
+                info_line("MODL", "URG-04LX(Hokuyo Automatic Co.,Ltd.)", out);
+                info_line("LASR", if self.laser_on { "ON" } else { "OFF" }, out);
+                info_line("SCSP", "600", out);
+                info_line("MESM", "Measuring mode", out);
+                info_line("SBPS", "115200", out);
+                info_line("TIME", &String::from_utf8_lossy(&t), out);
+                info_line("STAT", "Sensor works well.", out);
             }
-            "TM" => match cmd {
-                "TM0" | "TM2" => {
-                    let entering = cmd == "TM0";
-                    let code = match (entering, self.time_adjust) {
-                        (true, true) => "02",   // already in time-adjust mode
-                        (false, false) => "03", // already out of it
-                        _ => "00",
-                    };
-                    status(code, &mut out);
-                    self.time_adjust = entering;
-                }
-                "TM1" if !self.time_adjust => status("01", &mut out),
-                "TM1" => {
-                    status("00", &mut out);
-                    let mut t = Vec::new();
-                    encode(self.now_ms(), 4, &mut t);
-                    data_lines(&t, &mut out);
-                }
-                _ => status("0F", &mut out),
-            },
-            "MD" | "MS" | "GD" | "GS" => self.scan_command(cmd, &mut out),
-            "SS" => {
-                match cmd.get(2..).filter(|d| d.len() == 6).and_then(|d| d.parse::<u32>().ok()) {
-                    None => status("01", &mut out),
-                    Some(r) if !super::BIT_RATES.contains(&r) => status("02", &mut out),
-                    Some(r) if self.bit_rate == Some(r) => status("03", &mut out),
-                    Some(r) => {
-                        // the answer still goes out at the old rate; USB ignores the rate
-                        status("00", &mut out);
-                        self.bit_rate = self.bit_rate.map(|_| r);
-                    }
-                }
-            }
-            // an unknown command, or SCIP2.0 to a sensor already speaking it
-            _ => status("0E", &mut out),
         }
-        out.push(b'\n');
-        out
+    }
+
+    /// TM0 enters the time-adjust mode, TM1 reads the clock in it, TM2 leaves it.
+    fn time_command(&mut self, cmd: &str, out: &mut Vec<u8>) {
+        match cmd {
+            "TM0" | "TM2" => {
+                let entering = cmd == "TM0";
+                let code = match (entering, self.time_adjust) {
+                    (true, true) => "02",   // already in time-adjust mode
+                    (false, false) => "03", // already out of it
+                    _ => "00",
+                };
+                status(code, out);
+                self.time_adjust = entering;
+            }
+            "TM1" if !self.time_adjust => status("01", out),
+            "TM1" => {
+                status("00", out);
+                let mut t = Vec::new();
+                encode(self.now_ms(), 4, &mut t);
+                data_lines(&t, out);
+            }
+            _ => status("0F", out),
+        }
+    }
+
+    /// SSnnnnnn: the RS-232 bit rate from the next command on.
+    fn switch_bit_rate(&mut self, cmd: &str, out: &mut Vec<u8>) {
+        match cmd.get(2..).filter(|d| d.len() == 6).and_then(|d| d.parse::<u32>().ok()) {
+            None => status("01", out),
+            Some(r) if !super::BIT_RATES.contains(&r) => status("02", out),
+            Some(r) if self.bit_rate == Some(r) => status("03", out),
+            Some(r) => {
+                // the answer still goes out at the old rate; USB ignores the rate
+                status("00", out);
+                self.bit_rate = self.bit_rate.map(|_| r);
+            }
+        }
     }
 
     fn scan_command(&mut self, cmd: &str, out: &mut Vec<u8>) {
