@@ -166,6 +166,33 @@ fn a_killed_stage_is_restarted_and_nothing_else_restarts() {
     assert!(seqs.len() >= 150, "only {} poses", seqs.len());
 }
 
+/// A stage that dies and may not restart (`restart = "never"`) fails the run, after its report:
+/// the run went on to the log's end and exited 0, with 38 poses of 100, as though all was well.
+#[test]
+fn a_stage_that_dies_unrestarted_fails_the_run() {
+    let dir = tempfile::tempdir().unwrap();
+    let (_, pipeline) = setup(dir.path(), 120, "40");
+    let text = std::fs::read_to_string(&pipeline).unwrap();
+    let never = text.replace("kind = \"segment\"\n", "kind = \"segment\"\nrestart = \"never\"\n");
+    assert_ne!(never, text);
+    std::fs::write(&pipeline, never).unwrap();
+    let (csv, p) = (dir.path().join("poses.csv"), prefix("never"));
+    let run = run_in_background(&pipeline, &p, 120, &csv);
+    wait_for("all stages", Duration::from_secs(30), || !stage_pids("acquire", &p).is_empty());
+    std::thread::sleep(Duration::from_millis(500));
+    let segment = stage_pids("segment", &p);
+    assert_eq!(segment.len(), 1);
+    // SAFETY: kill(2) on a process this test started (through the supervisor).
+    unsafe { libc_kill(segment[0] as i32, 9) };
+    let out = run.wait_with_output().unwrap();
+    let (report, err) = (String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr));
+    assert!(!out.status.success(), "{err}");
+    assert!(err.contains("stage segment ended (signal: 9") && err.contains("was not restarted"), "{err}");
+    // the report and the poses that did come back are kept
+    assert!(report.contains("poses received "), "{report}");
+    assert!(!rows(&csv).is_empty());
+}
+
 /// Ctrl-Z then `fg`, a debugger attaching, any signal that is not SIGINT or SIGTERM: a wait cut
 /// short that way must wait again, not end the stage as if it had been asked to stop.
 #[test]

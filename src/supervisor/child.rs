@@ -13,11 +13,13 @@ pub struct StageProcess {
     /// When a dead stage is due to be started again.
     pub restart_at: Option<Instant>,
     pub finished: bool,
+    /// How the stage ended when it failed and was not started again: the run then fails too.
+    pub failed: Option<std::process::ExitStatus>,
 }
 
 impl StageProcess {
     pub fn new(spec: StageSpec) -> Self {
-        StageProcess { spec, child: None, restarts: 0, restart_at: None, finished: false }
+        StageProcess { spec, child: None, restarts: 0, restart_at: None, finished: false, failed: None }
     }
 
     /// Starts the stage with its implementation, CPU and prefix, as instance `instance` (the

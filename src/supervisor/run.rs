@@ -303,6 +303,7 @@ fn reap_and_restart(stages: &mut [StageProcess], prefix: &str, instances: &mut I
                 st.finished = true;
                 if !status.success() {
                     eprintln!("supervisor: stage {} ended ({status}), not restarted", st.spec.name);
+                    st.failed = Some(status);
                 }
             }
         }
@@ -372,6 +373,15 @@ fn report(
     }
     if let Some(n) = scans.filter(|&n| n > 0 && monitor.received == 0) {
         bail!("no pose came back of the {n} scans asked for: see the stages' messages above");
+    }
+    if let Some(st) = stages.iter().find(|s| s.failed.is_some()) {
+        let how = st.failed.map(|s| s.to_string()).unwrap_or_default();
+        bail!(
+            "stage {} ended ({how}) and was not restarted (restart = \"{}\"): the report above is of a \
+             broken pipeline",
+            st.spec.name,
+            st.spec.restart.as_str()
+        );
     }
     Ok(())
 }
