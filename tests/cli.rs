@@ -224,6 +224,36 @@ fn a_selection_of_no_scan_is_an_error() {
     }
 }
 
+/// Options that cannot apply to the log are errors, after the scans are located and summed up:
+/// `--dump-scan` of a scan not located wrote nothing and said nothing, `--diagnose` of a log
+/// without truth printed no diagnosis and said nothing, and `--track 0` failed every scan after
+/// the first `ok` one.
+#[test]
+fn locate_options_that_cannot_apply_are_errors() {
+    let dir = tempfile::tempdir().unwrap();
+    let log = dir.path().join("s.log");
+    let log_s = log.to_str().unwrap();
+    let out = gema2(&["sim", "--map", "office", "--scans", "6", "--out", log_s]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let dumps = dir.path().join("dumps");
+    let dumps_s = dumps.to_str().unwrap();
+    let out = gema2(&["locate", "--map", "office", "--log", log_s, "--every", "2", "--dump-scan", "4", dumps_s]);
+    assert!(out.status.success() && dumps.join("scan4.json").is_file(), "{}", text(&out.stderr));
+    for (n, why) in [("3", "--dump-scan 3: no such scan among the 3 located"), ("x", "N is a scan's index")] {
+        let out = gema2(&["locate", "--map", "office", "--log", log_s, "--every", "2", "--dump-scan", n, dumps_s]);
+        assert!(!out.status.success() && text(&out.stderr).contains(why), "{n}: {}", text(&out.stderr));
+    }
+    let out = gema2(&["locate", "--map", "office", "--log", log_s, "--track", "0"]);
+    assert!(!out.status.success() && text(&out.stderr).contains("a radius in metres above 0"));
+    let untrue = dir.path().join("untrue.log");
+    let body = std::fs::read_to_string(&log).unwrap();
+    std::fs::write(&untrue, format!("{}\n{body}", acquire::NO_TRUTH_MARKER)).unwrap();
+    let out = gema2(&["locate", "--map", "office", "--log", untrue.to_str().unwrap(), "--diagnose"]);
+    let err = text(&out.stderr);
+    assert!(!out.status.success() && err.contains("holds no true pose, so there is nothing to diagnose"), "{err}");
+    assert!(err.starts_with("scans 6 "), "the summary comes first: {err}");
+}
+
 /// A sensor other than the URG-04LX: a SICK-like 180-degree, 361-beam, 30 m scanner. The log
 /// says so (ROBOTLASER1's start angle, field of view, resolution and maximum range), and
 /// `locate` reads that layout back and localizes with it.

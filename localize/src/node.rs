@@ -29,12 +29,21 @@ pub struct LocalizeArgs {
     pub stage: messages::StageArgs,
     /// Track: after an ok scan, make only poses within this radius (metres) of it: the most the
     /// robot moves between two located scans.
-    #[arg(long)]
+    #[arg(long, value_parser = track_radius)]
     pub track: Option<f64>,
     /// Override a parameter, KEY=VALUE (repeatable), as `gema2 locate --set`. Settings of the
     /// segmentation's error model and `wall_ends` must match the segment stage's.
     #[arg(long = "set", value_name = "KEY=VALUE")]
     pub set: Vec<String>,
+}
+
+/// Parses `--track`: a radius in metres above 0 (tracking within none would fail every scan
+/// after the first `ok` one).
+pub fn track_radius(s: &str) -> Result<f64, String> {
+    match s.parse::<f64>() {
+        Ok(r) if r.is_finite() && r > 0.0 => Ok(r),
+        _ => Err(format!("{s}: a radius in metres above 0")),
+    }
 }
 
 pub fn run(a: LocalizeArgs) -> Result<()> {

@@ -41,7 +41,7 @@ pub struct LocateArgs {
     pub paper_error: bool,
     /// Track: after an ok scan, make only poses within this radius (metres) of it: the most the
     /// robot moves between two located scans.
-    #[arg(long)]
+    #[arg(long, value_parser = localize::node::track_radius)]
     pub track: Option<f64>,
     /// With truth in the log: print at which stage each scan's right pose was lost.
     #[arg(long)]
@@ -54,6 +54,17 @@ pub struct LocateArgs {
     /// (created if missing).
     #[arg(long, num_args = 2, value_names = ["N", "DIR"])]
     pub dump_scan: Vec<String>,
+}
+
+/// `--dump-scan N DIR`, read: the scan's index and the folder.
+fn dump_request(a: &LocateArgs) -> Result<Option<(usize, PathBuf)>> {
+    match a.dump_scan.as_slice() {
+        [n, dir] => {
+            let n = n.parse().map_err(|_| anyhow::anyhow!("--dump-scan {n}: N is a scan's index, from 0"))?;
+            Ok(Some((n, PathBuf::from(dir))))
+        }
+        _ => Ok(None),
+    }
 }
 
 /// The segmenter, localizer and map-corner settings of `a`.
@@ -91,8 +102,11 @@ pub fn run(a: LocateArgs) -> Result<()> {
         }
         None => None,
     };
+    let dump = dump_request(&a)?;
+    let mut dumped = false;
     let mut summary = Summary::default();
     let mut diagnosis = crate::diagnose::Diagnosis::default();
+    let mut diagnosed = 0;
     let mut judge = None;
     // a line that cannot be read ends the run with its error, after the scans before it are
     // written and summed up: they are not lost with it
@@ -112,14 +126,15 @@ pub fn run(a: LocateArgs) -> Result<()> {
         let start = Instant::now();
         let (seg, loc) = gema2.process(&scan.view());
         let micros = start.elapsed().as_secs_f64() * 1e6;
-        if a.dump_scan.len() == 2 && a.dump_scan[0].parse::<usize>().ok() == Some(index) {
-            let dir = PathBuf::from(&a.dump_scan[1]);
-            std::fs::create_dir_all(&dir).with_context(|| format!("creating {}", dir.display()))?;
+        if let Some((_, dir)) = dump.as_ref().filter(|(n, _)| *n == index) {
+            std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
             let path = dir.join(format!("scan{index}.json"));
             std::fs::write(&path, crate::diagnose::scan_json(scan, seg, &model))
                 .with_context(|| format!("writing {}", path.display()))?;
+            dumped = true;
         }
         if let (true, Some(truth)) = (a.diagnose, scan.truth.as_ref()) {
+            diagnosed += 1;
             let what = crate::diagnose::classify(seg, loc, truth, &model, &loc_cfg);
             if std::env::var_os("GEMA2_DUMP").is_some_and(|v| v.to_str().is_some_and(|v| what.starts_with(v))) {
                 eprintln!("scan {index}: {what} [{}]", loc.status.as_str());
@@ -168,6 +183,17 @@ pub fn run(a: LocateArgs) -> Result<()> {
     }
     if let Some(e) = unreadable {
         anyhow::bail!("{e}; stopped there, after {} scans", summary.outcomes.len());
+    }
+    if let Some((n, _)) = dump.filter(|_| !dumped && !summary.outcomes.is_empty()) {
+        anyhow::bail!(
+            "--dump-scan {n}: no such scan among the {} located (--every {} --offset {})",
+            summary.outcomes.len(),
+            a.every,
+            a.offset
+        );
+    }
+    if a.diagnose && diagnosed == 0 && !summary.outcomes.is_empty() {
+        anyhow::bail!("--diagnose: {} holds no true pose, so there is nothing to diagnose", a.log.display());
     }
     if summary.outcomes.is_empty() {
         // an empty result is no answer: a script must not take it for one
