@@ -252,6 +252,12 @@ fn locate_options_that_cannot_apply_are_errors() {
     let err = text(&out.stderr);
     assert!(!out.status.success() && err.contains("holds no true pose, so there is nothing to diagnose"), "{err}");
     assert!(err.starts_with("scans 6 "), "the summary comes first: {err}");
+    // as --show of a scan past the log's end, which showed nothing and said nothing
+    let out = gema2(&["lines", "--log", log_s, "--show", "6"]);
+    let err = text(&out.stderr);
+    assert!(!out.status.success() && err.contains("--show 6: the log holds 6 scans (0 to 5)"), "{err}");
+    let out = gema2(&["lines", "--log", log_s, "--show", "5"]);
+    assert!(out.status.success() && text(&out.stdout).contains("scan 5: "), "{}", text(&out.stderr));
 }
 
 /// A sensor other than the URG-04LX: a SICK-like 180-degree, 361-beam, 30 m scanner. The log

@@ -91,5 +91,8 @@ pub fn run(a: LinesArgs) -> Result<()> {
     row("lines (after filtering)", &mut lines);
     row("corners", &mut corners);
     row("time per scan (us)", &mut micros);
+    if let Some(k) = a.show.filter(|&k| k >= n) {
+        bail!("--show {k}: the log holds {n} scans (0 to {})", n - 1);
+    }
     Ok(())
 }
