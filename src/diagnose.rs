@@ -72,6 +72,11 @@ impl Diagnosis {
         *self.counts.entry(what).or_default() += 1;
     }
 
+    /// Whether no scan was diagnosed (none had a true pose).
+    pub fn is_empty(&self) -> bool {
+        self.counts.is_empty()
+    }
+
     pub fn render(&self) -> String {
         self.counts.iter().map(|(k, v)| format!("  {v:5}  {k}\n")).collect()
     }

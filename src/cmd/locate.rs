@@ -106,7 +106,6 @@ pub fn run(a: LocateArgs) -> Result<()> {
     let mut dumped = false;
     let mut summary = Summary::default();
     let mut diagnosis = crate::diagnose::Diagnosis::default();
-    let mut diagnosed = 0;
     let mut judge = None;
     // a line that cannot be read ends the run with its error, after the scans before it are
     // written and summed up: they are not lost with it
@@ -134,7 +133,6 @@ pub fn run(a: LocateArgs) -> Result<()> {
             dumped = true;
         }
         if let (true, Some(truth)) = (a.diagnose, scan.truth.as_ref()) {
-            diagnosed += 1;
             let what = crate::diagnose::classify(seg, loc, truth, &model, &loc_cfg);
             if std::env::var_os("GEMA2_DUMP").is_some_and(|v| v.to_str().is_some_and(|v| what.starts_with(v))) {
                 eprintln!("scan {index}: {what} [{}]", loc.status.as_str());
@@ -192,7 +190,7 @@ pub fn run(a: LocateArgs) -> Result<()> {
             a.offset
         );
     }
-    if a.diagnose && diagnosed == 0 && !summary.outcomes.is_empty() {
+    if a.diagnose && diagnosis.is_empty() && !summary.outcomes.is_empty() {
         anyhow::bail!("--diagnose: {} holds no true pose, so there is nothing to diagnose", a.log.display());
     }
     if summary.outcomes.is_empty() {

@@ -371,11 +371,10 @@ fn report(
     if let Some((mut f, path)) = out {
         monitor.write_csv(&mut f).and_then(|_| f.flush()).with_context(|| format!("writing {}", path.display()))?;
     }
-    if let Some(n) = scans.filter(|&n| n > 0 && monitor.received == 0) {
+    if let Some(n) = scans.filter(|_| monitor.received == 0) {
         bail!("no pose came back of the {n} scans asked for: see the stages' messages above");
     }
-    if let Some(st) = stages.iter().find(|s| s.failed.is_some()) {
-        let how = st.failed.map(|s| s.to_string()).unwrap_or_default();
+    if let Some((st, how)) = stages.iter().find_map(|s| s.failed.map(|how| (s, how))) {
         bail!(
             "stage {} ended ({how}) and was not restarted (restart = \"{}\"): the report above is of a \
              broken pipeline",
