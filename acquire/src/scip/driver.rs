@@ -385,8 +385,9 @@ fn check_request(first: u32, last: u32, cluster: u32, scans: u32) -> Result<(), 
 ///
 /// The `;` is found by its place, the byte before the checksum, not by its value: a checksum is
 /// any byte from `0` to `o`, `;` among them, and so is every character of an encoded value
-/// such as II's `TIME`. Looking for the last `;` refused one connection in a dozen to the
-/// emulated sensor, whose II answer held `TIME:00G;;;` (value `00G;`, checksum `;`).
+/// such as II's `TIME`. Looking for the last `;` refused 2 of 6 connections to the emulated
+/// sensor in one trial, whose II answers held such lines: `TIME:00G;;;` (value `00G;`,
+/// checksum `;`).
 pub fn parse_info_line(line: &[u8]) -> Result<(String, String), ScipError> {
     let text = || String::from_utf8_lossy(line).into_owned();
     let colon =
