@@ -127,6 +127,28 @@ fn map_info_reads_a_bundled_map_or_a_file() {
     );
 }
 
+/// `map generate office-N` makes an office of about N walls; an N it cannot come near is said,
+/// and a count that is no count is refused.
+#[test]
+fn an_office_of_n_walls_says_when_it_cannot_come_near_n() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("o.json");
+    let f = file.to_str().unwrap();
+    let out = gema2(&["map", "generate", "office-50", "--out", f]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    assert!(!text(&out.stderr).contains("asked"), "{}", text(&out.stderr));
+    let out = gema2(&["map", "generate", "office-3", "--out", f]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let walls = mapserver::load_map(f).unwrap().walls.len();
+    assert!(walls > 3);
+    assert!(text(&out.stderr).contains(&format!("3 asked: the nearest office the generator makes has {walls}")));
+    for bad in ["office-0", "office-many", "office--5"] {
+        let out = gema2(&["map", "generate", bad, "--out", f]);
+        assert!(!out.status.success(), "{bad}");
+        assert!(text(&out.stderr).contains("wall count"), "{bad}: {}", text(&out.stderr));
+    }
+}
+
 /// `--set` is one vocabulary for `locate` and the pipeline's stages; a typo or a bad value is
 /// refused before any work, naming the setting (and, for a typo, the known ones).
 #[test]

@@ -92,8 +92,14 @@ pub fn run(c: MapCommand) -> Result<()> {
 
 /// `map generate`: a bundled or procedural map, as JSON.
 fn generate(kind: &str, seed: Option<u64>, out: &Path) -> Result<()> {
+    let mut asked = None;
     let map = if let Some(n) = kind.strip_prefix("office-") {
-        procedural::office_with_walls(seed.unwrap_or(1), n.parse().context("office-N needs a number")?)
+        let n: usize = n.parse().with_context(|| format!("{kind:?}: office-N needs a wall count N"))?;
+        if n == 0 {
+            bail!("{kind:?}: office-N needs a wall count N of at least 1");
+        }
+        asked = Some(n);
+        procedural::office_with_walls(seed.unwrap_or(1), n)
     } else {
         let map = match seed {
             None => procedural::by_name(kind),
@@ -106,6 +112,10 @@ fn generate(kind: &str, seed: Option<u64>, out: &Path) -> Result<()> {
     };
     std::fs::write(out, map.to_json(kind)).with_context(|| format!("writing {}", out.display()))?;
     eprintln!("{}: {} walls", out.display(), map.walls.len());
+    // "about N walls": a count far from N is the generator's limit, not a near miss
+    if let Some(n) = asked.filter(|&n| map.walls.len().abs_diff(n) * 5 > n) {
+        eprintln!("  ({n} asked: the nearest office the generator makes has {})", map.walls.len());
+    }
     Ok(())
 }
 
