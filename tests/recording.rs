@@ -245,3 +245,47 @@ fn sigint_mid_run_leaves_a_clean_file_with_every_scan_received() {
         assert!(v.status.success(), "rerun rrd verify: {}", String::from_utf8_lossy(&v.stderr));
     }
 }
+
+/// A live viewer that never answers (a mistyped `--connect` address) takes nothing from the
+/// file: every scan is recorded, the recorder stops on SIGINT, and it fails saying what the
+/// viewer missed. rerun's client blocks once 100 messages wait for a viewer, which stopped the
+/// file at 47 of 60 scans and the recorder for good.
+#[test]
+fn a_live_viewer_that_never_answers_costs_the_file_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    let log = simulate(dir.path(), 120);
+    let file = dir.path().join("live.rrd");
+    let p = prefix("deadlive");
+    let closed = std::net::TcpListener::bind("127.0.0.1:0").unwrap().local_addr().unwrap();
+    let mut recorder = Command::new(viewer())
+        .args(["--prefix", &p, "--connect", &closed.to_string(), "--out"])
+        .arg(&file)
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let run = Command::new(gema2())
+        .args(["run", "--prefix", &p, "--scans", "120", "--timeout", "120", "--pipeline"])
+        .arg(pipeline(dir.path(), &log, "100"))
+        .output()
+        .unwrap();
+    assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
+    // the recorder takes what is still queued once the run is over
+    std::thread::sleep(Duration::from_millis(500));
+    signal(recorder.id(), 2);
+    let start = Instant::now();
+    while recorder.try_wait().unwrap().is_none() {
+        if start.elapsed() > Duration::from_secs(60) {
+            let _ = recorder.kill();
+            panic!("the recorder did not stop within 60 s of SIGINT");
+        }
+        std::thread::sleep(Duration::from_millis(100));
+    }
+    let out = recorder.wait_with_output().unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success(), "{stderr}");
+    assert!(stderr.contains(&format!("no rerun viewer answers at {closed}")), "{stderr}");
+    assert!(stderr.contains("scan: 120 recorded, 0 missed"), "{stderr}");
+    assert!(stderr.contains("viewer: wrote") && stderr.contains("never answered"), "{stderr}");
+    let (summary, _) = inspect(std::slice::from_ref(&file));
+    assert!(summary.contains("scans: 120 (seq 0..=119)"), "{summary}");
+}

@@ -6,6 +6,7 @@
 
 pub mod entities;
 pub mod inspect;
+pub mod live;
 pub mod node;
 pub mod output;
 pub mod record;

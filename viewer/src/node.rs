@@ -158,6 +158,9 @@ impl Subscriptions {
     }
 }
 
+/// How long `--connect` waits for a live viewer to answer before warning that none does.
+const LIVE_WAIT: Duration = Duration::from_secs(2);
+
 /// Runs the recorder until SIGINT or SIGTERM; prints what it recorded.
 pub fn run(a: RecordArgs) -> Result<Counts> {
     a.stage.place()?;
@@ -180,6 +183,15 @@ pub fn run(a: RecordArgs) -> Result<Counts> {
     let _tick = waitset.attach_interval(Duration::from_millis(200)).map_err(|e| anyhow!("waitset: {e:?}"))?;
     messages::announce_ready(&node, &a.stage.prefix)?;
     eprintln!("viewer: recording {} to {}", a.stage.prefix, describe(&a));
+    if let Some(why) =
+        a.connect.as_deref().and_then(|c| crate::output::unanswered(&crate::output::connect_url(c), LIVE_WAIT))
+    {
+        eprintln!(
+            "viewer: warning: no rerun viewer answers at {} ({why}); one started later shows what \
+             comes after it connects, and the recording ends in an error",
+            a.connect.as_deref().unwrap_or_default()
+        );
+    }
     let mut failure = None;
     let waited = messages::run_waitset(&node, &waitset, |_| match subs.drain(&mut recorder) {
         Ok(()) => CallbackProgression::Continue,
@@ -193,11 +205,12 @@ pub fn run(a: RecordArgs) -> Result<Counts> {
     if let Err(e) = &waited {
         let _ = recorder.note(TextLogLevel::ERROR, format!("viewer: waitset: {e:?}"));
     }
-    let (counts, parts) = recorder.finish()?;
+    let (counts, parts, closed) = recorder.finish_keeping();
     eprintln!("viewer: stopped\n{}", counts.render());
     for p in &parts {
         eprintln!("viewer: wrote {}", p.display());
     }
+    closed?;
     waited.map_err(|e| anyhow!("waitset: {e:?}"))?;
     if let Some(e) = failure {
         return Err(e);

@@ -1,12 +1,15 @@
 //! Where a recording goes: a `.rrd` file (rolling over to numbered files past a size), a live
 //! rerun viewer (spawned, or at an address), or both at once.
 
+use crate::live::{LiveSink, LiveTally};
 use rerun::blueprint::{
     Blueprint, BlueprintActivation, Horizontal, Spatial2DView, TextLogView, TimePanel, TimeSeriesView, Vertical,
 };
 use rerun::sink::{FileSink, GrpcSink, LogSink};
 use rerun::{RecordingStream, RecordingStreamBuilder};
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::time::Duration;
 use thiserror::Error;
 
 /// The application id every gema2 recording carries.
@@ -70,6 +73,10 @@ pub fn part_path(file: &Path, k: u32) -> PathBuf {
     file.with_file_name(format!("{stem}.{k}.{ext}"))
 }
 
+/// The longest a recording's closing flush waits (for a live viewer slow to take what it is
+/// sent; files flush in far less).
+const CLOSE_WAIT: Duration = Duration::from_secs(30);
+
 /// The proxy URL for `--connect`: a bare `HOST:PORT` becomes `rerun+http://HOST:PORT/proxy`.
 pub fn connect_url(addr: &str) -> String {
     if addr.contains("://") {
@@ -79,10 +86,35 @@ pub fn connect_url(addr: &str) -> String {
     }
 }
 
+/// Why no rerun viewer answers at `url` (a `--connect` address) right now, or `None` when one
+/// does (or the address names no host and port to try). The stream itself never refuses an
+/// address: it holds messages until a viewer answers and fails only when it is closed, which
+/// leaves a mistyped address unnoticed for the whole run. A viewer started after the recorder
+/// still gets the messages, so this is a warning, not a refusal.
+pub fn unanswered(url: &str, wait: std::time::Duration) -> Option<String> {
+    use std::net::{TcpStream, ToSocketAddrs};
+    let rest = url.split_once("://").map_or(url, |(_, rest)| rest);
+    let host_port = rest.split('/').next().unwrap_or(rest);
+    let addrs = match host_port.to_socket_addrs() {
+        Ok(a) => a.collect::<Vec<_>>(),
+        Err(e) => return Some(format!("{host_port}: {e}")),
+    };
+    let mut why = format!("{host_port}: no address");
+    for addr in addrs {
+        match TcpStream::connect_timeout(&addr, wait) {
+            Ok(_) => return None,
+            Err(e) => why = format!("{addr}: {e}"),
+        }
+    }
+    Some(why)
+}
+
 /// An open recording: the stream, and which file part it is writing.
 pub struct Output {
     spec: OutputSpec,
     live_url: Option<String>,
+    /// What the live viewer got, over every part.
+    live: Arc<LiveTally>,
     recording_id: String,
     part: u32,
     stream: RecordingStream,
@@ -107,14 +139,16 @@ impl Output {
             spec.connect.as_deref().map(connect_url)
         };
         let recording_id = spec.recording_id.clone().unwrap_or_else(|| format!("gema2-{}", std::process::id()));
-        let stream = Self::stream_for(&spec, live_url.as_deref(), &recording_id, 0)?;
+        let live = Arc::new(LiveTally::default());
+        let stream = Self::stream_for(&spec, live_url.as_deref(), &live, &recording_id, 0)?;
         let parts = spec.file.iter().cloned().collect();
-        Ok(Output { spec, live_url, recording_id, part: 0, stream, parts, measured: 0, logged_since: 0 })
+        Ok(Output { spec, live_url, live, recording_id, part: 0, stream, parts, measured: 0, logged_since: 0 })
     }
 
     fn stream_for(
         spec: &OutputSpec,
         live_url: Option<&str>,
+        live: &Arc<LiveTally>,
         recording_id: &str,
         part: u32,
     ) -> Result<RecordingStream, OutputError> {
@@ -131,7 +165,7 @@ impl Output {
                 Ok(_) => return Err(OutputError::Live { url: url.into(), message: "not a proxy address".into() }),
                 Err(e) => return Err(OutputError::Live { url: url.into(), message: e.to_string() }),
             };
-            sinks.push(Box::new(GrpcSink::new(uri)));
+            sinks.push(Box::new(LiveSink::new(GrpcSink::new(uri), Arc::clone(live))));
         }
         let stream = RecordingStreamBuilder::new(APPLICATION_ID)
             .recording_id(recording_id)
@@ -166,16 +200,17 @@ impl Output {
         if self.measured + self.logged_since < max {
             return Ok(false);
         }
-        self.stream.flush_blocking().map_err(|e| OutputError::Stream(e.to_string()))?;
+        self.stream.flush_with_timeout(CLOSE_WAIT).map_err(|e| OutputError::Stream(e.to_string()))?;
         let current = part_path(file, self.part);
         self.measured = std::fs::metadata(&current).map(|m| m.len()).unwrap_or(0);
         self.logged_since = 0;
         if self.measured < max {
             return Ok(false);
         }
-        let next = Self::stream_for(&self.spec, self.live_url.as_deref(), &self.recording_id, self.part + 1)?;
+        let next =
+            Self::stream_for(&self.spec, self.live_url.as_deref(), &self.live, &self.recording_id, self.part + 1)?;
         let previous = std::mem::replace(&mut self.stream, next);
-        previous.flush_blocking().map_err(|e| OutputError::Stream(e.to_string()))?;
+        previous.flush_with_timeout(CLOSE_WAIT).map_err(|e| OutputError::Stream(e.to_string()))?;
         drop(previous);
         self.part += 1;
         self.parts.push(part_path(file, self.part));
@@ -183,11 +218,16 @@ impl Output {
         Ok(true)
     }
 
-    /// Flushes everything logged so far and closes the file(s).
-    pub fn close(self) -> Result<Vec<PathBuf>, OutputError> {
-        self.stream.flush_blocking().map_err(|e| OutputError::Stream(e.to_string()))?;
+    /// Flushes everything logged so far and closes the file(s): the files written, and whether
+    /// every sink took everything. The files are whole even when the live viewer got nothing
+    /// (one that never answered, or went away): its sink never holds them back.
+    pub fn close(self) -> (Vec<PathBuf>, Result<(), OutputError>) {
+        let mut closed = self.stream.flush_with_timeout(CLOSE_WAIT).map_err(|e| OutputError::Stream(e.to_string()));
         drop(self.stream);
-        Ok(self.parts)
+        if let (Ok(()), Some(url), Some(why)) = (&closed, &self.live_url, self.live.shortfall()) {
+            closed = Err(OutputError::Live { url: url.clone(), message: why });
+        }
+        (self.parts, closed)
     }
 }
 
@@ -202,6 +242,20 @@ mod tests {
         assert_eq!(part_path(Path::new("run"), 1), PathBuf::from("run.1.rrd"));
         assert_eq!(connect_url("127.0.0.1:9876"), "rerun+http://127.0.0.1:9876/proxy");
         assert_eq!(connect_url("rerun+http://h:1/proxy"), "rerun+http://h:1/proxy");
+    }
+
+    #[test]
+    fn an_address_nothing_listens_on_is_unanswered_and_a_listening_one_answers() {
+        let wait = std::time::Duration::from_secs(2);
+        let listener = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
+        let port = listener.local_addr().unwrap().port();
+        assert_eq!(unanswered(&connect_url(&format!("127.0.0.1:{port}")), wait), None);
+        drop(listener);
+        let why = unanswered(&connect_url(&format!("127.0.0.1:{port}")), wait).unwrap();
+        assert!(why.contains(&format!("127.0.0.1:{port}")), "{why}");
+        let why = unanswered(&connect_url("no-such-host.invalid:9876"), wait).unwrap();
+        assert!(why.contains("no-such-host.invalid"), "{why}");
+        assert!(unanswered("rerun+http://no-port/proxy", wait).is_some());
     }
 
     #[test]

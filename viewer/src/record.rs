@@ -492,9 +492,15 @@ impl Recorder {
 
     /// Flushes and closes; returns the files written.
     pub fn finish(self) -> Result<(Counts, Vec<std::path::PathBuf>), OutputError> {
-        let counts = self.counts;
-        let parts = self.output.close()?;
-        Ok((counts, parts))
+        let (counts, parts, closed) = self.finish_keeping();
+        closed.map(|()| (counts, parts))
+    }
+
+    /// [`finish`](Self::finish) that keeps the counts and the files written when closing
+    /// fails, for a report of what the recording holds beside the failure.
+    pub fn finish_keeping(self) -> (Counts, Vec<std::path::PathBuf>, Result<(), OutputError>) {
+        let (parts, closed) = self.output.close();
+        (self.counts, parts, closed)
     }
 }
 
