@@ -182,17 +182,6 @@ pub fn run(a: LocateArgs) -> Result<()> {
     if let Some(e) = unreadable {
         anyhow::bail!("{e}; stopped there, after {} scans", summary.outcomes.len());
     }
-    if let Some((n, _)) = dump.filter(|_| !dumped && !summary.outcomes.is_empty()) {
-        anyhow::bail!(
-            "--dump-scan {n}: no such scan among the {} located (--every {} --offset {})",
-            summary.outcomes.len(),
-            a.every,
-            a.offset
-        );
-    }
-    if a.diagnose && diagnosis.is_empty() && !summary.outcomes.is_empty() {
-        anyhow::bail!("--diagnose: {} holds no true pose, so there is nothing to diagnose", a.log.display());
-    }
     if summary.outcomes.is_empty() {
         // an empty result is no answer: a script must not take it for one
         anyhow::bail!(
@@ -201,6 +190,17 @@ pub fn run(a: LocateArgs) -> Result<()> {
             a.every,
             a.offset
         );
+    }
+    if let Some((n, _)) = dump.filter(|_| !dumped) {
+        anyhow::bail!(
+            "--dump-scan {n}: no such scan among the {} located (--every {} --offset {})",
+            summary.outcomes.len(),
+            a.every,
+            a.offset
+        );
+    }
+    if a.diagnose && diagnosis.is_empty() {
+        anyhow::bail!("--diagnose: {} holds no true pose, so there is nothing to diagnose", a.log.display());
     }
     Ok(())
 }

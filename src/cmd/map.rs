@@ -94,10 +94,8 @@ pub fn run(c: MapCommand) -> Result<()> {
 fn generate(kind: &str, seed: Option<u64>, out: &Path) -> Result<()> {
     let mut asked = None;
     let map = if let Some(n) = kind.strip_prefix("office-") {
-        let n: usize = n.parse().with_context(|| format!("{kind:?}: office-N needs a wall count N"))?;
-        if n == 0 {
-            bail!("{kind:?}: office-N needs a wall count N of at least 1");
-        }
+        let n =
+            super::positive_count(n).map_err(|e| anyhow::anyhow!("{kind:?}: office-N needs a wall count N: {e}"))?;
         asked = Some(n);
         procedural::office_with_walls(seed.unwrap_or(1), n)
     } else {

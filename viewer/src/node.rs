@@ -183,14 +183,13 @@ pub fn run(a: RecordArgs) -> Result<Counts> {
     let _tick = waitset.attach_interval(Duration::from_millis(200)).map_err(|e| anyhow!("waitset: {e:?}"))?;
     messages::announce_ready(&node, &a.stage.prefix)?;
     eprintln!("viewer: recording {} to {}", a.stage.prefix, describe(&a));
-    if let Some(why) =
-        a.connect.as_deref().and_then(|c| crate::output::unanswered(&crate::output::connect_url(c), LIVE_WAIT))
-    {
-        eprintln!(
-            "viewer: warning: no rerun viewer answers at {} ({why}); one started later shows what \
-             comes after it connects, and the recording ends in an error",
-            a.connect.as_deref().unwrap_or_default()
-        );
+    if let Some(c) = a.connect.as_deref() {
+        if let Some(why) = crate::output::unanswered(&crate::output::connect_url(c), LIVE_WAIT) {
+            eprintln!(
+                "viewer: warning: no rerun viewer answers at {c} ({why}); one started later shows what \
+                 comes after it connects, and the recording ends in an error"
+            );
+        }
     }
     let mut failure = None;
     let waited = messages::run_waitset(&node, &waitset, |_| match subs.drain(&mut recorder) {

@@ -91,7 +91,7 @@ pub fn connect_url(addr: &str) -> String {
 /// address: it holds messages until a viewer answers and fails only when it is closed, which
 /// leaves a mistyped address unnoticed for the whole run. A viewer started after the recorder
 /// still gets the messages, so this is a warning, not a refusal.
-pub fn unanswered(url: &str, wait: std::time::Duration) -> Option<String> {
+pub fn unanswered(url: &str, wait: Duration) -> Option<String> {
     use std::net::{TcpStream, ToSocketAddrs};
     let rest = url.split_once("://").map_or(url, |(_, rest)| rest);
     let host_port = rest.split('/').next().unwrap_or(rest);
