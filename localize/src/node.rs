@@ -67,11 +67,8 @@ pub fn run(a: LocalizeArgs) -> Result<()> {
     // the map may already be waiting in history; a wake-up may be lost (MISSED_WAKEUP_POLL)
     let _poll = waitset.attach_interval(messages::MISSED_WAKEUP_POLL).map_err(|e| err("waitset", &e))?;
 
-    let mut localizer: Option<(Localizer, u32)> = None;
-    let mut seg = Segmentation::default();
-    let mut fresh = Freshness::default();
+    let mut state = Located::new(config);
     let mut failure: Option<anyhow::Error> = None;
-    let mut waiting_for_map = 0u64;
     let mut found_by_poll = 0u64;
     let on_event = |id: WaitSetAttachmentId<ipc::Service>| {
         let woken = id.has_event_from(&woken_by_corners);
@@ -85,19 +82,11 @@ pub fn run(a: LocalizeArgs) -> Result<()> {
             }
             // the map: newest version wins
             while let Ok(Some(m)) = map_in.receive() {
-                match map_from_msg(&m) {
-                    Ok(walls) if localizer.as_ref().is_none_or(|(_, v)| *v != m.version) => {
-                        let model = Arc::new(MapModel::new(walls, &config.map_corners));
-                        eprintln!("localize: map version {} ({} walls)", m.version, m.count);
-                        if take_map(&mut localizer, model, m.version, &config) {
-                            // ready once there is a map to localize against
-                            if let Err(e) = messages::announce_ready(&node, &a.stage.prefix) {
-                                eprintln!("localize: {e}");
-                            }
-                        }
+                // ready once there is a map to localize against
+                if state.take_map(&m) {
+                    if let Err(e) = messages::announce_ready(&node, &a.stage.prefix) {
+                        eprintln!("localize: {e}");
                     }
-                    Ok(_) => {}
-                    Err(e) => eprintln!("localize: ignored a bad map: {e}"),
                 }
             }
             loop {
@@ -112,36 +101,15 @@ pub fn run(a: LocalizeArgs) -> Result<()> {
                 let enter = monotonic_ns();
                 drain.took_message();
                 let msg: &CornersMsg = &sample;
-                let seq = msg.scan.header.seq;
-                if !fresh.admit(&msg.scan.header) {
-                    continue; // a copy: a resend, or a second segmenter during a hot swap
-                }
-                let Some((loc, version)) = localizer.as_mut() else {
-                    waiting_for_map += 1;
-                    if waiting_for_map == 1 || waiting_for_map.is_multiple_of(100) {
-                        eprintln!("localize: no map yet, {waiting_for_map} scans skipped");
-                    }
-                    continue;
-                };
+                let Some((result, version)) = state.locate(msg) else { continue };
                 // counted once per look: a busy stage keeps taking scans in one callback, wake-up or not
                 if !woken && !counted {
                     found_by_poll += 1;
                     counted = true;
                 }
-                let view = match scan_view(&msg.scan) {
-                    Ok(v) => v,
-                    Err(e) => {
-                        eprintln!("localize: dropped {e}");
-                        continue;
-                    }
-                };
-                segmentation_from(msg, &view, &config, &mut seg);
-                let lines = msg.lines[..(msg.line_count as usize).min(msg.lines.len())].iter().filter_map(slide_line);
-                let result = loc.locate_with_lines(&view, &seg, lines);
-                let version = *version;
                 let sent = pose_out.send(|p: &mut PoseMsg| write_pose(p, msg, result, version, enter));
                 if let Err(e) = sent {
-                    failure = Some(anyhow!("localize: publishing pose {seq}: {e}"));
+                    failure = Some(anyhow!("localize: publishing pose {}: {e}", msg.scan.header.seq));
                     return CallbackProgression::Stop;
                 }
             }
@@ -168,24 +136,79 @@ pub fn run(a: LocalizeArgs) -> Result<()> {
     .context("localize")
 }
 
-/// Puts `model` (map version `version`) into the stage's localizer, making the localizer when
-/// this is the first map; returns whether it was.
-fn take_map(
-    localizer: &mut Option<(Localizer, u32)>,
-    model: Arc<MapModel>,
-    version: u32,
-    config: &Gema2Config,
-) -> bool {
-    match localizer.as_mut() {
-        Some((l, v)) => {
-            l.set_model(model);
-            *v = version;
-            false
+/// What the stage keeps from scan to scan: the localizer with its map's version (none before
+/// the first map), and what tells a scan seen before.
+struct Located {
+    config: Gema2Config,
+    localizer: Option<(Localizer, u32)>,
+    seg: Segmentation,
+    fresh: Freshness,
+    waiting_for_map: u64,
+}
+
+impl Located {
+    fn new(config: Gema2Config) -> Self {
+        Located {
+            config,
+            localizer: None,
+            seg: Segmentation::default(),
+            fresh: Freshness::default(),
+            waiting_for_map: 0,
         }
-        None => {
-            *localizer = Some((Localizer::new(model, config.localizer), version));
-            true
+    }
+
+    /// Takes a map from the wire when its version is new; a bad map is reported and ignored.
+    /// Returns whether this was the first map, so the stage is now ready.
+    fn take_map(&mut self, m: &MapMsg) -> bool {
+        if self.localizer.as_ref().is_some_and(|(_, v)| *v == m.version) {
+            return false;
         }
+        let walls = match map_from_msg(m) {
+            Ok(walls) => walls,
+            Err(e) => {
+                eprintln!("localize: ignored a bad map: {e}");
+                return false;
+            }
+        };
+        let model = Arc::new(MapModel::new(walls, &self.config.map_corners));
+        eprintln!("localize: map version {} ({} walls)", m.version, m.count);
+        match self.localizer.as_mut() {
+            Some((l, v)) => {
+                l.set_model(model);
+                *v = m.version;
+                false
+            }
+            None => {
+                self.localizer = Some((Localizer::new(model, self.config.localizer), m.version));
+                true
+            }
+        }
+    }
+
+    /// Locates the scan `msg` carries, with the version of the map it was located in; `None`
+    /// for a scan seen before (a resend, or a second segmenter during a hot swap), a scan
+    /// before any map, and a scan that cannot be read (reported).
+    fn locate(&mut self, msg: &CornersMsg) -> Option<(&Localization, u32)> {
+        if !self.fresh.admit(&msg.scan.header) {
+            return None;
+        }
+        let Some((loc, version)) = self.localizer.as_mut() else {
+            self.waiting_for_map += 1;
+            if self.waiting_for_map == 1 || self.waiting_for_map.is_multiple_of(100) {
+                eprintln!("localize: no map yet, {} scans skipped", self.waiting_for_map);
+            }
+            return None;
+        };
+        let view = match scan_view(&msg.scan) {
+            Ok(v) => v,
+            Err(e) => {
+                eprintln!("localize: dropped {e}");
+                return None;
+            }
+        };
+        segmentation_from(msg, &view, &self.config, &mut self.seg);
+        let lines = msg.lines[..(msg.line_count as usize).min(msg.lines.len())].iter().filter_map(slide_line);
+        Some((loc.locate_with_lines(&view, &self.seg, lines), *version))
     }
 }
 

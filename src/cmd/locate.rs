@@ -5,7 +5,7 @@ use crate::report::{Outcome, Summary};
 use acquire::CarmenReader;
 use anyhow::{Context, Result};
 use clap::Args;
-use localize::{Gema2, Gema2Config, MapModel, Status};
+use localize::{Gema2, Gema2Config, Hypothesis, Localization, MapModel, Status};
 use std::io::{BufWriter, Write};
 use std::path::PathBuf;
 use std::sync::Arc;
@@ -93,28 +93,17 @@ pub fn run(a: LocateArgs) -> Result<()> {
     let model = Arc::new(MapModel::new(map, &config.map_corners));
     let mut gema2 = Gema2::new(Arc::clone(&model), config.segmenter, config.localizer);
     let reader = CarmenReader::open(&a.log, a.flaser.layout().map_err(anyhow::Error::msg)?)?;
-    let mut csv = match &a.out {
-        Some(p) => {
-            let f = std::fs::File::create(p).with_context(|| format!("creating {}", p.display()))?;
-            let mut w = BufWriter::new(f);
-            writeln!(w, "{}", crate::report::CSV_HEADER)?;
-            Some(w)
-        }
-        None => None,
-    };
+    let mut csv = a.out.as_deref().map(CsvOut::create).transpose()?;
     let dump = dump_request(&a)?;
-    let mut dumped = false;
-    let mut summary = Summary::default();
-    let mut diagnosis = crate::diagnose::Diagnosis::default();
+    let mut run = Run { dumped: false, summary: Summary::default(), diagnosis: Default::default(), unreadable: None };
     let mut judge = None;
-    // a line that cannot be read ends the run with its error, after the scans before it are
-    // written and summed up: they are not lost with it
-    let mut unreadable = None;
     for (index, item) in reader.enumerate() {
         let item = match item {
             Ok(item) => item,
             Err(e) => {
-                unreadable = Some(e);
+                // a line that cannot be read ends the run with its error, after the scans
+                // before it are written and summed up: they are not lost with it
+                run.unreadable = Some(e);
                 break;
             }
         };
@@ -126,11 +115,8 @@ pub fn run(a: LocateArgs) -> Result<()> {
         let (seg, loc) = gema2.process(&scan.view());
         let micros = start.elapsed().as_secs_f64() * 1e6;
         if let Some((_, dir)) = dump.as_ref().filter(|(n, _)| *n == index) {
-            std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
-            let path = dir.join(format!("scan{index}.json"));
-            std::fs::write(&path, crate::diagnose::scan_json(scan, seg, &model))
-                .with_context(|| format!("writing {}", path.display()))?;
-            dumped = true;
+            dump_scan(dir, index, scan, seg, &model)?;
+            run.dumped = true;
         }
         if let (true, Some(truth)) = (a.diagnose, scan.truth.as_ref()) {
             let what = crate::diagnose::classify(seg, loc, truth, &model, &loc_cfg);
@@ -139,68 +125,109 @@ pub fn run(a: LocateArgs) -> Result<()> {
                 crate::diagnose::dump(seg, loc, truth, &model);
                 judge = Some(*truth);
             }
-            diagnosis.add(what);
+            run.diagnosis.add(what);
         }
         let best = loc.hypotheses.first().filter(|_| loc.status != Status::Failed);
         if let Some(w) = csv.as_mut() {
-            let fields = best.map(|h| {
-                (
-                    h.pose.translation.x,
-                    h.pose.translation.y,
-                    laser::pose_theta(&h.pose),
-                    h.cost.value,
-                    h.cost.inliers,
-                    h.cost.through,
-                )
-            });
-            let row = crate::report::csv_row(
-                index,
-                fields,
-                loc.status.as_str(),
-                micros,
-                loc.hypotheses.len(),
-                loc.candidates,
-            );
-            writeln!(w, "{row}")?;
+            w.row(index, loc, best, micros)?;
         }
-        summary
+        run.summary
             .add(Outcome::of(loc.status, best.map(|h| h.pose), scan.truth, micros).with_steps(&seg.times, &loc.times));
         if let Some(truth) = judge.take() {
             crate::diagnose::dump_judgement(&gema2.localizer.judge(&scan.view(), &truth), &truth);
         }
     }
-    if let Some(mut w) = csv {
-        w.flush()?;
+    if let Some(w) = csv {
+        w.finish()?;
     }
-    // with no scan there is nothing to sum up: the error below says why
-    if !summary.outcomes.is_empty() {
-        eprint!("{}", summary.render());
+    run.conclude(&a, dump)
+}
+
+/// `--out`: the CSV of DESIGN.md with the `micros` column, one row per located scan.
+struct CsvOut(BufWriter<std::fs::File>);
+
+impl CsvOut {
+    fn create(path: &std::path::Path) -> Result<Self> {
+        let f = std::fs::File::create(path).with_context(|| format!("creating {}", path.display()))?;
+        let mut w = BufWriter::new(f);
+        writeln!(w, "{}", crate::report::CSV_HEADER)?;
+        Ok(CsvOut(w))
     }
-    if a.diagnose {
-        eprint!("{}", diagnosis.render());
+
+    /// Scan `index`'s row: `best` is its answer, none when it failed.
+    fn row(&mut self, index: usize, loc: &Localization, best: Option<&Hypothesis>, micros: f64) -> Result<()> {
+        let fields = best.map(|h| {
+            let (p, c) = (&h.pose, &h.cost);
+            (p.translation.x, p.translation.y, laser::pose_theta(p), c.value, c.inliers, c.through)
+        });
+        let row =
+            crate::report::csv_row(index, fields, loc.status.as_str(), micros, loc.hypotheses.len(), loc.candidates);
+        writeln!(self.0, "{row}")?;
+        Ok(())
     }
-    if let Some(e) = unreadable {
-        anyhow::bail!("{e}; stopped there, after {} scans", summary.outcomes.len());
+
+    fn finish(mut self) -> Result<()> {
+        Ok(self.0.flush()?)
     }
-    if summary.outcomes.is_empty() {
-        // an empty result is no answer: a script must not take it for one
-        anyhow::bail!(
-            "{}: no laser scan located (no ROBOTLASER1 or FLASER line, or none that --every {} --offset {} selects)",
-            a.log.display(),
-            a.every,
-            a.offset
-        );
+}
+
+/// `--dump-scan`: scan `index`'s samples, lines, corners and true-pose map, as JSON in `dir`.
+fn dump_scan(
+    dir: &std::path::Path,
+    index: usize,
+    scan: &laser::LaserScan,
+    seg: &segment::Segmentation,
+    model: &MapModel,
+) -> Result<()> {
+    std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    let path = dir.join(format!("scan{index}.json"));
+    std::fs::write(&path, crate::diagnose::scan_json(scan, seg, model))
+        .with_context(|| format!("writing {}", path.display()))
+}
+
+/// What a run over the log gathered, summed up once the log is read.
+struct Run {
+    dumped: bool,
+    summary: Summary,
+    diagnosis: crate::diagnose::Diagnosis,
+    unreadable: Option<acquire::LogError>,
+}
+
+impl Run {
+    /// Prints the summary (and diagnosis), then fails when the log could not be read to its
+    /// end, when no scan was located, or when a `--dump-scan` or `--diagnose` asked for had
+    /// nothing to work on.
+    fn conclude(self, a: &LocateArgs, dump: Option<(usize, PathBuf)>) -> Result<()> {
+        let located = self.summary.outcomes.len();
+        // with no scan there is nothing to sum up: the error below says why
+        if located > 0 {
+            eprint!("{}", self.summary.render());
+        }
+        if a.diagnose {
+            eprint!("{}", self.diagnosis.render());
+        }
+        if let Some(e) = self.unreadable {
+            anyhow::bail!("{e}; stopped there, after {located} scans");
+        }
+        if located == 0 {
+            // an empty result is no answer: a script must not take it for one
+            anyhow::bail!(
+                "{}: no laser scan located (no ROBOTLASER1 or FLASER line, or none that --every {} --offset {} selects)",
+                a.log.display(),
+                a.every,
+                a.offset
+            );
+        }
+        if let Some((n, _)) = dump.filter(|_| !self.dumped) {
+            anyhow::bail!(
+                "--dump-scan {n}: no such scan among the {located} located (--every {} --offset {})",
+                a.every,
+                a.offset
+            );
+        }
+        if a.diagnose && self.diagnosis.is_empty() {
+            anyhow::bail!("--diagnose: {} holds no true pose, so there is nothing to diagnose", a.log.display());
+        }
+        Ok(())
     }
-    if let Some((n, _)) = dump.filter(|_| !dumped) {
-        anyhow::bail!(
-            "--dump-scan {n}: no such scan among the {} located (--every {} --offset {})",
-            summary.outcomes.len(),
-            a.every,
-            a.offset
-        );
-    }
-    if a.diagnose && diagnosis.is_empty() {
-        anyhow::bail!("--diagnose: {} holds no true pose, so there is nothing to diagnose", a.log.display());
-    }
-    Ok(())
 }
