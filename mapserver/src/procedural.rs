@@ -234,126 +234,176 @@ pub fn apartment() -> WallMap {
 pub fn flat(seed: u64) -> WallMap {
     let mut rng = Rng::new(seed);
     let mut p = Plan::default();
-    let (w, h) = (rng.range(9.0, 15.0), rng.range(7.0, 11.0));
-    let hall_y = rng.range(0.38, 0.52) * h;
-    let hall_top = hall_y + rng.range(1.1, 1.6);
-    // rooms along each side of the hall, as the x of the walls between them
-    let bounds = |rng: &mut Rng, lo: f64, hi: f64| {
-        let mut xs = vec![0.0];
-        for width in partition(rng, w, lo, hi) {
-            xs.push(xs[xs.len() - 1] + width);
-        }
-        xs
-    };
-    let south = bounds(&mut rng, 3.0, 6.0);
-    let north = bounds(&mut rng, 2.3, 4.5);
-    // an L-shaped outline: the north-east room ends short of the north wall
-    let cut = (north.len() > 3 && h - hall_top > 3.6 && rng.chance(0.5))
-        .then(|| (north[north.len() - 2], h - rng.range(1.0, (h - hall_top - 2.4).min(2.2))));
-    let chamfer = rng.chance(0.4).then(|| rng.range(0.8, 1.5));
-    // south wall, with a bay window in the first day room by chance
-    let bay = (south[1] > 3.2 && rng.chance(0.6)).then(|| {
-        let (bw, depth) = (rng.range(1.8, (south[1] - 1.0).min(3.0)), rng.range(0.5, 0.9));
-        let bx = rng.range(0.5, south[1] - bw - 0.5);
-        (bx, bw, depth)
-    });
-    let south_end = w - chamfer.unwrap_or(0.0);
-    match bay {
-        Some((bx, bw, depth)) => {
-            let slope = rng.range(0.4, 0.9);
-            p.wall((0.0, 0.0), (bx, 0.0));
-            p.wall((bx, 0.0), (bx + slope * depth, -depth));
-            p.wall((bx + slope * depth, -depth), (bx + bw - slope * depth, -depth));
-            p.wall((bx + bw - slope * depth, -depth), (bx + bw, 0.0));
-            p.wall((bx + bw, 0.0), (south_end, 0.0));
-        }
-        None => p.wall((0.0, 0.0), (south_end, 0.0)),
-    }
-    if let Some(c) = chamfer {
-        p.wall((south_end, 0.0), (w, c));
-    }
-    let east_from = chamfer.unwrap_or(0.0);
-    // the entry: a door in the east wall at the hall
-    let east_to = cut.map_or(h, |(_, cy)| cy);
-    p.wall_with_doors((w, east_from), (w, east_to), &[(hall_y - east_from + 0.15, hall_top - hall_y - 0.3)]);
-    if let Some((cx, cy)) = cut {
-        p.wall((w, cy), (cx, cy));
-        p.wall((cx, cy), (cx, h));
-    }
-    let north_end = cut.map_or(w, |(cx, _)| cx);
-    p.wall((north_end, h), (0.0, h));
-    p.wall((0.0, h), (0.0, 0.0));
-    // the hall's walls, with each room's door; the first day room opens wide
-    let doors = |rng: &mut Rng, xs: &[f64], wide: bool| {
-        xs.windows(2)
-            .enumerate()
-            .map(|(k, r)| {
-                let width = if wide && k == 0 { rng.range(1.6, (r[1] - r[0] - 0.8).max(1.7)) } else { 0.85 };
-                (rng.range(r[0] + 0.3, (r[1] - width - 0.3).max(r[0] + 0.35)), width)
-            })
-            .collect::<Vec<_>>()
-    };
-    let d = doors(&mut rng, &south, true);
-    p.wall_with_doors((0.0, hall_y), (w, hall_y), &d);
-    let d = doors(&mut rng, &north, false);
-    p.wall_with_doors((0.0, hall_top), (w, hall_top), &d);
-    // walls between rooms; day rooms open into each other by chance
-    for &x in &south[1..south.len() - 1] {
-        if rng.chance(0.4) {
-            let gap = rng.range(1.2, (hall_y - 1.4).max(1.3));
-            p.wall_with_doors((x, 0.0), (x, hall_y), &[(rng.range(0.3, (hall_y - gap - 0.3).max(0.35)), gap)]);
-        } else {
-            p.wall((x, 0.0), (x, hall_y));
-        }
-    }
-    // the north wall of the rooms from `x` on: short of the outline's at the L's cut
-    let top_from = |x: f64| match cut {
-        Some((cx, cy)) if x >= cx - 1e-9 => cy,
-        _ => h,
-    };
-    for &x in &north[1..north.len() - 1] {
-        p.wall((x, hall_top), (x, top_from(x)));
-    }
-    // bedrooms: wardrobes in corners, by chance
-    for r in north.windows(2) {
-        let top = top_from(r[0]);
-        if rng.chance(0.45) && r[1] - r[0] > 2.4 {
-            let (len, depth) = (rng.range(1.0, (r[1] - r[0] - 1.2).min(2.2)), rng.range(0.55, 0.7));
-            let (x0, x1) = if rng.chance(0.5) { (r[0], r[0] + len) } else { (r[1] - len, r[1]) };
-            let inner = if x0 == r[0] { x1 } else { x0 };
-            p.wall((x0, top - depth), (x1, top - depth));
-            p.wall((inner, top - depth), (inner, top));
-        }
-    }
-    // a shower box in the narrowest north room
-    if let Some(r) = north.windows(2).min_by(|a, b| (a[1] - a[0]).total_cmp(&(b[1] - b[0]))) {
-        if rng.chance(0.7) {
-            let top = top_from(r[0]);
-            let s = rng.range(0.8, 1.0);
-            p.wall((r[0], top - s), (r[0] + s, top - s));
-            p.wall((r[0] + s, top - s), (r[0] + s, top));
-        }
-    }
-    // a chimney breast on the west wall of the first day room
-    if rng.chance(0.5) && hall_y > 3.0 {
-        let (y0, depth) = (rng.range(0.8, hall_y - 2.0), rng.range(0.35, 0.6));
-        let y1 = y0 + rng.range(0.9, 1.4);
-        p.wall((0.0, y0), (depth, y0));
-        p.wall((depth, y0), (depth, y1));
-        p.wall((depth, y1), (0.0, y1));
-    }
-    // the kitchen: the last day room, with an island or a counter
-    let (kx0, kx1) = (south[south.len() - 2], south_end.min(south[south.len() - 1]));
-    if kx1 - kx0 > 3.2 && hall_y > 3.2 && rng.chance(0.5) {
-        let size = (rng.range(1.2, 2.0), rng.range(0.7, 1.0));
-        p.block(((kx0 + kx1) / 2.0 + rng.range(-0.3, 0.3), hall_y / 2.0 + rng.range(-0.3, 0.3)), size, 0.0);
-    } else if kx1 - kx0 > 2.0 {
-        let (len, depth) = (rng.range(1.5, (hall_y - 0.6).min(3.0)), rng.range(0.55, 0.65));
-        let x = kx0 + depth;
-        p.wall((kx0, len), (x, len));
-        p.wall((x, len), (x, 0.0));
-    }
+    // every part draws from `rng` in turn: their order fixes the flat a seed gives
+    let f = Flat::draw(&mut rng);
+    f.outline(&mut p, &mut rng);
+    f.rooms(&mut p, &mut rng);
+    f.fittings(&mut p, &mut rng);
     p.done()
+}
+
+/// A [`flat`]'s layout: its size, the hall, the rooms on each side of it and the outline's
+/// departures from a rectangle.
+struct Flat {
+    w: f64,
+    h: f64,
+    /// The hall's south and north walls.
+    hall_y: f64,
+    hall_top: f64,
+    /// The x of the walls between the day rooms (south of the hall) and between the bedrooms
+    /// (north), from 0 to `w`.
+    south: Vec<f64>,
+    north: Vec<f64>,
+    /// An L-shaped outline: the north-east room ends at (x, y), short of the north wall.
+    cut: Option<(f64, f64)>,
+    /// A cut corner at the entry (south-east), this long on each side.
+    chamfer: Option<f64>,
+}
+
+impl Flat {
+    fn draw(rng: &mut Rng) -> Flat {
+        let (w, h) = (rng.range(9.0, 15.0), rng.range(7.0, 11.0));
+        let hall_y = rng.range(0.38, 0.52) * h;
+        let hall_top = hall_y + rng.range(1.1, 1.6);
+        // rooms along each side of the hall, as the x of the walls between them
+        let bounds = |rng: &mut Rng, lo: f64, hi: f64| {
+            let mut xs = vec![0.0];
+            for width in partition(rng, w, lo, hi) {
+                xs.push(xs[xs.len() - 1] + width);
+            }
+            xs
+        };
+        let south = bounds(rng, 3.0, 6.0);
+        let north = bounds(rng, 2.3, 4.5);
+        let cut = (north.len() > 3 && h - hall_top > 3.6 && rng.chance(0.5))
+            .then(|| (north[north.len() - 2], h - rng.range(1.0, (h - hall_top - 2.4).min(2.2))));
+        let chamfer = rng.chance(0.4).then(|| rng.range(0.8, 1.5));
+        Flat { w, h, hall_y, hall_top, south, north, cut, chamfer }
+    }
+
+    /// Where the south wall ends: at the chamfer, if any.
+    fn south_end(&self) -> f64 {
+        self.w - self.chamfer.unwrap_or(0.0)
+    }
+
+    /// The north wall of the rooms from `x` on: short of the outline's at the L's cut.
+    fn top_from(&self, x: f64) -> f64 {
+        match self.cut {
+            Some((cx, cy)) if x >= cx - 1e-9 => cy,
+            _ => self.h,
+        }
+    }
+
+    /// The outer walls: the south wall (with a bay window in the first day room by chance),
+    /// the chamfer, the east wall with the entry door at the hall, the L's cut, north and west.
+    fn outline(&self, p: &mut Plan, rng: &mut Rng) {
+        let (w, h) = (self.w, self.h);
+        let first_room = self.south[1];
+        let bay = (first_room > 3.2 && rng.chance(0.6)).then(|| {
+            let (bw, depth) = (rng.range(1.8, (first_room - 1.0).min(3.0)), rng.range(0.5, 0.9));
+            let bx = rng.range(0.5, first_room - bw - 0.5);
+            (bx, bw, depth)
+        });
+        let south_end = self.south_end();
+        match bay {
+            Some((bx, bw, depth)) => {
+                let slope = rng.range(0.4, 0.9);
+                p.wall((0.0, 0.0), (bx, 0.0));
+                p.wall((bx, 0.0), (bx + slope * depth, -depth));
+                p.wall((bx + slope * depth, -depth), (bx + bw - slope * depth, -depth));
+                p.wall((bx + bw - slope * depth, -depth), (bx + bw, 0.0));
+                p.wall((bx + bw, 0.0), (south_end, 0.0));
+            }
+            None => p.wall((0.0, 0.0), (south_end, 0.0)),
+        }
+        if let Some(c) = self.chamfer {
+            p.wall((south_end, 0.0), (w, c));
+        }
+        let east_from = self.chamfer.unwrap_or(0.0);
+        let east_to = self.cut.map_or(h, |(_, cy)| cy);
+        let entry = (self.hall_y - east_from + 0.15, self.hall_top - self.hall_y - 0.3);
+        p.wall_with_doors((w, east_from), (w, east_to), &[entry]);
+        if let Some((cx, cy)) = self.cut {
+            p.wall((w, cy), (cx, cy));
+            p.wall((cx, cy), (cx, h));
+        }
+        let north_end = self.cut.map_or(w, |(cx, _)| cx);
+        p.wall((north_end, h), (0.0, h));
+        p.wall((0.0, h), (0.0, 0.0));
+    }
+
+    /// The hall's walls with each room's door (the first day room opens wide), and the walls
+    /// between rooms; day rooms open into each other by chance.
+    fn rooms(&self, p: &mut Plan, rng: &mut Rng) {
+        let doors = |rng: &mut Rng, xs: &[f64], wide: bool| {
+            xs.windows(2)
+                .enumerate()
+                .map(|(k, r)| {
+                    let width = if wide && k == 0 { rng.range(1.6, (r[1] - r[0] - 0.8).max(1.7)) } else { 0.85 };
+                    (rng.range(r[0] + 0.3, (r[1] - width - 0.3).max(r[0] + 0.35)), width)
+                })
+                .collect::<Vec<_>>()
+        };
+        let (w, hall_y) = (self.w, self.hall_y);
+        let d = doors(rng, &self.south, true);
+        p.wall_with_doors((0.0, hall_y), (w, hall_y), &d);
+        let d = doors(rng, &self.north, false);
+        p.wall_with_doors((0.0, self.hall_top), (w, self.hall_top), &d);
+        for &x in &self.south[1..self.south.len() - 1] {
+            if rng.chance(0.4) {
+                let gap = rng.range(1.2, (hall_y - 1.4).max(1.3));
+                p.wall_with_doors((x, 0.0), (x, hall_y), &[(rng.range(0.3, (hall_y - gap - 0.3).max(0.35)), gap)]);
+            } else {
+                p.wall((x, 0.0), (x, hall_y));
+            }
+        }
+        for &x in &self.north[1..self.north.len() - 1] {
+            p.wall((x, self.hall_top), (x, self.top_from(x)));
+        }
+    }
+
+    /// Each by chance: wardrobes in bedroom corners, a shower box in the narrowest north room,
+    /// a chimney breast on the west wall of the first day room, and a kitchen island or
+    /// counter in the last day room.
+    fn fittings(&self, p: &mut Plan, rng: &mut Rng) {
+        for r in self.north.windows(2) {
+            let top = self.top_from(r[0]);
+            if rng.chance(0.45) && r[1] - r[0] > 2.4 {
+                let (len, depth) = (rng.range(1.0, (r[1] - r[0] - 1.2).min(2.2)), rng.range(0.55, 0.7));
+                let (x0, x1) = if rng.chance(0.5) { (r[0], r[0] + len) } else { (r[1] - len, r[1]) };
+                let inner = if x0 == r[0] { x1 } else { x0 };
+                p.wall((x0, top - depth), (x1, top - depth));
+                p.wall((inner, top - depth), (inner, top));
+            }
+        }
+        if let Some(r) = self.north.windows(2).min_by(|a, b| (a[1] - a[0]).total_cmp(&(b[1] - b[0]))) {
+            if rng.chance(0.7) {
+                let top = self.top_from(r[0]);
+                let s = rng.range(0.8, 1.0);
+                p.wall((r[0], top - s), (r[0] + s, top - s));
+                p.wall((r[0] + s, top - s), (r[0] + s, top));
+            }
+        }
+        let hall_y = self.hall_y;
+        if rng.chance(0.5) && hall_y > 3.0 {
+            let (y0, depth) = (rng.range(0.8, hall_y - 2.0), rng.range(0.35, 0.6));
+            let y1 = y0 + rng.range(0.9, 1.4);
+            p.wall((0.0, y0), (depth, y0));
+            p.wall((depth, y0), (depth, y1));
+            p.wall((depth, y1), (0.0, y1));
+        }
+        let south = &self.south;
+        let (kx0, kx1) = (south[south.len() - 2], self.south_end().min(south[south.len() - 1]));
+        if kx1 - kx0 > 3.2 && hall_y > 3.2 && rng.chance(0.5) {
+            let size = (rng.range(1.2, 2.0), rng.range(0.7, 1.0));
+            p.block(((kx0 + kx1) / 2.0 + rng.range(-0.3, 0.3), hall_y / 2.0 + rng.range(-0.3, 0.3)), size, 0.0);
+        } else if kx1 - kx0 > 2.0 {
+            let (len, depth) = (rng.range(1.5, (hall_y - 0.6).min(3.0)), rng.range(0.55, 0.65));
+            let x = kx0 + depth;
+            p.wall((kx0, len), (x, len));
+            p.wall((x, len), (x, 0.0));
+        }
+    }
 }
 
 /// A 34 x 22 m hall: racks of different lengths in staggered rows, pillars, three loading docks
