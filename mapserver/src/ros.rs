@@ -78,19 +78,9 @@ pub struct OccupancyGrid {
 impl MapMeta {
     /// Parses the YAML text of a map_server map; `path` names it in errors.
     pub fn parse(text: &str, path: &Path) -> Result<Self, RosMapError> {
-        let (mut image, mut resolution, mut origin) = (None, None, None);
-        let mut meta = MapMeta {
-            image: PathBuf::new(),
-            resolution: 0.0,
-            origin: [0.0; 3],
-            negate: false,
-            occupied_thresh: 0.65,
-            free_thresh: 0.196,
-            mode: Mode::Trinary,
-        };
+        let mut fields = MetaFields::default();
         for (k, raw) in text.lines().enumerate() {
-            let line = k + 1;
-            let err = |message: String| RosMapError::Yaml { path: path.to_owned(), line, message };
+            let err = |message: String| RosMapError::Yaml { path: path.to_owned(), line: k + 1, message };
             let content = strip_comment(raw).trim();
             if content.is_empty() || content == "---" {
                 continue;
@@ -98,80 +88,9 @@ impl MapMeta {
             let Some((key, value)) = content.split_once(':') else {
                 return Err(err(format!("expected `key: value`, found {content:?}")));
             };
-            let (key, value) = (key.trim(), unquote(value.trim()));
-            let number = |what: &str| -> Result<f64, RosMapError> {
-                value
-                    .parse::<f64>()
-                    .ok()
-                    .filter(|v| v.is_finite())
-                    .ok_or_else(|| err(format!("{what} must be a number, found {value:?}")))
-            };
-            match key {
-                "image" if value.is_empty() => return Err(err("image names no file".into())),
-                "image" => image = Some(PathBuf::from(value)),
-                "resolution" => {
-                    let r = number("resolution")?;
-                    if r <= 0.0 {
-                        return Err(err(format!("resolution must be a positive number of metres, found {r}")));
-                    }
-                    resolution = Some(r);
-                }
-                "origin" => {
-                    let inner = value.strip_prefix('[').and_then(|v| v.strip_suffix(']'));
-                    let nums: Option<Vec<f64>> = inner.map(|v| {
-                        v.split(',').filter_map(|t| t.trim().parse::<f64>().ok().filter(|x| x.is_finite())).collect()
-                    });
-                    match nums {
-                        Some(n) if n.len() == 3 && inner.is_some_and(|v| v.split(',').count() == 3) => {
-                            origin = Some([n[0], n[1], n[2]])
-                        }
-                        _ => return Err(err(format!("origin must be [x, y, yaw], three numbers, found {value:?}"))),
-                    }
-                }
-                "negate" => {
-                    meta.negate = match value {
-                        "0" | "false" | "False" => false,
-                        "1" | "true" | "True" => true,
-                        _ => return Err(err(format!("negate must be 0 or 1, found {value:?}"))),
-                    }
-                }
-                "occupied_thresh" | "free_thresh" => {
-                    let t = number(key)?;
-                    if !(0.0..=1.0).contains(&t) {
-                        return Err(err(format!("{key} must lie in [0, 1], found {t}")));
-                    }
-                    if key == "free_thresh" {
-                        meta.free_thresh = t;
-                    } else {
-                        meta.occupied_thresh = t;
-                    }
-                }
-                "mode" => {
-                    meta.mode = match value {
-                        "trinary" => Mode::Trinary,
-                        "scale" => Mode::Scale,
-                        "raw" => Mode::Raw,
-                        _ => return Err(err(format!("mode must be trinary, scale or raw, found {value:?}"))),
-                    }
-                }
-                // other keys (a map's name, slam_toolbox's extras) say nothing about the grid
-                _ => {}
-            }
+            fields.take(key.trim(), unquote(value.trim())).map_err(err)?;
         }
-        let missing = |key: &str| RosMapError::Meta { path: path.to_owned(), message: format!("no `{key}:`") };
-        meta.image = image.ok_or_else(|| missing("image"))?;
-        meta.resolution = resolution.ok_or_else(|| missing("resolution"))?;
-        meta.origin = origin.ok_or_else(|| missing("origin"))?;
-        if meta.free_thresh > meta.occupied_thresh {
-            return Err(RosMapError::Meta {
-                path: path.to_owned(),
-                message: format!(
-                    "free_thresh {} is above occupied_thresh {}: no value could be free",
-                    meta.free_thresh, meta.occupied_thresh
-                ),
-            });
-        }
-        Ok(meta)
+        fields.finish(path)
     }
 
     /// The image's path, relative to the folder of the YAML file at `yaml` unless absolute.
@@ -203,6 +122,108 @@ impl MapMeta {
             Cell::Unknown
         }
     }
+}
+
+/// The keys of a map_server YAML read so far; [`MetaFields::finish`] makes the [`MapMeta`].
+#[derive(Default)]
+struct MetaFields {
+    image: Option<PathBuf>,
+    resolution: Option<f64>,
+    origin: Option<[f64; 3]>,
+    negate: Option<bool>,
+    occupied_thresh: Option<f64>,
+    free_thresh: Option<f64>,
+    mode: Option<Mode>,
+}
+
+impl MetaFields {
+    /// Takes one `key: value` line; the error says what is wrong with the value.
+    fn take(&mut self, key: &str, value: &str) -> Result<(), String> {
+        let number = |what: &str| -> Result<f64, String> {
+            value
+                .parse::<f64>()
+                .ok()
+                .filter(|v| v.is_finite())
+                .ok_or_else(|| format!("{what} must be a number, found {value:?}"))
+        };
+        match key {
+            "image" if value.is_empty() => return Err("image names no file".into()),
+            "image" => self.image = Some(PathBuf::from(value)),
+            "resolution" => {
+                let r = number("resolution")?;
+                if r <= 0.0 {
+                    return Err(format!("resolution must be a positive number of metres, found {r}"));
+                }
+                self.resolution = Some(r);
+            }
+            "origin" => {
+                let origin = parse_origin(value);
+                self.origin =
+                    Some(origin.ok_or_else(|| format!("origin must be [x, y, yaw], three numbers, found {value:?}"))?);
+            }
+            "negate" => {
+                self.negate = Some(match value {
+                    "0" | "false" | "False" => false,
+                    "1" | "true" | "True" => true,
+                    _ => return Err(format!("negate must be 0 or 1, found {value:?}")),
+                })
+            }
+            "occupied_thresh" | "free_thresh" => {
+                let t = number(key)?;
+                if !(0.0..=1.0).contains(&t) {
+                    return Err(format!("{key} must lie in [0, 1], found {t}"));
+                }
+                if key == "free_thresh" {
+                    self.free_thresh = Some(t);
+                } else {
+                    self.occupied_thresh = Some(t);
+                }
+            }
+            "mode" => {
+                self.mode = Some(match value {
+                    "trinary" => Mode::Trinary,
+                    "scale" => Mode::Scale,
+                    "raw" => Mode::Raw,
+                    _ => return Err(format!("mode must be trinary, scale or raw, found {value:?}")),
+                })
+            }
+            // other keys (a map's name, slam_toolbox's extras) say nothing about the grid
+            _ => {}
+        }
+        Ok(())
+    }
+
+    /// The map's description: `image`, `resolution` and `origin` must have been given; the
+    /// rest default as map_server's do.
+    fn finish(self, path: &Path) -> Result<MapMeta, RosMapError> {
+        let meta_err = |message: String| RosMapError::Meta { path: path.to_owned(), message };
+        let missing = |key: &str| meta_err(format!("no `{key}:`"));
+        let meta = MapMeta {
+            image: self.image.ok_or_else(|| missing("image"))?,
+            resolution: self.resolution.ok_or_else(|| missing("resolution"))?,
+            origin: self.origin.ok_or_else(|| missing("origin"))?,
+            negate: self.negate.unwrap_or(false),
+            occupied_thresh: self.occupied_thresh.unwrap_or(0.65),
+            free_thresh: self.free_thresh.unwrap_or(0.196),
+            mode: self.mode.unwrap_or(Mode::Trinary),
+        };
+        if meta.free_thresh > meta.occupied_thresh {
+            return Err(meta_err(format!(
+                "free_thresh {} is above occupied_thresh {}: no value could be free",
+                meta.free_thresh, meta.occupied_thresh
+            )));
+        }
+        Ok(meta)
+    }
+}
+
+/// `[x, y, yaw]`: exactly three finite numbers in brackets.
+fn parse_origin(value: &str) -> Option<[f64; 3]> {
+    let inner = value.strip_prefix('[')?.strip_suffix(']')?;
+    let parts: Vec<&str> = inner.split(',').collect();
+    let [x, y, yaw] = parts.as_slice() else { return None };
+    let num = |t: &str| t.trim().parse::<f64>().ok().filter(|v| v.is_finite());
+    Some([num(x)?, num(y)?, num(yaw)?])
 }
 
 /// `line` without a `#` comment (a `#` at the start or after a space, outside quotes).
