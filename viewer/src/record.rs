@@ -7,8 +7,8 @@ use laser::ScanGeometry;
 use mapserver::wire::map_from_msg;
 use mapserver::{CornerIndex, MapCornerConfig, SeenFree};
 use messages::{
-    CornersMsg, Freshness, Header, LinesMsg, MapMsg, PoseMsg, PoseMsgXyt, ScanMsg, Stage, StageSpan, Topic, MAX_BEAMS,
-    MAX_CORNERS, MAX_HYPOTHESES, MAX_LINES, STATUS_AMBIGUOUS, STATUS_FAILED, STATUS_OK,
+    CornersMsg, Freshness, Header, HypothesisMsg, LinesMsg, MapMsg, PoseMsg, PoseMsgXyt, ScanMsg, Stage, StageSpan,
+    Topic, MAX_BEAMS, MAX_CORNERS, MAX_HYPOTHESES, MAX_LINES, STATUS_AMBIGUOUS, STATUS_FAILED, STATUS_OK,
 };
 use rerun::components::TextLogLevel;
 use rerun::datatypes::Rgba32;
@@ -400,7 +400,24 @@ impl Recorder {
         }
         self.at(h);
         let n = (m.count as usize).min(MAX_HYPOTHESES);
-        let hyps = &m.hypotheses[..n];
+        let placed = self.pose_geometry(m, &m.hypotheses[..n])?;
+        self.pose_metrics(m, m.hypotheses[..n].first())?;
+        if self.last_status != Some(m.status) {
+            self.status_changed(m, n)?;
+        }
+        self.counts.pose.recorded += 1;
+        // ~12 bytes per point or arrow, plus per-entity overhead
+        self.output.account(512 + 12 * (placed + 2 * n) as u64);
+        if self.output.roll_if_full()? {
+            self.log_map()?;
+        }
+        Ok(())
+    }
+
+    /// The world view of a pose message: the hypotheses as arrows labelled with their cost,
+    /// the best one in the status's colour with the scan's readings placed at it, and the scan
+    /// corner it came from. Returns how many readings were placed.
+    fn pose_geometry(&self, m: &PoseMsg, hyps: &[HypothesisMsg]) -> Result<usize, OutputError> {
         let (origins, vectors): (Vec<_>, Vec<_>) = hyps.iter().map(|h| arrow(&h.pose)).unzip();
         let rec = self.rec();
         rec.log(
@@ -416,9 +433,8 @@ impl Recorder {
             STATUS_AMBIGUOUS => AMBIGUOUS_COLOUR,
             _ => FAILED_COLOUR,
         };
-        let best = hyps.first();
-        let kept = self.kept.iter().rev().find(|k| k.seq == h.seq);
-        let (pose_arrow, placed, chosen): (Vec<_>, Vec<[f32; 2]>, Vec<[f32; 2]>) = match best {
+        let kept = self.kept.iter().rev().find(|k| k.seq == m.header.seq);
+        let (pose_arrow, placed, chosen): (Vec<_>, Vec<[f32; 2]>, Vec<[f32; 2]>) = match hyps.first() {
             Some(b) => {
                 let (c, s) = (b.pose.theta.cos() as f32, b.pose.theta.sin() as f32);
                 let (x, y) = (b.pose.x as f32, b.pose.y as f32);
@@ -438,7 +454,13 @@ impl Recorder {
             .map_err(stream_err)?;
         rec.log(SCAN_CHOSEN_CORNER, &Points2D::new(chosen).with_colors([colour]).with_radii([0.12]))
             .map_err(stream_err)?;
-        rec.log(METRICS_STATUS, &Scalars::single(m.status as f64)).map_err(stream_err)?;
+        Ok(placed_len)
+    }
+
+    /// A pose message's scalars: its status, its error and success against the truth when the
+    /// scan has one, and the localize stage's latencies.
+    fn pose_metrics(&self, m: &PoseMsg, best: Option<&HypothesisMsg>) -> Result<(), OutputError> {
+        self.rec().log(METRICS_STATUS, &Scalars::single(m.status as f64)).map_err(stream_err)?;
         if m.has_truth != 0 {
             // as `gema2 locate` counts it: a scan without a pose is a miss
             let error = best.map(|b| (b.pose.x - m.truth.x).hypot(b.pose.y - m.truth.y));
@@ -449,39 +471,38 @@ impl Recorder {
             self.scalar(METRICS_POSITION_ERROR, error)?;
             self.scalar(METRICS_SUCCESS, Some(if success { 1.0 } else { 0.0 }))?;
         }
+        let h = &m.header;
         let st = &h.stages;
         self.scalar(&latency("localize"), span_us(&st[Stage::Localize as usize]))?;
         self.scalar(
             &latency("hop/corners"),
             between_us(st[Stage::Segment as usize].leave_ns, st[Stage::Localize as usize].enter_ns),
         )?;
-        self.scalar(&latency("end_to_end"), between_us(h.stamp_ns, st[Stage::Localize as usize].leave_ns))?;
-        if self.last_status != Some(m.status) {
-            let level = match m.status {
-                STATUS_OK => TextLogLevel::INFO,
-                STATUS_AMBIGUOUS => TextLogLevel::WARN,
-                _ => TextLogLevel::ERROR,
-            };
-            let was = self.last_status.map(status_name).unwrap_or("none");
-            self.log_text(
-                level,
-                format!(
-                    "scan {}: status {} (was {was}), {} hypotheses from {} candidates, by {}",
-                    h.seq,
-                    status_name(m.status),
-                    n,
-                    m.candidates,
-                    h.producer()
-                ),
-            )?;
-            self.last_status = Some(m.status);
-        }
-        self.counts.pose.recorded += 1;
-        // ~12 bytes per point or arrow, plus per-entity overhead
-        self.output.account(512 + 12 * (placed_len + 2 * n) as u64);
-        if self.output.roll_if_full()? {
-            self.log_map()?;
-        }
+        self.scalar(&latency("end_to_end"), between_us(h.stamp_ns, st[Stage::Localize as usize].leave_ns))
+    }
+
+    /// A text entry when the status differs from the last pose's: a timeline of when the
+    /// localizer lost and regained its answer. `n`: the hypotheses the message holds.
+    fn status_changed(&mut self, m: &PoseMsg, n: usize) -> Result<(), OutputError> {
+        let level = match m.status {
+            STATUS_OK => TextLogLevel::INFO,
+            STATUS_AMBIGUOUS => TextLogLevel::WARN,
+            _ => TextLogLevel::ERROR,
+        };
+        let was = self.last_status.map(status_name).unwrap_or("none");
+        let h = &m.header;
+        self.log_text(
+            level,
+            format!(
+                "scan {}: status {} (was {was}), {} hypotheses from {} candidates, by {}",
+                h.seq,
+                status_name(m.status),
+                n,
+                m.candidates,
+                h.producer()
+            ),
+        )?;
+        self.last_status = Some(m.status);
         Ok(())
     }
 
