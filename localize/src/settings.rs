@@ -9,6 +9,7 @@ use segment::{SegmenterConfig, Setting, SettingError};
 impl LocalizerConfig {
     /// The keys [`set`](Self::set) knows.
     pub const SETTINGS: &'static [&'static str] = &[
+        "thorough (1: widen every search budget, for when time is no object)",
         "corners",
         "screen_points",
         "prescreen_step",
@@ -65,6 +66,11 @@ impl LocalizerConfig {
     /// names none.
     pub fn set(&mut self, s: &Setting<'_>) -> Result<bool, SettingError> {
         match s.key {
+            "thorough" => {
+                if s.switch() {
+                    *self = self.thorough();
+                }
+            }
             "corners" => self.corners_tried = s.count()?,
             "screen_points" => self.screen_points = s.count()?,
             "prescreen_step" => self.prescreen_step = s.step()?,
@@ -215,6 +221,22 @@ mod tests {
         assert_eq!(format!("{c:?}"), before);
         c.apply(&["track=0", "grazing_cap=1", "min_inliers=0", "max_through_ok=1"]).unwrap();
         assert_eq!(c.localizer.track_radius, None);
+    }
+
+    #[test]
+    fn thorough_widens_the_search_and_later_settings_still_apply() {
+        let (plain, mut c) = (Gema2Config::default(), Gema2Config::default());
+        c.apply(&["thorough=1", "refined=30"]).unwrap();
+        let (t, p) = (&c.localizer, &plain.localizer);
+        assert!(t.prescreened > p.prescreened && t.sparse_kept > p.sparse_kept);
+        assert!(t.slide.lines > p.slide.lines && t.slide.min_length < p.slide.min_length);
+        assert!(t.slide.max_poses > p.slide.max_poses && t.slide.screened > p.slide.screened);
+        assert_eq!(t.refined, 30);
+        // thresholds and the cost are left as they were
+        assert_eq!((t.cost, t.max_through_ok, t.min_inliers), (p.cost, p.max_through_ok, p.min_inliers));
+        let mut off = Gema2Config::default();
+        off.apply(&["thorough=0"]).unwrap();
+        assert_eq!(format!("{off:?}"), format!("{plain:?}"));
     }
 
     #[test]
