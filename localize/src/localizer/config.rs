@@ -221,6 +221,10 @@ impl LocalizerConfig {
     /// warehouse 70.3 -> 75.0 %, the office 90.7 -> 93.0 %. Scans the first look settles cost
     /// the same; the rest cost up to a hundred times more: p99 about 80 ms on the furnished warehouse,
     /// 0.43 s on the furnished office (one core here), against 3-4 and 4-8 ms.
+    ///
+    /// It is better per log, not per scan: a wider search also finds wrong poses that eq. 7
+    /// rates above the truth. On 200 other furnished warehouse scans (simulator seeds 5-9, 40
+    /// each) it turned 5 misses into successes and 4 successes into misses.
     pub fn thorough(self) -> Self {
         LocalizerConfig {
             prescreened: 100_000,
