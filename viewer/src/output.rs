@@ -29,6 +29,13 @@ pub enum OutputError {
     Stream(String),
 }
 
+impl OutputError {
+    /// A failure of the rerun stream (logging, flushing), as `map_err` takes it.
+    pub fn stream(e: impl std::fmt::Display) -> Self {
+        OutputError::Stream(e.to_string())
+    }
+}
+
 /// What to record to.
 #[derive(Clone, Debug, Default)]
 pub struct OutputSpec {
@@ -170,10 +177,10 @@ impl Output {
         let stream = RecordingStreamBuilder::new(APPLICATION_ID)
             .recording_id(recording_id)
             .set_sinks(sinks)
-            .map_err(|e| OutputError::Stream(e.to_string()))?;
+            .map_err(OutputError::stream)?;
         layout()
             .send(&stream, BlueprintActivation { make_active: true, make_default: true })
-            .map_err(|e| OutputError::Stream(e.to_string()))?;
+            .map_err(OutputError::stream)?;
         Ok(stream)
     }
 
@@ -200,7 +207,7 @@ impl Output {
         if self.measured + self.logged_since < max {
             return Ok(false);
         }
-        self.stream.flush_with_timeout(CLOSE_WAIT).map_err(|e| OutputError::Stream(e.to_string()))?;
+        self.stream.flush_with_timeout(CLOSE_WAIT).map_err(OutputError::stream)?;
         let current = part_path(file, self.part);
         self.measured = std::fs::metadata(&current).map(|m| m.len()).unwrap_or(0);
         self.logged_since = 0;
@@ -210,7 +217,7 @@ impl Output {
         let next =
             Self::stream_for(&self.spec, self.live_url.as_deref(), &self.live, &self.recording_id, self.part + 1)?;
         let previous = std::mem::replace(&mut self.stream, next);
-        previous.flush_with_timeout(CLOSE_WAIT).map_err(|e| OutputError::Stream(e.to_string()))?;
+        previous.flush_with_timeout(CLOSE_WAIT).map_err(OutputError::stream)?;
         drop(previous);
         self.part += 1;
         self.parts.push(part_path(file, self.part));
@@ -222,7 +229,7 @@ impl Output {
     /// every sink took everything. The files are whole even when the live viewer got nothing
     /// (one that never answered, or went away): its sink never holds them back.
     pub fn close(self) -> (Vec<PathBuf>, Result<(), OutputError>) {
-        let mut closed = self.stream.flush_with_timeout(CLOSE_WAIT).map_err(|e| OutputError::Stream(e.to_string()));
+        let mut closed = self.stream.flush_with_timeout(CLOSE_WAIT).map_err(OutputError::stream);
         drop(self.stream);
         if let (Ok(()), Some(url), Some(why)) = (&closed, &self.live_url, self.live.shortfall()) {
             closed = Err(OutputError::Live { url: url.clone(), message: why });

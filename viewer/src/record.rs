@@ -210,12 +210,12 @@ impl Recorder {
     }
 
     fn log_text(&self, level: &str, text: String) -> Result<(), OutputError> {
-        self.rec().log(LOG, &TextLog::new(text).with_level(level)).map_err(stream_err)
+        self.rec().log(LOG, &TextLog::new(text).with_level(level)).map_err(OutputError::stream)
     }
 
     fn scalar(&self, path: &str, value: Option<f64>) -> Result<(), OutputError> {
         match value {
-            Some(v) => self.rec().log(path, &Scalars::single(v)).map_err(stream_err),
+            Some(v) => self.rec().log(path, &Scalars::single(v)).map_err(OutputError::stream),
             None => Ok(()),
         }
     }
@@ -251,7 +251,7 @@ impl Recorder {
         let seen_free = walls.seen_free.as_ref().map(seen_free_image);
         if seen_free.is_none() && self.map_static.as_ref().is_some_and(|m| m.seen_free.is_some()) {
             // the previous version's free space is not this one's
-            self.rec().log_static(MAP_SEEN_FREE, &rerun::Clear::flat()).map_err(stream_err)?;
+            self.rec().log_static(MAP_SEEN_FREE, &rerun::Clear::flat()).map_err(OutputError::stream)?;
         }
         self.map_static = Some(MapStatic { walls: strips, corners: points, seen_free });
         self.log_map()
@@ -259,12 +259,12 @@ impl Recorder {
 
     fn log_map(&self) -> Result<(), OutputError> {
         if let Some(m) = &self.map_static {
-            self.rec().log_static(MAP_WALLS, &m.walls).map_err(stream_err)?;
-            self.rec().log_static(MAP_CORNERS, &m.corners).map_err(stream_err)?;
+            self.rec().log_static(MAP_WALLS, &m.walls).map_err(OutputError::stream)?;
+            self.rec().log_static(MAP_CORNERS, &m.corners).map_err(OutputError::stream)?;
             if let Some((image, place)) = &m.seen_free {
                 self.rec()
                     .log_static(MAP_SEEN_FREE, &[image as &dyn rerun::AsComponents, place])
-                    .map_err(stream_err)?;
+                    .map_err(OutputError::stream)?;
             }
         }
         Ok(())
@@ -301,11 +301,12 @@ impl Recorder {
             }
         }
         let rec = self.rec();
-        rec.log(SCAN_READINGS, &Points2D::new(kept.points.iter().copied()).with_radii([0.015])).map_err(stream_err)?;
+        rec.log(SCAN_READINGS, &Points2D::new(kept.points.iter().copied()).with_radii([0.015]))
+            .map_err(OutputError::stream)?;
         if m.has_truth != 0 {
             let (origin, vector) = arrow(&m.truth);
             rec.log(WORLD_TRUTH, &Arrows2D::from_vectors([vector]).with_origins([origin]).with_colors([TRUTH_COLOUR]))
-                .map_err(stream_err)?;
+                .map_err(OutputError::stream)?;
         }
         self.scalar(&latency("acquire"), span_us(&m.header.stages[Stage::Acquire as usize]))?;
         self.output.account(512 + 8 * kept.points.len() as u64);
@@ -331,7 +332,7 @@ impl Recorder {
         )
         .with_labels(lines.iter().map(|l| l.samples.to_string()))
         .with_radii([0.02]);
-        self.rec().log(SCAN_LINES, &strips).map_err(stream_err)?;
+        self.rec().log(SCAN_LINES, &strips).map_err(OutputError::stream)?;
         let h = &m.header;
         self.scalar(&latency("segment"), span_us(&h.stages[Stage::Segment as usize]))?;
         self.scalar(
@@ -360,7 +361,7 @@ impl Recorder {
                     .with_labels(corners.iter().map(|c| format!("{:.0}°", c.inner_angle.to_degrees())))
                     .with_radii([0.05]),
             )
-            .map_err(stream_err)?;
+            .map_err(OutputError::stream)?;
         self.scalar(METRICS_NOISE_SCALE, Some(m.noise_scale.max(1.0)).filter(|v| v.is_finite()))?;
         self.output.account(512 + 16 * n as u64);
         // kept for the pose even if the scan is recorded after them: the stages run while a
@@ -427,7 +428,7 @@ impl Recorder {
                 .with_labels(hyps.iter().map(|h| format!("{:.4}", h.cost)))
                 .with_colors([HYPOTHESIS_COLOUR]),
         )
-        .map_err(stream_err)?;
+        .map_err(OutputError::stream)?;
         let colour = match m.status {
             STATUS_OK => OK_COLOUR,
             STATUS_AMBIGUOUS => AMBIGUOUS_COLOUR,
@@ -449,18 +450,18 @@ impl Recorder {
         let placed_len = placed.len();
         let (o, v): (Vec<_>, Vec<_>) = pose_arrow.into_iter().unzip();
         rec.log(WORLD_POSE, &Arrows2D::from_vectors(v).with_origins(o).with_colors([colour]).with_radii([0.05]))
-            .map_err(stream_err)?;
+            .map_err(OutputError::stream)?;
         rec.log(WORLD_READINGS, &Points2D::new(placed).with_colors([colour]).with_radii([0.015]))
-            .map_err(stream_err)?;
+            .map_err(OutputError::stream)?;
         rec.log(SCAN_CHOSEN_CORNER, &Points2D::new(chosen).with_colors([colour]).with_radii([0.12]))
-            .map_err(stream_err)?;
+            .map_err(OutputError::stream)?;
         Ok(placed_len)
     }
 
     /// A pose message's scalars: its status, its error and success against the truth when the
     /// scan has one, and the localize stage's latencies.
     fn pose_metrics(&self, m: &PoseMsg, best: Option<&HypothesisMsg>) -> Result<(), OutputError> {
-        self.rec().log(METRICS_STATUS, &Scalars::single(m.status as f64)).map_err(stream_err)?;
+        self.rec().log(METRICS_STATUS, &Scalars::single(m.status as f64)).map_err(OutputError::stream)?;
         if m.has_truth != 0 {
             // as `gema2 locate` counts it: a scan without a pose is a miss
             let error = best.map(|b| (b.pose.x - m.truth.x).hypot(b.pose.y - m.truth.y));
@@ -523,8 +524,4 @@ impl Recorder {
         let (parts, closed) = self.output.close();
         (self.counts, parts, closed)
     }
-}
-
-fn stream_err(e: impl std::fmt::Display) -> OutputError {
-    OutputError::Stream(e.to_string())
 }
