@@ -133,11 +133,7 @@ pub fn run(a: SegmentArgs) -> Result<()> {
 fn write_lines(m: &mut LinesMsg, header: Header, seg: &Segmentation) {
     m.header = header;
     m.raw_count = seg.raw_lines.len() as u32;
-    let n = seg.lines.len().min(MAX_LINES);
-    m.count = n as u32;
-    for (slot, l) in m.lines.iter_mut().zip(&seg.lines[..n]) {
-        *slot = line_to_msg(l);
-    }
+    m.count = write_line_msgs(&mut m.lines, seg);
     m.header.span(Stage::Segment).leave_ns = monotonic_ns();
 }
 
@@ -153,10 +149,16 @@ fn write_corners(m: &mut CornersMsg, scan: &ScanMsg, header: Header, seg: &Segme
     for (slot, c) in m.corners.iter_mut().zip(&seg.corners[..n]) {
         *slot = corner_to_msg(c);
     }
+    m.line_count = write_line_msgs(&mut m.lines, seg);
+    m.scan.header.span(Stage::Segment).leave_ns = monotonic_ns();
+}
+
+/// Writes the scan's lines into a message's line slots, as many as fit ([`MAX_LINES`]);
+/// returns how many.
+fn write_line_msgs(slots: &mut [messages::LineMsg; MAX_LINES], seg: &Segmentation) -> u32 {
     let n = seg.lines.len().min(MAX_LINES);
-    m.line_count = n as u32;
-    for (slot, l) in m.lines.iter_mut().zip(&seg.lines[..n]) {
+    for (slot, l) in slots.iter_mut().zip(&seg.lines[..n]) {
         *slot = line_to_msg(l);
     }
-    m.scan.header.span(Stage::Segment).leave_ns = monotonic_ns();
+    n as u32
 }
