@@ -197,7 +197,8 @@ fn apply_overrides(pipeline: &mut Pipeline, a: &RunArgs) -> Option<u64> {
         if let Some(size) = &a.max_size {
             args.extend(["--max-size".to_owned(), size.clone()]);
         }
-        // first, so it is subscribed before anything is published
+        // started first whatever its place (Kind::start_rank), so it is subscribed before
+        // anything is published; at the front, it is also listed first in the report
         pipeline.stages.insert(
             0,
             StageSpec {
