@@ -101,12 +101,15 @@ pub fn run(a: LocalizeArgs) -> Result<()> {
                 let enter = monotonic_ns();
                 drain.took_message();
                 let msg: &CornersMsg = &sample;
-                let Some((result, version)) = state.locate(msg) else { continue };
+                if !state.admit(msg) {
+                    continue;
+                }
                 // counted once per look: a busy stage keeps taking scans in one callback, wake-up or not
                 if !woken && !counted {
                     found_by_poll += 1;
                     counted = true;
                 }
+                let Some((result, version)) = state.locate(msg) else { continue };
                 let sent = pose_out.send(|p: &mut PoseMsg| write_pose(p, msg, result, version, enter));
                 if let Err(e) = sent {
                     failure = Some(anyhow!("localize: publishing pose {}: {e}", msg.scan.header.seq));
@@ -185,20 +188,28 @@ impl Located {
         }
     }
 
-    /// Locates the scan `msg` carries, with the version of the map it was located in; `None`
-    /// for a scan seen before (a resend, or a second segmenter during a hot swap), a scan
-    /// before any map, and a scan that cannot be read (reported).
-    fn locate(&mut self, msg: &CornersMsg) -> Option<(&Localization, u32)> {
+    /// Whether the scan `msg` carries is one to locate: not one seen before (a resend, or a
+    /// second segmenter during a hot swap), and not one before any map (counted, and said now
+    /// and then).
+    fn admit(&mut self, msg: &CornersMsg) -> bool {
         if !self.fresh.admit(&msg.scan.header) {
-            return None;
+            return false;
         }
-        let Some((loc, version)) = self.localizer.as_mut() else {
+        if self.localizer.is_none() {
             self.waiting_for_map += 1;
             if self.waiting_for_map == 1 || self.waiting_for_map.is_multiple_of(100) {
                 eprintln!("localize: no map yet, {} scans skipped", self.waiting_for_map);
             }
-            return None;
-        };
+            return false;
+        }
+        true
+    }
+
+    /// Locates the scan of an admitted `msg` ([`admit`](Self::admit)), with the version of the
+    /// map it was located in; `None` before any map, and for a scan that cannot be read
+    /// (reported).
+    fn locate(&mut self, msg: &CornersMsg) -> Option<(&Localization, u32)> {
+        let (loc, version) = self.localizer.as_mut()?;
         let view = match scan_view(&msg.scan) {
             Ok(v) => v,
             Err(e) => {
