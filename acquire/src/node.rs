@@ -209,13 +209,16 @@ pub fn run(a: AcquireArgs) -> Result<()> {
     let (mut scans, producer) = source(&a)?;
     let strategy =
         if period.is_none() { BackpressureStrategy::RetryUntilDelivered } else { BackpressureStrategy::DiscardData };
-    let mut scans_out = Outlet::<ScanMsg>::open(&node, &a.stage.prefix, Topic::Scan, strategy)?;
-    let mut carmen = carmen_out(&a)?;
+    let mut out = Publishing {
+        scans: Outlet::<ScanMsg>::open(&node, &a.stage.prefix, Topic::Scan, strategy)?,
+        carmen: carmen_out(&a)?,
+        producer,
+        thinned: false,
+    };
     let mut seq = a.first_seq;
     let mut skipped = 0u64;
     let mut next = monotonic_ns();
     let mut signalled = false;
-    let mut thinned = false;
     loop {
         if a.scans > 0 && seq - a.first_seq >= a.scans {
             break;
@@ -224,7 +227,7 @@ pub fn run(a: AcquireArgs) -> Result<()> {
         // after publishing (simulating or parsing the next scan) would hold up a consumer that
         // shares this core, and count as transport in the hop after this stage.
         let go_on = match period {
-            Some(p) => wait_for_turn(&node, &mut scans_out, &mut next, p, a.warm_up_us.saturating_mul(1000))?,
+            Some(p) => wait_for_turn(&node, &mut out.scans, &mut next, p, a.warm_up_us.saturating_mul(1000))?,
             None => !(messages::termination_requested(&node) || stop_requested()),
         };
         if !go_on {
@@ -242,29 +245,11 @@ pub fn run(a: AcquireArgs) -> Result<()> {
             }
             Some(Err(e)) => return Err(e.context("acquire: reading the source")),
         };
-        if let Some(w) = carmen.as_mut() {
-            crate::write_robotlaser1(w, &scan).context("acquire: writing --carmen-out")?;
-        }
-        let every = thinning(scan.ranges.len());
-        if every > 1 && !thinned {
-            thinned = true;
-            eprintln!(
-                "acquire: scans of {} beams keep one beam in {every} to fit a message of {MAX_BEAMS}",
-                scan.ranges.len()
-            );
-        }
-        scans_out
-            .send(|m: &mut ScanMsg| {
-                scan_to_msg(&scan, seq, enter, m);
-                m.header.span(Stage::Acquire).enter_ns = enter;
-                m.header.span(Stage::Acquire).leave_ns = monotonic_ns();
-                m.header.set_producer(producer);
-            })
-            .map_err(|e| anyhow!("{}: {e}", scans_out.name()))?;
+        out.publish(&scan, seq, enter)?;
         seq += 1;
     }
-    if let Some(mut w) = carmen {
-        std::io::Write::flush(&mut w).context("acquire: writing --carmen-out")?;
+    if let Some(w) = out.carmen.as_mut() {
+        std::io::Write::flush(w).context("acquire: writing --carmen-out")?;
     }
     eprintln!("acquire: published {} scans", seq - a.first_seq);
     if !signalled && !stop_requested() && seq > a.first_seq && a.linger > 0.0 {
@@ -274,10 +259,47 @@ pub fn run(a: AcquireArgs) -> Result<()> {
     if skipped > 0 {
         eprintln!("acquire: skipped {skipped} malformed log lines");
     }
-    if let Some(r) = scans_out.report() {
+    if let Some(r) = out.scans.report() {
         eprintln!("acquire: {r}");
     }
     Ok(())
+}
+
+/// Where the stage's scans go: the scan topic, and the `--carmen-out` log when given.
+struct Publishing {
+    scans: Outlet<ScanMsg>,
+    carmen: Option<std::io::BufWriter<std::fs::File>>,
+    /// The source, named in each scan's header.
+    producer: &'static str,
+    /// Whether the stage has said that it thins its scans' beams.
+    thinned: bool,
+}
+
+impl Publishing {
+    /// Writes `scan` to the log and publishes it as scan `seq`, acquired at `enter`.
+    fn publish(&mut self, scan: &LaserScan, seq: u64, enter: u64) -> Result<()> {
+        if let Some(w) = self.carmen.as_mut() {
+            crate::write_robotlaser1(w, scan).context("acquire: writing --carmen-out")?;
+        }
+        let every = thinning(scan.ranges.len());
+        if every > 1 && !self.thinned {
+            self.thinned = true;
+            eprintln!(
+                "acquire: scans of {} beams keep one beam in {every} to fit a message of {MAX_BEAMS}",
+                scan.ranges.len()
+            );
+        }
+        let producer = self.producer;
+        self.scans
+            .send(|m: &mut ScanMsg| {
+                scan_to_msg(scan, seq, enter, m);
+                m.header.span(Stage::Acquire).enter_ns = enter;
+                m.header.span(Stage::Acquire).leave_ns = monotonic_ns();
+                m.header.set_producer(producer);
+            })
+            .map(|_| ())
+            .map_err(|e| anyhow!("{}: {e}", self.scans.name()))
+    }
 }
 
 /// The time between published scans: `--rate` as a period, `None` for `max` and for a sensor,

@@ -11,8 +11,8 @@ use laser::{pose_theta, ScanView};
 use mapserver::wire::map_from_msg;
 use messages::iceoryx2::prelude::*;
 use messages::{
-    monotonic_ns, open_topic, CornersMsg, Freshness, HypothesisMsg, ListenerDrain, MapMsg, Outlet, PoseMsg, PoseMsgXyt,
-    Stage, Topic, MAX_HYPOTHESES, STATUS_AMBIGUOUS, STATUS_FAILED, STATUS_OK,
+    monotonic_ns, open_topic, CornersMsg, Freshness, HypothesisMsg, Look, MapMsg, Outlet, PoseMsg, PoseMsgXyt, Stage,
+    Topic, MAX_HYPOTHESES, STATUS_AMBIGUOUS, STATUS_FAILED, STATUS_OK,
 };
 use segment::noise::usable_scale;
 use segment::sample::build_samples;
@@ -69,17 +69,10 @@ pub fn run(a: LocalizeArgs) -> Result<()> {
 
     let mut state = Located::new(config);
     let mut failure: Option<anyhow::Error> = None;
-    let mut found_by_poll = 0u64;
     let on_event = |id: WaitSetAttachmentId<ipc::Service>| {
-        let woken = id.has_event_from(&woken_by_corners);
-        // two passes over both queues, the listeners drained in between
-        // (messages::ListenerDrain)
-        let mut drain = ListenerDrain::new([&map_wake, &corners_wake]);
-        let mut counted = false;
-        for pass in 0..2 {
-            if pass == 1 {
-                drain.once();
-            }
+        // both queues in each pass (messages::Look)
+        let mut look = Look::new([&map_wake, &corners_wake], id.has_event_from(&woken_by_corners));
+        while look.next_pass() {
             // the map: newest version wins
             while let Ok(Some(m)) = map_in.receive() {
                 // ready once there is a map to localize against
@@ -90,35 +83,19 @@ pub fn run(a: LocalizeArgs) -> Result<()> {
                 }
             }
             loop {
-                let sample = match corners_in.receive() {
-                    Ok(Some(s)) => s,
+                let taken = match look.receive(&corners_in) {
+                    Ok(Some((sample, enter))) => state.take(&sample, enter, &mut look, &mut pose_out),
                     Ok(None) => break,
-                    Err(e) => {
-                        failure = Some(anyhow!("{}: receive: {e:?}", corners.name));
-                        return CallbackProgression::Stop;
-                    }
+                    Err(e) => Err(anyhow!("{}: receive: {e:?}", corners.name)),
                 };
-                let enter = monotonic_ns();
-                drain.took_message();
-                let msg: &CornersMsg = &sample;
-                if !state.admit(msg) {
-                    continue;
-                }
-                // counted once per look: a busy stage keeps taking scans in one callback, wake-up or not
-                if !woken && !counted {
-                    found_by_poll += 1;
-                    counted = true;
-                }
-                let Some((result, version)) = state.locate(msg) else { continue };
-                let sent = pose_out.send(|p: &mut PoseMsg| write_pose(p, msg, result, version, enter));
-                if let Err(e) = sent {
-                    failure = Some(anyhow!("localize: publishing pose {}: {e}", msg.scan.header.seq));
+                if let Err(e) = taken {
+                    failure = Some(e);
                     return CallbackProgression::Stop;
                 }
             }
         }
         // woken ahead of a scan: wake the pose's readers too
-        if drain.warm_up_to_pass_on() {
+        if look.warm_up_to_pass_on() {
             if let Err(e) = pose_out.warm_up() {
                 eprintln!("localize: {e}");
             }
@@ -126,12 +103,7 @@ pub fn run(a: LocalizeArgs) -> Result<()> {
         CallbackProgression::Continue
     };
     messages::run_waitset(&node, &waitset, on_event).map_err(|e| err("waitset", &e))?;
-    if found_by_poll > 0 {
-        eprintln!("localize: scans found by the poll, not by a wake-up, {found_by_poll} times");
-    }
-    if let Some(r) = pose_out.report() {
-        eprintln!("localize: {r}");
-    }
+    state.report(&pose_out);
     match failure {
         Some(e) => Err(e),
         None => Ok(()),
@@ -147,6 +119,7 @@ struct Located {
     seg: Segmentation,
     fresh: Freshness,
     waiting_for_map: u64,
+    found_by_poll: u64,
 }
 
 impl Located {
@@ -157,6 +130,7 @@ impl Located {
             seg: Segmentation::default(),
             fresh: Freshness::default(),
             waiting_for_map: 0,
+            found_by_poll: 0,
         }
     }
 
@@ -185,6 +159,35 @@ impl Located {
                 self.localizer = Some((Localizer::new(model, self.config.localizer), m.version));
                 true
             }
+        }
+    }
+
+    /// Locates the scan of `msg`, taken at `enter` in `look`, and publishes its pose to `out`;
+    /// a scan not [`admit`](Self::admit)ted is skipped.
+    fn take<const N: usize>(
+        &mut self,
+        msg: &CornersMsg,
+        enter: u64,
+        look: &mut Look<'_, N>,
+        out: &mut Outlet<PoseMsg>,
+    ) -> Result<()> {
+        if !self.admit(msg) {
+            return Ok(());
+        }
+        self.found_by_poll += u64::from(look.found_by_poll());
+        let Some((result, version)) = self.locate(msg) else { return Ok(()) };
+        out.send(|p: &mut PoseMsg| write_pose(p, msg, result, version, enter))
+            .map(|_| ())
+            .map_err(|e| anyhow!("localize: publishing pose {}: {e}", msg.scan.header.seq))
+    }
+
+    /// What the stage says when it stops, with its outlet's report.
+    fn report(&self, out: &Outlet<PoseMsg>) {
+        if self.found_by_poll > 0 {
+            eprintln!("localize: scans found by the poll, not by a wake-up, {} times", self.found_by_poll);
+        }
+        if let Some(r) = out.report() {
+            eprintln!("localize: {r}");
         }
     }
 

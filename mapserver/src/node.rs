@@ -8,7 +8,8 @@ use anyhow::{anyhow, bail, Result};
 use clap::Args;
 use messages::iceoryx2::port::update_connections::UpdateConnections;
 use messages::{
-    open_corner_queries, open_topic, publish, CornerReply, MapCornerMsg, MapMsg, Topic, MAX_CORNERS, MAX_WALLS,
+    open_corner_queries, open_topic, publish, CornerQuery, CornerReply, MapCornerMsg, MapMsg, Topic, MAX_CORNERS,
+    MAX_WALLS,
 };
 use nalgebra::Point2;
 use std::path::Path;
@@ -49,6 +50,36 @@ fn load(spec: &str) -> Result<(WallMap, CornerIndex)> {
     Ok((map, index))
 }
 
+/// The answer to a corner query `q` from `index` (the map of `version`): the corners of
+/// similar inner angle, within the query's region when it gives one, as many as fit, and how
+/// many there were.
+fn corner_reply(index: &CornerIndex, version: u32, q: &CornerQuery) -> CornerReply {
+    let mut reply = CornerReply {
+        map_version: version,
+        count: 0,
+        total: 0,
+        _pad: 0,
+        corners: [MapCornerMsg::default(); MAX_CORNERS],
+    };
+    let centre = Point2::new(q.x, q.y);
+    let found = index
+        .similar(q.inner_angle, q.tolerance.abs())
+        .iter()
+        .filter(|c| q.has_region == 0 || (c.position - centre).norm() <= q.radius);
+    for c in found {
+        if (reply.count as usize) < MAX_CORNERS {
+            reply.corners[reply.count as usize] = MapCornerMsg {
+                position: [c.position.x, c.position.y],
+                inner_angle: c.inner_angle,
+                orientation: c.orientation,
+            };
+            reply.count += 1;
+        }
+        reply.total += 1;
+    }
+    reply
+}
+
 pub fn run(a: MapServerArgs) -> Result<()> {
     a.stage.place()?;
     // SAFETY: the handler only stores to an atomic.
@@ -82,29 +113,7 @@ pub fn run(a: MapServerArgs) -> Result<()> {
         while let Some(request) = server.receive().map_err(|e| anyhow!("corner queries: {e:?}"))? {
             let q = *request.payload();
             let response = request.loan_uninit().map_err(|e| anyhow!("corner queries: loan: {e:?}"))?;
-            let mut reply = CornerReply {
-                map_version: version,
-                count: 0,
-                total: 0,
-                _pad: 0,
-                corners: [MapCornerMsg::default(); MAX_CORNERS],
-            };
-            let centre = Point2::new(q.x, q.y);
-            let found = index
-                .similar(q.inner_angle, q.tolerance.abs())
-                .iter()
-                .filter(|c| q.has_region == 0 || (c.position - centre).norm() <= q.radius);
-            for c in found {
-                if (reply.count as usize) < MAX_CORNERS {
-                    reply.corners[reply.count as usize] = MapCornerMsg {
-                        position: [c.position.x, c.position.y],
-                        inner_angle: c.inner_angle,
-                        orientation: c.orientation,
-                    };
-                    reply.count += 1;
-                }
-                reply.total += 1;
-            }
+            let reply = corner_reply(&index, version, &q);
             response.write_payload(reply).send().map_err(|e| anyhow!("corner queries: send: {e:?}"))?;
         }
         let changed = modified(&a.map);

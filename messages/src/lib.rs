@@ -29,6 +29,6 @@ pub use topic::{
     TopicSettings, ALL_TOPICS,
 };
 
-pub use waiting::{run_waitset, sleep, sleep_until, termination_requested, ListenerDrain};
+pub use waiting::{run_waitset, sleep, sleep_until, termination_requested, ListenerDrain, Look};
 
 pub use iceoryx2;

@@ -10,7 +10,10 @@
 
 use iceoryx2::node::NodeWaitFailure;
 use iceoryx2::port::listener::Listener;
+use iceoryx2::port::subscriber::Subscriber;
+use iceoryx2::port::ReceiveError;
 use iceoryx2::prelude::*;
+use iceoryx2::sample::Sample;
 use iceoryx2::waitset::{WaitSetRunError, WaitSetRunResult};
 use std::time::{Duration, Instant};
 
@@ -91,6 +94,72 @@ impl<'a, const N: usize> ListenerDrain<'a, N> {
     /// passes it on to the next one (a message would wake that one anyway).
     pub fn warm_up_to_pass_on(&self) -> bool {
         self.warm_up && !self.took
+    }
+}
+
+/// A message as a [`Look`] takes it: the sample, and when it was taken ([`crate::monotonic_ns`]).
+pub type Taken<T> = (Sample<ipc::Service, T, ()>, u64);
+
+/// One look at a stage's input, as a call of its [`run_waitset`] callback makes it: the two
+/// passes of [`ListenerDrain`], each message stamped as it is taken, and whether the look
+/// found scans that no wake-up announced.
+///
+/// ```text
+/// let mut look = Look::new([&listener], id.has_event_from(&woken_by_scans));
+/// while look.next_pass() {
+///     while let Some((sample, enter)) = look.receive(&subscriber)? { ... }
+/// }
+/// ```
+pub struct Look<'a, const N: usize> {
+    drain: ListenerDrain<'a, N>,
+    passes: u8,
+    woken: bool,
+    counted: bool,
+}
+
+impl<'a, const N: usize> Look<'a, N> {
+    /// A look at the queues whose notifications come to `listeners`; `woken` when a wake-up of
+    /// the stage's scans started it (not its poll, nor another input).
+    pub fn new(listeners: [&'a Listener<ipc::Service>; N], woken: bool) -> Self {
+        Look { drain: ListenerDrain::new(listeners), passes: 0, woken, counted: false }
+    }
+
+    /// Starts the next pass over the queues: true twice, the listeners drained before the
+    /// second if no message has drained them yet.
+    pub fn next_pass(&mut self) -> bool {
+        if self.passes == 1 {
+            self.drain.once();
+        }
+        self.passes += 1;
+        self.passes <= 2
+    }
+
+    /// The next message of `subscriber`, with the time it was taken ([`crate::monotonic_ns`]);
+    /// the listeners are drained after the first one (see [`ListenerDrain`]).
+    pub fn receive<T: IceoryxSend + std::fmt::Debug>(
+        &mut self,
+        subscriber: &Subscriber<ipc::Service, T, ()>,
+    ) -> Result<Option<Taken<T>>, ReceiveError> {
+        let Some(sample) = subscriber.receive()? else {
+            return Ok(None);
+        };
+        let enter = crate::monotonic_ns();
+        self.drain.took_message();
+        Ok(Some((sample, enter)))
+    }
+
+    /// Call for each scan the stage takes on: true for the first in a look that no wake-up of
+    /// the scans started, which found it by the poll ([`crate::MISSED_WAKEUP_POLL`]). Counted
+    /// once per look, since a busy stage keeps taking scans in one look, wake-up or not.
+    pub fn found_by_poll(&mut self) -> bool {
+        let first = !self.woken && !self.counted;
+        self.counted = true;
+        first
+    }
+
+    /// See [`ListenerDrain::warm_up_to_pass_on`].
+    pub fn warm_up_to_pass_on(&self) -> bool {
+        self.drain.warm_up_to_pass_on()
     }
 }
 

@@ -159,3 +159,44 @@ fn a_warm_up_wakes_the_listener_with_no_message() {
     drain.took_message();
     assert!(!drain.warm_up_to_pass_on(), "passed on a warm-up that came with a message");
 }
+
+/// A look makes two passes, takes a message with the time it took it, counts a scan no wake-up
+/// announced once per look, and passes on a warm-up only when it took no message.
+#[test]
+fn a_look_passes_twice_and_counts_a_polled_scan_once() {
+    use iceoryx2::prelude::BackpressureStrategy;
+    let ScanReader { prefix, node, sub, listener, .. } = scan_reader("look");
+    let mut out = Outlet::<ScanMsg>::open(&node, &prefix, Topic::Scan, BackpressureStrategy::DiscardData).unwrap();
+    for seq in [1, 2] {
+        out.send(|m: &mut ScanMsg| m.header = Header::new(seq, monotonic_ns())).unwrap();
+    }
+
+    let before = monotonic_ns();
+    let mut look = Look::new([&listener], false);
+    let (mut taken, mut passes, mut polled) = (Vec::new(), 0, 0);
+    while look.next_pass() {
+        passes += 1;
+        while let Some((sample, at)) = look.receive(&sub).unwrap() {
+            assert!(at >= before, "a message stamped before it was taken");
+            taken.push(sample.header.seq);
+            polled += u32::from(look.found_by_poll());
+        }
+    }
+    assert_eq!((passes, taken, polled), (2, vec![1, 2], 1));
+    assert!(!look.next_pass(), "a third pass");
+
+    // woken by the scans: nothing is found by the poll
+    out.send(|m: &mut ScanMsg| m.header = Header::new(3, monotonic_ns())).unwrap();
+    let mut look = Look::new([&listener], true);
+    assert!(look.next_pass());
+    assert_eq!(look.receive(&sub).unwrap().map(|(s, _)| s.header.seq), Some(3));
+    assert!(!look.found_by_poll());
+
+    // a warm-up alone is passed on; the drain before the second pass found it
+    out.warm_up().unwrap();
+    let mut look = Look::new([&listener], false);
+    while look.next_pass() {
+        assert!(look.receive(&sub).unwrap().is_none());
+    }
+    assert!(look.warm_up_to_pass_on());
+}

@@ -11,7 +11,7 @@ use anyhow::{anyhow, Context, Result};
 use clap::Args;
 use messages::iceoryx2::prelude::*;
 use messages::{
-    monotonic_ns, open_topic, CornersMsg, Freshness, Header, LinesMsg, ListenerDrain, Outlet, ScanMsg, Stage, Topic,
+    monotonic_ns, open_topic, CornersMsg, Freshness, Header, LinesMsg, Look, Outlet, ScanMsg, Stage, Topic,
     MAX_CORNERS, MAX_LINES,
 };
 
@@ -35,7 +35,7 @@ pub fn run(a: SegmentArgs) -> Result<()> {
     let mut config = SegmenterConfig::default();
     config.apply(&a.set).context("segment: --set")?;
     a.stage.place()?;
-    let mut segmenter = segmenter_by_name(&a.implementation, config)
+    let segmenter = segmenter_by_name(&a.implementation, config)
         .ok_or_else(|| anyhow!("unknown segment implementation {:?}: one of {SEGMENTERS:?}", a.implementation))?;
     let node = messages::create_node(&format!("segment-{}", a.implementation))?;
     let scans = open_topic::<ScanMsg>(&node, &a.stage.prefix, Topic::Scan)?;
@@ -43,89 +43,99 @@ pub fn run(a: SegmentArgs) -> Result<()> {
         scans.data.subscriber_builder().create().map_err(|e| anyhow!("{}: subscriber: {e:?}", scans.name))?;
     let listener = scans.event.listener_builder().create().map_err(|e| anyhow!("{}: listener: {e:?}", scans.name))?;
     // inner links wait for room rather than drop: a slow pipeline sheds load at its source
-    let mut lines_out =
-        Outlet::<LinesMsg>::open(&node, &a.stage.prefix, Topic::Lines, BackpressureStrategy::RetryUntilDelivered)?;
-    let mut corners_out =
-        Outlet::<CornersMsg>::open(&node, &a.stage.prefix, Topic::Corners, BackpressureStrategy::RetryUntilDelivered)?;
+    let mut stage = Segmenting {
+        segmenter,
+        fresh: Freshness::default(),
+        bad_scans: 0,
+        found_by_poll: 0,
+        lines_out: Outlet::open(&node, &a.stage.prefix, Topic::Lines, BackpressureStrategy::RetryUntilDelivered)?,
+        corners_out: Outlet::open(&node, &a.stage.prefix, Topic::Corners, BackpressureStrategy::RetryUntilDelivered)?,
+    };
     let waitset = WaitSetBuilder::new().create::<ipc::Service>().map_err(|e| anyhow!("waitset: {e:?}"))?;
     let woken_by_scans = waitset.attach_notification(&listener).map_err(|e| anyhow!("waitset: {e:?}"))?;
     let _poll = waitset.attach_interval(messages::MISSED_WAKEUP_POLL).map_err(|e| anyhow!("waitset: {e:?}"))?;
     messages::announce_ready(&node, &a.stage.prefix)?;
-    let name = segmenter.name();
     let mut failure: Option<anyhow::Error> = None;
-    let mut bad_scans = 0u64;
-    let mut found_by_poll = 0u64;
-    let mut fresh = Freshness::default();
     let on_event = |id: WaitSetAttachmentId<ipc::Service>| {
-        let woken = id.has_event_from(&woken_by_scans);
-        // two passes over the queue, the listener drained in between (messages::ListenerDrain)
-        let mut drain = ListenerDrain::new([&listener]);
-        let mut counted = false;
-        for pass in 0..2 {
-            if pass == 1 {
-                drain.once();
-            }
+        let mut look = Look::new([&listener], id.has_event_from(&woken_by_scans));
+        while look.next_pass() {
             loop {
-                let sample = match subscriber.receive() {
-                    Ok(Some(s)) => s,
+                let taken = match look.receive(&subscriber) {
+                    Ok(Some((sample, enter))) => stage.take(&sample, enter, &mut look),
                     Ok(None) => break,
-                    Err(e) => {
-                        failure = Some(anyhow!("{}: receive: {e:?}", scans.name));
-                        return CallbackProgression::Stop;
-                    }
+                    Err(e) => Err(anyhow!("{}: receive: {e:?}", scans.name)),
                 };
-                let enter = monotonic_ns();
-                drain.took_message();
-                let scan: &ScanMsg = &sample;
-                if !fresh.admit(&scan.header) {
-                    continue; // a copy of a scan already segmented
-                }
-                // counted once per look: a busy stage keeps taking scans in one callback, wake-up or not
-                if !woken && !counted {
-                    found_by_poll += 1;
-                    counted = true;
-                }
-                let view = match scan_view(scan) {
-                    Ok(v) => v,
-                    Err(e) => {
-                        bad_scans += 1;
-                        eprintln!("segment: dropped {e} ({bad_scans} so far)");
-                        continue;
-                    }
-                };
-                let seg = segmenter.segment(&view);
-                let mut header = scan.header;
-                header.span(Stage::Segment).enter_ns = enter;
-                header.set_producer(name);
-                let sent = lines_out
-                    .send(|m: &mut LinesMsg| write_lines(m, header, seg))
-                    .and_then(|_| corners_out.send(|m: &mut CornersMsg| write_corners(m, scan, header, seg)));
-                if let Err(e) = sent {
-                    failure = Some(anyhow!("segment: publishing scan {}: {e}", header.seq));
+                if let Err(e) = taken {
+                    failure = Some(e);
                     return CallbackProgression::Stop;
                 }
             }
         }
         // woken ahead of a scan: wake the localizer too (the lines' only reader records them)
-        if drain.warm_up_to_pass_on() {
-            if let Err(e) = corners_out.warm_up() {
+        if look.warm_up_to_pass_on() {
+            if let Err(e) = stage.corners_out.warm_up() {
                 eprintln!("segment: {e}");
             }
         }
         CallbackProgression::Continue
     };
     messages::run_waitset(&node, &waitset, on_event).map_err(|e| anyhow!("waitset: {e:?}"))?;
-    if found_by_poll > 0 {
-        eprintln!("segment: scans found by the poll, not by a wake-up, {found_by_poll} times");
-    }
-    for r in [lines_out.report(), corners_out.report()].into_iter().flatten() {
-        eprintln!("segment: {r}");
-    }
+    stage.report();
     match failure {
         Some(e) => Err(e),
         None => Ok(()),
     }
     .context("segment")
+}
+
+/// What the stage keeps from scan to scan: the segmenter, what tells a scan seen before, its
+/// counts, and its two outlets.
+struct Segmenting {
+    segmenter: Box<dyn crate::Segmenter>,
+    fresh: Freshness,
+    bad_scans: u64,
+    found_by_poll: u64,
+    lines_out: Outlet<LinesMsg>,
+    corners_out: Outlet<CornersMsg>,
+}
+
+impl Segmenting {
+    /// Segments `scan`, taken at `enter` in `look`, and publishes its lines and corners. A copy
+    /// of a scan already segmented is skipped; one that cannot be read is dropped with a notice.
+    fn take<const N: usize>(&mut self, scan: &ScanMsg, enter: u64, look: &mut Look<'_, N>) -> Result<()> {
+        if !self.fresh.admit(&scan.header) {
+            return Ok(());
+        }
+        self.found_by_poll += u64::from(look.found_by_poll());
+        let view = match scan_view(scan) {
+            Ok(v) => v,
+            Err(e) => {
+                self.bad_scans += 1;
+                eprintln!("segment: dropped {e} ({} so far)", self.bad_scans);
+                return Ok(());
+            }
+        };
+        let name = self.segmenter.name();
+        let seg = self.segmenter.segment(&view);
+        let mut header = scan.header;
+        header.span(Stage::Segment).enter_ns = enter;
+        header.set_producer(name);
+        self.lines_out
+            .send(|m: &mut LinesMsg| write_lines(m, header, seg))
+            .and_then(|_| self.corners_out.send(|m: &mut CornersMsg| write_corners(m, scan, header, seg)))
+            .map(|_| ())
+            .map_err(|e| anyhow!("segment: publishing scan {}: {e}", header.seq))
+    }
+
+    /// What the stage says when it stops.
+    fn report(&self) {
+        if self.found_by_poll > 0 {
+            eprintln!("segment: scans found by the poll, not by a wake-up, {} times", self.found_by_poll);
+        }
+        for r in [self.lines_out.report(), self.corners_out.report()].into_iter().flatten() {
+            eprintln!("segment: {r}");
+        }
+    }
 }
 
 /// Writes a scan's lines into `m` (the viewer's record of them). The message leaves the

@@ -9,8 +9,7 @@ use clap::Args;
 use messages::iceoryx2::prelude::*;
 use messages::iceoryx2::service::port_factory::server::ServerCreateError;
 use messages::{
-    monotonic_ns, open_control, open_topic, ready_listener, ControlReply, ControlRequest, ListenerDrain, PoseMsg,
-    Topic, MAX_INSTANCE,
+    open_control, open_topic, ready_listener, ControlReply, ControlRequest, Look, PoseMsg, Topic, MAX_INSTANCE,
 };
 use std::collections::HashSet;
 use std::io::Write;
@@ -89,12 +88,7 @@ pub fn run(a: RunArgs) -> Result<()> {
     let scans = apply_overrides(&mut pipeline, &a);
     // created before anything runs: a path that cannot be written must not cost the run
     let out = match &a.out {
-        Some(path) => Some((
-            std::io::BufWriter::new(
-                std::fs::File::create(path).with_context(|| format!("creating {}", path.display()))?,
-            ),
-            path.as_path(),
-        )),
+        Some(path) => Some((create_out(path)?, path.as_path())),
         None => None,
     };
     // the supervisor's own place: it consumes the poses, and holds the wake-up latency request
@@ -104,15 +98,8 @@ pub fn run(a: RunArgs) -> Result<()> {
         eprintln!("supervisor: removed the resources of {stale} dead processes");
     }
     let node = messages::create_node("supervisor")?;
-    // the control service takes one server: holding it claims the prefix, so a second run
-    // under the same prefix stops here instead of mixing its scans and poses with this one's
     let control = open_control(&node, &a.prefix)?;
-    let server = control.server_builder().create().map_err(|e| match e {
-        ServerCreateError::ExceedsMaxSupportedServers => {
-            anyhow!("prefix {:?} is in use by another `gema2 run`: give this one its own --prefix", a.prefix)
-        }
-        e => anyhow!("control: {e:?}"),
-    })?;
+    let server = claim_prefix(&control, &a.prefix)?;
     let poses = open_topic::<PoseMsg>(&node, &a.prefix, Topic::Pose)?;
     let pose_in = poses.data.subscriber_builder().create().map_err(|e| anyhow!("{}: {e:?}", poses.name))?;
     let pose_wake = poses.event.listener_builder().create().map_err(|e| anyhow!("{}: {e:?}", poses.name))?;
@@ -135,16 +122,12 @@ pub fn run(a: RunArgs) -> Result<()> {
     let mut last_pose = Instant::now();
     let on_event = |_: WaitSetAttachmentId<ipc::Service>| {
         // looked at on every wake, the tick too: a wake-up can be lost (MISSED_WAKEUP_POLL);
-        // two passes, the listener drained in between (messages::ListenerDrain)
-        let mut drain = ListenerDrain::new([&pose_wake]);
-        for pass in 0..2 {
-            if pass == 1 {
-                drain.once();
-            }
-            while let Ok(Some(p)) = pose_in.receive() {
-                monitor.record(&p, monotonic_ns());
+        // two passes, the listener drained in between (messages::Look)
+        let mut look = Look::new([&pose_wake], true);
+        while look.next_pass() {
+            while let Ok(Some((p, taken))) = look.receive(&pose_in) {
+                monitor.record(&p, taken);
                 last_pose = Instant::now();
-                drain.once();
             }
         }
         let _ = ready.try_wait(|e| {
@@ -177,6 +160,35 @@ pub fn run(a: RunArgs) -> Result<()> {
         return Err(e);
     }
     report(&monitor, &stages, scans, out)
+}
+
+/// The supervisor's end of the control service, which `gema2 swap` asks.
+pub(super) type ControlServer =
+    messages::iceoryx2::port::server::Server<ipc::Service, ControlRequest, (), ControlReply, ()>;
+type ControlService = messages::iceoryx2::service::port_factory::request_response::PortFactory<
+    ipc::Service,
+    ControlRequest,
+    (),
+    ControlReply,
+    (),
+>;
+
+/// The `--out` CSV.
+fn create_out(path: &Path) -> Result<std::io::BufWriter<std::fs::File>> {
+    let file = std::fs::File::create(path).with_context(|| format!("creating {}", path.display()))?;
+    Ok(std::io::BufWriter::new(file))
+}
+
+/// The control service's server. The service takes one: holding it claims the prefix, so a
+/// second run under the same prefix stops here instead of mixing its scans and poses with this
+/// one's.
+fn claim_prefix(control: &ControlService, prefix: &str) -> Result<ControlServer> {
+    control.server_builder().create().map_err(|e| match e {
+        ServerCreateError::ExceedsMaxSupportedServers => {
+            anyhow!("prefix {prefix:?} is in use by another `gema2 run`: give this one its own --prefix")
+        }
+        e => anyhow!("control: {e:?}"),
+    })
 }
 
 /// Applies the command line's `--scans`, `--rate` and `--record` to the pipeline; returns the
@@ -319,7 +331,7 @@ fn reap_and_restart(stages: &mut [StageProcess], prefix: &str, instances: &mut I
 /// Takes a hot-swap request when none is in progress, and advances the one that is.
 fn hot_swap(
     swap: &mut Option<Swap>,
-    server: &messages::iceoryx2::port::server::Server<ipc::Service, ControlRequest, (), ControlReply, ()>,
+    server: &ControlServer,
     stages: &mut [StageProcess],
     prefix: &str,
     seen: &HashSet<usize>,

@@ -46,7 +46,7 @@ fn reply(request: &Request, ok: bool, message: &str) {
 impl Swap {
     /// Takes the next control request, if any, and starts the replacement.
     pub fn accept(
-        server: &messages::iceoryx2::port::server::Server<ipc::Service, ControlRequest, (), ControlReply, ()>,
+        server: &super::run::ControlServer,
         stages: &mut [StageProcess],
         prefix: &str,
         instance: impl FnOnce() -> usize,
