@@ -292,8 +292,14 @@ impl Localizer {
             // with no corner in view, an equally good pose further along the same wall means the
             // scan does not say where along it the sensor is (a corridor whose ends are out of
             // range): that is no answer, as the paper's cornerless scan. Twins elsewhere (two
-            // identical aisles) stay `ambiguous`: the scan does fix each of them.
-            if seg.corners.is_empty() && self.out.status == Status::Ambiguous && self.slides_along_a_wall() {
+            // identical aisles) stay `ambiguous`: the scan does fix each of them. Nor is a pose
+            // the scan contradicts: with no corner to anchor it, a slid pose whose beams see
+            // through a drawn map's walls (more than an `ok` pose may) is only the least bad
+            // place for lines the map has nowhere.
+            if seg.corners.is_empty()
+                && self.out.status == Status::Ambiguous
+                && (self.slides_along_a_wall() || self.sees_through_walls())
+            {
                 self.out.status = Status::Failed;
             }
         }

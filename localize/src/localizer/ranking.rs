@@ -31,6 +31,14 @@ impl Localizer {
         })
     }
 
+    /// Whether the best hypothesis sees through more of a drawn map's walls than an `ok` pose
+    /// may ([`LocalizerConfig::max_through_ok`]); never for a map that declares itself
+    /// approximate, whose right poses see through walls that are no longer there.
+    pub(super) fn sees_through_walls(&self) -> bool {
+        !self.model.map.is_approximate()
+            && self.out.hypotheses.first().is_some_and(|h| h.cost.through > self.config.max_through_ok)
+    }
+
     /// Sorts hypotheses, merges those that converged to the same pose, and sets the status.
     pub(super) fn rank(&mut self) {
         let cfg = self.config;
