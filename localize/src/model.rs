@@ -8,6 +8,11 @@ use nalgebra::{Point2, Vector2};
 const FIELD_RESOLUTION: f64 = 0.05;
 /// Distances beyond this count as "far from any wall" when screening, metres.
 pub const FIELD_CAP: f64 = 0.5;
+/// The clutter field's resolution and reach, metres: coarse, as it only tells a surface standing
+/// against a wall from one standing in open floor; it reaches 1.5 times a `clutter_reach` of
+/// up to 1.33 m ([`crate::CostConfig::clutter_share`]).
+const CLUTTER_RESOLUTION: f64 = 0.1;
+const CLUTTER_CAP: f64 = 2.0;
 
 /// A map prepared for localization: its corners sorted by inner angle, a ray caster for eq. 7,
 /// a distance field for screening that also names each point's nearest wall for refinement.
@@ -22,6 +27,9 @@ pub struct MapModel {
     pub corners: CornerIndex,
     pub caster: RayCaster,
     pub field: DistanceField,
+    /// Distances to the walls reaching further than `field`, coarser: where a surface the map
+    /// lacks stands, against a wall or in open floor ([`crate::CostMap`]).
+    pub clutter: DistanceField,
     /// Each wall as refinement reads it, in one place.
     pub frames: Vec<WallFrame>,
     /// Which sides of each wall face no space a sensor can stand in (the inside of a thick
@@ -55,6 +63,11 @@ impl WallFrame {
 }
 
 impl MapModel {
+    /// What eq. 7 reads of this map.
+    pub fn cost_map(&self) -> crate::CostMap<'_> {
+        crate::CostMap { caster: &self.caster, clutter: Some(&self.clutter) }
+    }
+
     /// Whether the robot cannot be at `q`: outside a closed outline, or where the map's
     /// survey saw no free space. Such poses are never an answer.
     pub fn off_limits(&self, q: Point2<f64>) -> bool {
@@ -80,6 +93,7 @@ impl MapModel {
             caster: RayCaster::new(&walls),
             outside: FreeSpace::new(&field, map.bounds()).outside(),
             unseen: map.seen_free.as_ref().map(|seen| seen.unseen(1)),
+            clutter: DistanceField::new(&walls, CLUTTER_RESOLUTION, CLUTTER_CAP),
             field,
             frames: walls.iter().map(WallFrame::of).collect(),
             closed_sides,

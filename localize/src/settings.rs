@@ -38,6 +38,9 @@ impl LocalizerConfig {
         "front_cap",
         "through_cap",
         "grazing_cap (1: off)",
+        "clutter_share (1: off)",
+        "clutter_min",
+        "clutter_reach",
         "paper_cost (1: eq. 7 as printed)",
         "surface_dropouts (0: never skip missing returns)",
         "inside_only (0: also make hypotheses outside a closed outline)",
@@ -47,6 +50,7 @@ impl LocalizerConfig {
         "max_through",
         "max_through_approximate (for maps with a sigma of 5 cm or more)",
         "front_cap_approximate (for maps with a sigma of 5 cm or more)",
+        "clutter_share_approximate (for maps with a sigma of 5 cm or more; 1: off)",
         "max_through_ok",
         "track (metres; 0: always global)",
         "slide_lines",
@@ -99,6 +103,9 @@ impl LocalizerConfig {
             "front_cap" => self.cost.front_cap = s.non_negative()?,
             "through_cap" => self.cost.through_cap = s.non_negative()?,
             "grazing_cap" => self.cost.grazing_cap = s.within(1.0, f64::INFINITY, "at least 1 (1: off)")?,
+            "clutter_share" => self.cost.clutter_share = s.within(0.0, 1.0, "from 0 to 1 (1: off)")?,
+            "clutter_min" => self.cost.clutter_min = s.non_negative()?,
+            "clutter_reach" => self.cost.clutter_reach = s.within(0.0, 1.3, "from 0 to 1.3 metres")?,
             "paper_cost" => self.cost.kind = if s.switch() { CostKind::Paper } else { CostKind::OneSided },
             "surface_dropouts" => self.surface_dropouts = s.count()?,
             "inside_only" => self.inside_only = s.switch(),
@@ -108,6 +115,9 @@ impl LocalizerConfig {
             "max_through" => self.max_through = s.fraction()?,
             "max_through_approximate" => self.max_through_approximate = s.fraction()?,
             "front_cap_approximate" => self.front_cap_approximate = s.non_negative()?,
+            "clutter_share_approximate" => {
+                self.clutter_share_approximate = s.within(0.0, 1.0, "from 0 to 1 (1: off)")?
+            }
             "max_through_ok" => self.max_through_ok = s.fraction()?,
             "track" => self.track_radius = Some(s.non_negative()?).filter(|&r| r > 0.0),
             "slide_lines" => self.slide.lines = s.count()?,
