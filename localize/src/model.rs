@@ -30,6 +30,9 @@ pub struct MapModel {
     /// Distances to the walls reaching further than `field`, coarser: where a surface the map
     /// lacks stands, against a wall or in open floor ([`crate::CostMap`]).
     pub clutter: DistanceField,
+    /// The free space's connected regions: a scan point in another region than its sensor's
+    /// was seen through a wall (the screen).
+    pub free_space: FreeSpace,
     /// Each wall as refinement reads it, in one place.
     pub frames: Vec<WallFrame>,
     /// Which sides of each wall face no space a sensor can stand in (the inside of a thick
@@ -84,6 +87,7 @@ impl MapModel {
         if let Some(closed) = &closed_sides {
             field.mark_nearest(|k| closed.get(k as usize).is_some_and(|s| s[0] || s[1]));
         }
+        let free_space = FreeSpace::new(&field, map.bounds());
         let chains = map.chains_of_runs();
         let runs: Vec<Wall> = chains.iter().flat_map(RunChain::runs).collect();
         MapModel {
@@ -91,7 +95,8 @@ impl MapModel {
             runs,
             bends: chains.into_iter().filter(|c| c.run_count() >= 2).collect(),
             caster: RayCaster::new(&walls),
-            outside: FreeSpace::new(&field, map.bounds()).outside(),
+            outside: free_space.outside(),
+            free_space,
             unseen: map.seen_free.as_ref().map(|seen| seen.unseen(1)),
             clutter: DistanceField::new(&walls, CLUTTER_RESOLUTION, CLUTTER_CAP),
             field,

@@ -3,7 +3,7 @@
 //! ([`crate::slide`]). Each pose is screened as it is made ([`FirstPass`]), so that only the
 //! best few thousand are ever kept.
 
-use super::screen::{order_by_telling, within, FirstPass, Screen};
+use super::screen::{order_by_telling, within, FirstPass, Screen, ScreenPoint};
 use super::{Candidate, Localizer, LocalizerConfig, Source};
 use crate::matching::{arms_fit, pose_from_corners};
 use crate::model::MapModel;
@@ -26,7 +26,7 @@ impl Localizer {
         // point for the `keep` best
         self.screen_few.clear();
         self.screen_few.extend(self.screen_pts.iter().step_by(cfg.prescreen_step.max(1)));
-        let screen = Screen::new(&model, cfg.screen_cap);
+        let screen = Screen::new(&model, &cfg);
         let mut offers = Offers {
             pass: FirstPass::new(screen, self.screen_few.len(), keep, &mut self.best_sums),
             few: &self.screen_few,
@@ -60,9 +60,9 @@ impl Localizer {
 struct Offers<'a> {
     pass: FirstPass<'a>,
     /// The first pass's points, as subsampled.
-    few: &'a [Point2<f64>],
+    few: &'a [ScreenPoint],
     /// `few` in the order the current match's poses read them.
-    order: &'a mut Vec<Point2<f64>>,
+    order: &'a mut Vec<ScreenPoint>,
     candidates: &'a mut Vec<Candidate>,
 }
 

@@ -33,7 +33,7 @@ use crate::slide::SlideLine;
 use laser::{Pose, ScanView};
 use mapserver::RayScratch;
 use nalgebra::Point2;
-use screen::{keep_distinct, subsample, Screen};
+use screen::{keep_distinct, screen_points, subsample, Screen, ScreenPoint};
 use segment::{ErrorModel, Segmentation};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
@@ -129,11 +129,11 @@ pub struct Localizer {
     prior: Option<Point2<f64>>,
     model: Arc<MapModel>,
     pub config: LocalizerConfig,
-    screen_pts: Vec<Point2<f64>>,
+    screen_pts: Vec<ScreenPoint>,
     /// One in `prescreen_step` screening points: the first screening pass.
-    screen_few: Vec<Point2<f64>>,
+    screen_few: Vec<ScreenPoint>,
     /// `screen_few` in the order the first pass reads them for one scan corner or slid line.
-    screen_order: Vec<Point2<f64>>,
+    screen_order: Vec<ScreenPoint>,
     /// The first screening pass's best sums.
     best_sums: Lowest,
     /// The lowest coarse costs so far ([`Localizer::coarse_cost`]).
@@ -224,8 +224,8 @@ impl Localizer {
     pub fn judge(&mut self, scan: &ScanView<'_>, pose: &Pose) -> Judgement {
         let model = Arc::clone(&self.model);
         let cfg = self.config;
-        let screen = Screen::new(&model, cfg.screen_cap);
-        let mean = |points: &[Point2<f64>]| {
+        let screen = Screen::new(&model, &cfg);
+        let mean = |points: &[ScreenPoint]| {
             screen.sum(pose, points, f64::INFINITY).unwrap_or(f64::INFINITY) / points.len().max(1) as f64
         };
         let (prescreen, screen) = (mean(&self.screen_few), mean(&self.screen_pts));
@@ -267,7 +267,8 @@ impl Localizer {
         self.cost = self.scan_cost_config();
         let drops = self.config.surface_dropouts;
         self.cost.skip_no_returns = drops > 0 && crate::cost::surface_dropouts(scan, &self.error) >= drops;
-        subsample(seg, self.config.screen_points, &mut self.screen_pts);
+        let cfg = &self.config;
+        screen_points(seg, &self.lines, cfg.screen_points, cfg.screen_long_line, &mut self.screen_pts);
         subsample(seg, self.config.refine_points, &mut self.refine_pts);
         let first = self.config.first_look;
         let mut settled = false;

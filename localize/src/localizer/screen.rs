@@ -4,10 +4,13 @@
 //! points, and that keep the best distinct candidates.
 
 use super::Candidate;
+use super::LocalizerConfig;
+use crate::cost::CostConfig;
 use crate::lowest::Lowest;
 use crate::model::{MapModel, WallFrame, FIELD_CAP};
+use crate::slide::SlideLine;
 use laser::{angle_diff, pose_theta, Pose};
-use mapserver::DistanceField;
+use mapserver::{DistanceField, FreeSpace};
 use nalgebra::Point2;
 use segment::Segmentation;
 
@@ -35,13 +38,21 @@ impl<'a> FirstPass<'a> {
     /// The pose's mean screen cost over `points` (the pass's points, in any order), or `None`
     /// when it cannot be among the `keep` best. The kept set does not depend on the order;
     /// the time does: the sooner a wrong pose's large misses come, the sooner it is dropped.
-    pub(super) fn score(&mut self, pose: &Pose, points: &[Point2<f64>]) -> Option<f64> {
+    pub(super) fn score(&mut self, pose: &Pose, points: &[ScreenPoint]) -> Option<f64> {
         debug_assert_eq!(points.len(), self.points);
         let sum = self.screen.sum(pose, points, self.limit)?;
         self.best.offer(sum, self.keep);
         self.limit = self.limit.min(self.best.kth(self.keep));
         Some(sum / self.points.max(1) as f64)
     }
+}
+
+/// A scan point the screen places at candidate poses, and whether it lies on a long scan line.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(super) struct ScreenPoint {
+    /// Sensor frame.
+    pub at: Point2<f64>,
+    pub on_long_line: bool,
 }
 
 /// Whether `pose` places the sensor within `r` of `p`.
@@ -57,12 +68,28 @@ pub(super) struct Screen<'a> {
     /// With [`MapModel::closed_sides`]: each wall's frame and closed sides.
     sides: Option<(&'a [WallFrame], &'a [[bool; 2]])>,
     cap: f64,
+    /// The squared cap's factors for a point seen through a wall and one on a long line in
+    /// open floor ([`LocalizerConfig::screen_behind`], [`LocalizerConfig::screen_open`]).
+    behind: f64,
+    open: f64,
+    regions: &'a FreeSpace,
+    clutter: &'a DistanceField,
+    cost: CostConfig,
 }
 
 impl<'a> Screen<'a> {
-    pub(super) fn new(model: &'a MapModel, cap: f64) -> Self {
+    pub(super) fn new(model: &'a MapModel, cfg: &LocalizerConfig) -> Self {
         let sides = model.closed_sides.as_deref().map(|closed| (&model.frames[..], closed));
-        Screen { field: &model.field, sides, cap: cap.min(FIELD_CAP) }
+        Screen {
+            field: &model.field,
+            sides,
+            cap: cfg.screen_cap.min(FIELD_CAP),
+            behind: cfg.screen_behind.max(1.0),
+            open: cfg.screen_open.max(1.0),
+            regions: &model.free_space,
+            clutter: &model.clutter,
+            cost: cfg.cost,
+        }
     }
 
     /// The sum over `points` (sensor frame) placed at `pose`; `None` as soon as the partial sum
@@ -73,13 +100,13 @@ impl<'a> Screen<'a> {
     /// off the truth puts its points there, on the far face of the walls it sees, where the
     /// distance alone finds them as near a wall as the truth's.
     #[inline]
-    pub(super) fn sum(&self, pose: &Pose, points: &[Point2<f64>], limit: f64) -> Option<f64> {
+    pub(super) fn sum(&self, pose: &Pose, points: &[ScreenPoint], limit: f64) -> Option<f64> {
         // with a limit, first the field's lower bounds, from a table that stays in cache: most
         // wrong poses pass the limit on them alone, without reading the field itself
         if limit < f64::INFINITY {
             let mut bound = 0.0;
             for q in points {
-                let d = self.field.lower_bound(pose * q).min(self.cap);
+                let d = self.field.lower_bound(pose * q.at).min(self.cap);
                 bound += d * d;
                 if bound >= limit {
                     return None;
@@ -87,19 +114,52 @@ impl<'a> Screen<'a> {
             }
         }
         let sensor = Point2::from(pose.translation.vector);
+        // the sensor's region, looked up once a point away from every wall needs it (most
+        // poses screened are dropped before any does)
+        let mut home: Option<Option<u32>> = None;
         let mut sum = 0.0;
         for q in points {
-            let p = pose * q;
+            let p = pose * q.at;
             let mut d = self.field.distance(p).min(self.cap);
             if d < self.cap && self.seen_from_a_closed_side(p, sensor) {
                 d = self.cap;
             }
-            sum += d * d;
+            let c = if d < self.cap {
+                d * d
+            } else {
+                let home = *home.get_or_insert_with(|| self.home(sensor));
+                d * d * self.unexplained(p, q.on_long_line, home)
+            };
+            sum += c;
             if sum >= limit {
                 return None;
             }
         }
         Some(sum)
+    }
+
+    /// The region of the free space `sensor` stands in, when points seen through walls are
+    /// charged.
+    fn home(&self, sensor: Point2<f64>) -> Option<u32> {
+        if self.behind > 1.0 {
+            self.regions.region(sensor)
+        } else {
+            None
+        }
+    }
+
+    /// The factor on the squared cap of a point `p` (map frame) beyond the cap from every wall:
+    /// seen through a wall when it lies in another region than the sensor's (`home`), a wall
+    /// misplaced when it lies on a long line in open floor, else 1.
+    #[inline]
+    fn unexplained(&self, p: Point2<f64>, on_long_line: bool, home: Option<u32>) -> f64 {
+        if home.is_some() && self.regions.region(p).is_some_and(|r| Some(r) != home) {
+            self.behind
+        } else if on_long_line && self.open > 1.0 {
+            1.0 + (self.open - 1.0) * self.cost.openness(self.clutter.distance(p))
+        } else {
+            1.0
+        }
     }
 
     /// Whether `sensor` lies on the closed side of the wall nearest to `p` (never when the map
@@ -161,13 +221,40 @@ pub fn same_pose(a: &Pose, b: &Pose, position: f64, heading: f64) -> bool {
 /// `points` into `out`, those that tell poses apart first: by `telling` (how far a point lies
 /// from where every candidate of one match puts it on a wall), largest first.
 pub(super) fn order_by_telling(
-    points: &[Point2<f64>],
-    out: &mut Vec<Point2<f64>>,
+    points: &[ScreenPoint],
+    out: &mut Vec<ScreenPoint>,
     telling: impl Fn(Point2<f64>) -> f64,
 ) {
     out.clear();
     out.extend_from_slice(points);
-    out.sort_by(|a, b| telling(*b).total_cmp(&telling(*a)));
+    out.sort_by(|a, b| telling(b.at).total_cmp(&telling(a.at)));
+}
+
+/// Up to `count` sample points spread evenly over the scan, as [`subsample`] picks them, each
+/// marked whether it lies on one of `lines` at least `long` metres long: within
+/// [`ON_LINE`] of its visible extent. Judged by position, so the pipeline's localizer (which
+/// gets the lines' extents, not their samples) marks the same points as `gema2 locate`.
+pub(super) fn screen_points(
+    seg: &Segmentation,
+    lines: &[SlideLine],
+    count: usize,
+    long: f64,
+    out: &mut Vec<ScreenPoint>,
+) {
+    let mut points = Vec::new();
+    subsample(seg, count, &mut points);
+    out.clear();
+    let long_lines = || lines.iter().filter(|l| l.length() >= long);
+    out.extend(points.into_iter().map(|at| ScreenPoint { at, on_long_line: long_lines().any(|l| on_line(l, at)) }));
+}
+
+/// How far from a line's visible extent a sample may lie and count as on it, metres: e(d) at
+/// the URG-04LX's far range, so a line's own samples always do.
+pub(super) const ON_LINE: f64 = 0.1;
+
+fn on_line(l: &SlideLine, q: Point2<f64>) -> bool {
+    let along = (q - l.start).dot(&l.direction());
+    (-ON_LINE..=l.length() + ON_LINE).contains(&along) && l.direction().perp(&(q - l.start)).abs() <= ON_LINE
 }
 
 /// Up to `count` sample points spread evenly over the scan.
@@ -202,18 +289,92 @@ mod tests {
         assert!(model.closed_sides.is_some());
         let truth = Pose::new(nalgebra::Vector2::new(1.5, 2.0), 0.0);
         // sensor-frame points on the face x = 2.94 at 0.5 m spacing, 2 cm behind it as noise has them
-        let points: Vec<Point2<f64>> = (0..6).map(|k| Point2::new(1.44 + 0.02, -1.25 + 0.5 * k as f64)).collect();
+        let points: Vec<ScreenPoint> = (0..6)
+            .map(|k| ScreenPoint { at: Point2::new(1.44 + 0.02, -1.25 + 0.5 * k as f64), on_long_line: true })
+            .collect();
         let off = Pose::new(nalgebra::Vector2::new(1.62, 2.0), 0.0);
-        let screen = Screen::new(&model, 0.12);
+        let screen = Screen::new(&model, &LocalizerConfig::default());
         let at_truth = screen.sum(&truth, &points, f64::INFINITY).unwrap();
         let a_wall_off = screen.sum(&off, &points, f64::INFINITY).unwrap();
         assert!(at_truth < 6.0 * 0.03f64.powi(2), "{at_truth}");
         assert!(a_wall_off >= 6.0 * 0.12f64.powi(2) * 0.99, "{a_wall_off}");
         // both lie on a wall by distance alone
         for pose in [truth, off] {
-            assert!(points.iter().all(|q| model.field.distance(pose * q) < 0.04));
+            assert!(points.iter().all(|q| model.field.distance(pose * q.at) < 0.04));
         }
     }
+    /// A 12 x 8 m room with a closed 2 x 2 m pillar, the sensor at (3, 4) facing +x.
+    fn room_with_a_pillar() -> MapModel {
+        let mut walls = mapserver::Wall::rectangle(0.0, 0.0, 12.0, 8.0).to_vec();
+        walls.extend(mapserver::Wall::rectangle(8.0, 3.0, 10.0, 5.0));
+        MapModel::new(mapserver::WallMap::new(walls), &mapserver::MapCornerConfig::default())
+    }
+
+    /// One point's screen cost at the sensor pose of [`room_with_a_pillar`].
+    fn one_point(model: &MapModel, at: (f64, f64), on_long_line: bool) -> f64 {
+        let screen = Screen::new(model, &LocalizerConfig::default());
+        let sensor = Pose::new(nalgebra::Vector2::new(3.0, 4.0), 0.0);
+        let q = ScreenPoint { at: Point2::new(at.0 - 3.0, at.1 - 4.0), on_long_line };
+        screen.sum(&sensor, &[q], f64::INFINITY).unwrap()
+    }
+
+    /// Away from every wall, a point costs the squared cap, times `screen_behind` inside the
+    /// pillar (its beam went through a wall) and times `screen_open` on a long line in open
+    /// floor; a point where furniture stands, or off any long line, just the squared cap.
+    #[test]
+    fn the_screen_charges_points_seen_through_walls_and_long_lines_in_open_floor() {
+        let model = room_with_a_pillar();
+        let cfg = LocalizerConfig::default();
+        let cap_sq = cfg.screen_cap * cfg.screen_cap;
+        let close = |a: f64, b: f64| (a - b).abs() < 1e-9;
+        // inside the pillar, 1 m from its faces, on a line or not
+        assert!(close(one_point(&model, (9.0, 4.0), false), cfg.screen_behind * cap_sq));
+        assert!(close(one_point(&model, (9.0, 4.0), true), cfg.screen_behind * cap_sq));
+        // open floor: 2 m from the room's top wall, 3 m from the rest
+        assert!(close(one_point(&model, (3.0, 6.0), true), cfg.screen_open * cap_sq));
+        assert!(close(one_point(&model, (3.0, 6.0), false), cap_sq));
+        // where furniture stands: 0.5 m in front of the top wall
+        assert!(close(one_point(&model, (3.0, 7.5), true), cap_sq));
+        // on a wall: its own small distance, whatever it lies on
+        assert!(one_point(&model, (3.0, 7.99), true) < 0.001);
+        // the extra charges off: the squared cap everywhere away from the walls
+        let off = LocalizerConfig { screen_behind: 1.0, screen_open: 1.0, ..cfg };
+        let screen = Screen::new(&model, &off);
+        let sensor = Pose::new(nalgebra::Vector2::new(3.0, 4.0), 0.0);
+        for at in [(6.0, 0.0), (0.0, 2.0)] {
+            let q = ScreenPoint { at: Point2::new(at.0, at.1), on_long_line: true };
+            assert!(close(screen.sum(&sensor, &[q], f64::INFINITY).unwrap(), cap_sq));
+        }
+    }
+
+    /// The screen's points are the scan's samples, marked when they lie on a long line's
+    /// visible extent; a short line marks none.
+    #[test]
+    fn screen_points_mark_the_samples_on_long_lines() {
+        let g = laser::ScanGeometry::centred(181, 180f64.to_radians(), 10.0);
+        // a wall at x = 3 across the whole scan
+        let ranges: Vec<f32> = (0..181).map(|i| (3.0 / g.angle(i).cos()).min(9.0) as f32).collect();
+        let view = laser::ScanView { geometry: g, ranges: &ranges };
+        let mut seg = Segmentation::default();
+        segment::sample::build_samples(&view, &segment::ErrorModel::default(), 1, &mut seg.samples);
+        let line = |y0: f64, y1: f64| SlideLine {
+            start: Point2::new(3.0, y0),
+            end: Point2::new(3.0, y1),
+            direction_sigma: 0.01,
+        };
+        let mut out = Vec::new();
+        screen_points(&seg, &[line(-1.0, 1.0), line(2.0, 2.4)], 400, 0.6, &mut out);
+        assert_eq!(out.len(), seg.samples.len());
+        for p in &out {
+            let on = p.at.y.abs() <= 1.0 + ON_LINE;
+            assert_eq!(p.on_long_line, on, "{:?}", p.at);
+        }
+        assert!(out.iter().any(|p| p.on_long_line) && out.iter().any(|p| !p.on_long_line));
+        // no line long enough: nothing marked
+        screen_points(&seg, &[line(-1.0, 1.0)], 400, 2.5, &mut out);
+        assert!(out.iter().all(|p| !p.on_long_line));
+    }
+
     proptest! {
         #![proptest_config(ProptestConfig::with_cases(64))]
         /// The first screening pass keeps the same poses, with the same sums, whatever order it
@@ -225,12 +386,18 @@ mod tests {
             keep in 1usize..40,
         ) {
             let model = MapModel::new(mapserver::load_map("apartment").unwrap(), &mapserver::MapCornerConfig::default());
-            let points: Vec<Point2<f64>> = points.iter().map(|&(x, y)| Point2::new(x, y)).collect();
+            // every other point on a long line, so the charges for open floor count too
+            let points: Vec<ScreenPoint> = points
+                .iter()
+                .enumerate()
+                .map(|(k, &(x, y))| ScreenPoint { at: Point2::new(x, y), on_long_line: k % 2 == 0 })
+                .collect();
             let mut reversed = points.clone();
             reversed.reverse();
-            let kept = |order: &[Point2<f64>]| {
+            let kept = |order: &[ScreenPoint]| {
                 let mut best = Lowest::default();
-                let mut pass = FirstPass::new(Screen::new(&model, 0.12), order.len(), keep, &mut best);
+                let cfg = LocalizerConfig::default();
+                let mut pass = FirstPass::new(Screen::new(&model, &cfg), order.len(), keep, &mut best);
                 let mut scored: Vec<(usize, f64)> = poses
                     .iter()
                     .enumerate()
