@@ -58,6 +58,7 @@ impl LocalizerConfig {
         "track (metres; 0: always global)",
         "slide_lines",
         "slide_min_length",
+        "slide_min_wall",
         "slide_step",
         "slide_slack",
         "slide_shorter (a fraction of the line's length; above 1: off)",
@@ -128,6 +129,7 @@ impl LocalizerConfig {
             "track" => self.track_radius = Some(s.non_negative()?).filter(|&r| r > 0.0),
             "slide_lines" => self.slide.lines = s.count()?,
             "slide_min_length" => self.slide.min_length = s.non_negative()?,
+            "slide_min_wall" => self.slide.min_wall = s.non_negative()?,
             "slide_step" => self.slide.step = s.positive()?,
             "slide_slack" => self.slide.slack = s.non_negative()?,
             "slide_shorter" => self.slide.shorter_walls = s.non_negative()?,
@@ -245,7 +247,8 @@ mod tests {
         c.apply(&["thorough=1", "refined=30"]).unwrap();
         let (t, p) = (&c.localizer, &plain.localizer);
         assert!(t.prescreened > p.prescreened && t.sparse_kept > p.sparse_kept);
-        assert!(t.slide.lines > p.slide.lines && t.slide.min_length < p.slide.min_length);
+        assert!(t.slide.lines > p.slide.lines && t.slide.min_length <= p.slide.min_length);
+        assert!(t.slide.min_wall < p.slide.min_wall);
         assert!(t.slide.max_poses > p.slide.max_poses && t.slide.screened > p.slide.screened);
         assert_eq!(t.refined, 30);
         // thresholds and the cost are left as they were

@@ -254,7 +254,14 @@ impl LocalizerConfig {
             prescreened: 100_000,
             sparse_kept: 2000,
             refined: 40,
-            slide: SlideConfig { lines: 12, min_length: 0.3, max_poses: 100_000, screened: 100_000, ..self.slide },
+            slide: SlideConfig {
+                lines: 12,
+                min_length: 0.3,
+                min_wall: 0.3,
+                max_poses: 100_000,
+                screened: 100_000,
+                ..self.slide
+            },
             ..self
         }
     }
