@@ -29,7 +29,7 @@
 
 use laser::Pose;
 use laser::{Reading, ScanView};
-use mapserver::{DistanceField, RayCaster, RayScratch};
+use mapserver::{OpenFloor, RayCaster, RayScratch};
 use segment::ErrorModel;
 
 /// Which form of eq. 7.
@@ -73,7 +73,7 @@ pub struct CostConfig {
     /// `front_cap`: between `clutter_min` and `clutter_reach` from the nearest mapped wall.
     /// From there the cap rises linearly to `front_cap` at 1.5 `clutter_reach`; beyond, a
     /// surface in open floor costs `front_cap`. 1 turns this off, as does a [`CostMap`]
-    /// without a clutter field. Measured over the 48 simulated logs of `gema2 evaluate` (see
+    /// without [`OpenFloor`] distances. Measured over the 48 simulated logs of `gema2 evaluate` (see
     /// the README); maps built from scans have their own share
     /// ([`crate::LocalizerConfig::clutter_share_approximate`]).
     pub clutter_share: f64,
@@ -105,12 +105,12 @@ impl Default for CostConfig {
 }
 
 /// What eq. 7 reads of the map: the walls rays are cast against, and how far any point lies
-/// from them (a field reaching at least 1.5 [`CostConfig::clutter_reach`]), for the cap of a
-/// reading short of the map. Without the field every short reading is capped at `front_cap`.
+/// from them (reaching at least 1.5 [`CostConfig::clutter_reach`]), for the cap of a reading
+/// short of the map. Without the latter every short reading is capped at `front_cap`.
 #[derive(Clone, Copy)]
 pub struct CostMap<'a> {
     pub caster: &'a RayCaster,
-    pub clutter: Option<&'a DistanceField>,
+    pub clutter: Option<&'a OpenFloor>,
 }
 
 impl<'a> CostMap<'a> {
@@ -208,12 +208,12 @@ pub fn cost_below(
         for (k, &d_map) in expected.iter().enumerate().take(ready).skip(done) {
             let reading = scan.reading(k * stride);
             if let Some((mut c, verdict)) = beam_term(reading, d_map, expected, k, step, error, cfg, &g) {
-                if let (Some(field), Reading::Valid(d), Verdict::Other) = (clutter, reading, &verdict) {
+                if let (Some(floor), Reading::Valid(d), Verdict::Other) = (clutter, reading, &verdict) {
                     // only a term above the least cap can change, and only short of the map
                     if d < d_map && c > least_front {
                         let (sin, cos) = g.angle(k * stride).sin_cos();
                         let end = pose * nalgebra::Point2::new(d * cos, d * sin);
-                        c = c.min(cfg.front_cap_at(field.distance(end)));
+                        c = c.min(cfg.front_cap_at(floor.from_wall(end)));
                     }
                 }
                 sum += c;
@@ -483,14 +483,18 @@ mod tests {
     }
 
     /// A wall 3 m ahead; 21 beams read a box face 0.5 m in front of it, 11 beams a surface
-    /// metres out in open floor, 5 beams a pose 0.1 m off the wall. With the clutter field the
+    /// metres out in open floor, 5 beams a pose 0.1 m off the wall. With the floor's distances the
     /// box's beams cost the share of the cap and the rest the cap; without it, all the cap.
     #[test]
     fn eq7_charges_a_box_against_a_wall_less_than_a_surface_in_open_floor() {
         let g = geometry();
-        let walls = [Wall::new(3.0, -100.0, 3.0, 100.0)];
+        // the wall ahead, and one behind the sensor that no beam reaches, so the floor's grid
+        // spans the scan
+        let walls = [Wall::new(3.0, -100.0, 3.0, 100.0), Wall::new(-5.0, -100.0, -5.0, 100.0)];
         let caster = RayCaster::new(&walls);
-        let field = DistanceField::new(&walls, 0.1, 2.0);
+        let bounds = mapserver::WallMap::new(walls.to_vec()).bounds();
+        let free_space = mapserver::FreeSpace::new(&mapserver::DistanceField::new(&walls, 0.05, 0.5), bounds);
+        let floor = OpenFloor::new(&walls, &free_space, 2.0);
         // the wall where it lies in range, no return (as the map predicts) beyond
         let mut ranges: Vec<f32> = (0..181).map(|i| (3.0 / g.angle(i).cos()).min(10.0) as f32).collect();
         let (boxed, open, misaligned) = (80..=100, 20..=30, 120..=124);
@@ -508,7 +512,7 @@ mod tests {
         let (mut scratch, mut expected) = (RayScratch::default(), Vec::new());
         let mut at =
             |map| cost(&scan, &pose(0.0, 0.0, 0.0), map, &ErrorModel::default(), &cfg, &mut scratch, &mut expected);
-        let with = at(CostMap { caster: &caster, clutter: Some(&field) });
+        let with = at(CostMap { caster: &caster, clutter: Some(&floor) });
         let without = at(CostMap::walls(&caster));
         let beams = with.beams as f64;
         // the beams that see the wall itself cost next to nothing; every other beam its cap

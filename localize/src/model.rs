@@ -1,18 +1,16 @@
 //! Everything the localizer pre-computes from a wall map, once.
 
 use mapserver::runs::RunChain;
-use mapserver::{CornerIndex, DistanceField, FreeSpace, MapCornerConfig, Outside, RayCaster, Wall, WallMap};
+use mapserver::{CornerIndex, DistanceField, FreeSpace, MapCornerConfig, OpenFloor, Outside, RayCaster, Wall, WallMap};
 use nalgebra::{Point2, Vector2};
 
 /// Distance field resolution, metres.
 const FIELD_RESOLUTION: f64 = 0.05;
 /// Distances beyond this count as "far from any wall" when screening, metres.
 pub const FIELD_CAP: f64 = 0.5;
-/// The clutter field's resolution and reach, metres: coarse, as it only tells a surface standing
-/// against a wall from one standing in open floor; it reaches 1.5 times a `clutter_reach` of
-/// up to 1.33 m ([`crate::CostConfig::clutter_share`]).
-const CLUTTER_RESOLUTION: f64 = 0.1;
-const CLUTTER_CAP: f64 = 2.0;
+/// How far [`MapModel::open_floor`] measures distances to the walls, metres: 1.5 times a
+/// `clutter_reach` of up to 1.33 m ([`crate::CostConfig::clutter_share`]).
+const OPEN_FLOOR_REACH: f64 = 2.0;
 
 /// A map prepared for localization: its corners sorted by inner angle, a ray caster for eq. 7,
 /// a distance field for screening that also names each point's nearest wall for refinement.
@@ -27,12 +25,11 @@ pub struct MapModel {
     pub corners: CornerIndex,
     pub caster: RayCaster,
     pub field: DistanceField,
-    /// Distances to the walls reaching further than `field`, coarser: where a surface the map
-    /// lacks stands, against a wall or in open floor ([`crate::CostMap`]).
-    pub clutter: DistanceField,
-    /// The free space's connected regions: a scan point in another region than its sensor's
-    /// was seen through a wall (the screen).
-    pub free_space: FreeSpace,
+    /// Where a point stands among the walls, on the free space's 0.1 m grid: how far from the
+    /// nearest wall, further than `field` reaches (a surface the map lacks standing against a
+    /// wall or in open floor: [`crate::CostMap`]), and whether outside the main free space (a
+    /// scan point there was seen through a wall: the screen). One byte a cell.
+    pub open_floor: OpenFloor,
     /// Each wall as refinement reads it, in one place.
     pub frames: Vec<WallFrame>,
     /// Which sides of each wall face no space a sensor can stand in (the inside of a thick
@@ -68,7 +65,7 @@ impl WallFrame {
 impl MapModel {
     /// What eq. 7 reads of this map.
     pub fn cost_map(&self) -> crate::CostMap<'_> {
-        crate::CostMap { caster: &self.caster, clutter: Some(&self.clutter) }
+        crate::CostMap { caster: &self.caster, clutter: Some(&self.open_floor) }
     }
 
     /// Whether the robot cannot be at `q`: outside a closed outline, or where the map's
@@ -96,9 +93,8 @@ impl MapModel {
             bends: chains.into_iter().filter(|c| c.run_count() >= 2).collect(),
             caster: RayCaster::new(&walls),
             outside: free_space.outside(),
-            free_space,
+            open_floor: OpenFloor::new(&walls, &free_space, OPEN_FLOOR_REACH),
             unseen: map.seen_free.as_ref().map(|seen| seen.unseen(1)),
-            clutter: DistanceField::new(&walls, CLUTTER_RESOLUTION, CLUTTER_CAP),
             field,
             frames: walls.iter().map(WallFrame::of).collect(),
             closed_sides,

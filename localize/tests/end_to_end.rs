@@ -482,7 +482,7 @@ fn the_thorough_search_finds_a_pose_the_default_budgets_pass_over() {
 /// Eq. 7 with furniture told from open floor (LESSONS.md, item 2): among furnished warehouse
 /// scans whose answer, found with the plain one-sided cost, is wrong and costs less than the
 /// truth by that cost, the clutter-aware cost puts the truth below the wrong answer in most
-/// (6 of 8 in these 120 scans; with the plain cost, none).
+/// (5 of 7 in these 120 scans; with the plain cost, none).
 #[test]
 fn eq7_ranks_the_truth_of_furnished_scans_above_the_wrong_poses_the_plain_cost_prefers() {
     let map = procedural::by_name("warehouse").expect("a bundled map");

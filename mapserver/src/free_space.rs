@@ -55,6 +55,23 @@ impl FreeSpace {
         Some(self.labels[self.grid.index(q)?]).filter(|&l| l != 0)
     }
 
+    /// The grid the regions are labelled on.
+    pub(crate) fn grid(&self) -> Grid {
+        self.grid
+    }
+
+    /// The region of cell `i` of [`grid`](Self::grid), 0 where the cell is not passable.
+    pub(crate) fn label(&self, i: usize) -> u32 {
+        self.labels.get(i).copied().unwrap_or(0)
+    }
+
+    /// The region with the most cells: the building's main space (its inside, or inside and
+    /// around together when its outline is open).
+    pub fn largest_region(&self) -> Option<u32> {
+        let (region, &size) = self.sizes.iter().enumerate().skip(1).max_by_key(|&(r, &s)| (s, std::cmp::Reverse(r)))?;
+        (size > 0).then_some(region as u32)
+    }
+
     /// How many regions the free space has (the outside of a closed building counts as one).
     pub fn regions(&self) -> u32 {
         self.regions

@@ -39,9 +39,9 @@ pub struct LocalizerConfig {
     /// pose's error: with a 0.5 m cap, furnished scans lost their right pose here 38 times in
     /// 300, with 0.12 m 19 times.
     pub screen_cap: f64,
-    /// A screened point beyond the cap from every wall, in another region of the free space
-    /// than its sensor (inside a closed rack or pillar, outside a closed outline:
-    /// [`crate::MapModel::free_space`]), costs this many times the cap squared: its beam went
+    /// A screened point beyond the cap from every wall, outside the main free space while its
+    /// sensor is in it (inside a closed rack or pillar, around a closed outline:
+    /// [`crate::MapModel::open_floor`]), costs this many times the cap squared: its beam went
     /// through a wall, which the distance alone cannot tell from a box in front of one.
     pub screen_behind: f64,
     /// A screened point on a scan line at least `screen_long_line` metres long that stands in

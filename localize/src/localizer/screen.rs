@@ -10,7 +10,7 @@ use crate::lowest::Lowest;
 use crate::model::{MapModel, WallFrame, FIELD_CAP};
 use crate::slide::SlideLine;
 use laser::{angle_diff, pose_theta, Pose};
-use mapserver::{DistanceField, FreeSpace};
+use mapserver::{DistanceField, OpenFloor};
 use nalgebra::Point2;
 use segment::Segmentation;
 
@@ -72,8 +72,7 @@ pub(super) struct Screen<'a> {
     /// open floor ([`LocalizerConfig::screen_behind`], [`LocalizerConfig::screen_open`]).
     behind: f64,
     open: f64,
-    regions: &'a FreeSpace,
-    clutter: &'a DistanceField,
+    floor: &'a OpenFloor,
     cost: CostConfig,
 }
 
@@ -86,8 +85,7 @@ impl<'a> Screen<'a> {
             cap: cfg.screen_cap.min(FIELD_CAP),
             behind: cfg.screen_behind.max(1.0),
             open: cfg.screen_open.max(1.0),
-            regions: &model.free_space,
-            clutter: &model.clutter,
+            floor: &model.open_floor,
             cost: cfg.cost,
         }
     }
@@ -114,9 +112,9 @@ impl<'a> Screen<'a> {
             }
         }
         let sensor = Point2::from(pose.translation.vector);
-        // the sensor's region, looked up once a point away from every wall needs it (most
-        // poses screened are dropped before any does)
-        let mut home: Option<Option<u32>> = None;
+        // whether the sensor stands in the main free space, looked up once a point away from
+        // every wall needs it (most poses screened are dropped before any does)
+        let mut inside: Option<bool> = None;
         let mut sum = 0.0;
         for q in points {
             let p = pose * q.at;
@@ -127,8 +125,8 @@ impl<'a> Screen<'a> {
             let c = if d < self.cap {
                 d * d
             } else {
-                let home = *home.get_or_insert_with(|| self.home(sensor));
-                d * d * self.unexplained(p, q.on_long_line, home)
+                let inside = *inside.get_or_insert_with(|| !self.floor.at(sensor).1);
+                d * d * self.unexplained(p, q.on_long_line, inside)
             };
             sum += c;
             if sum >= limit {
@@ -138,25 +136,17 @@ impl<'a> Screen<'a> {
         Some(sum)
     }
 
-    /// The region of the free space `sensor` stands in, when points seen through walls are
-    /// charged.
-    fn home(&self, sensor: Point2<f64>) -> Option<u32> {
-        if self.behind > 1.0 {
-            self.regions.region(sensor)
-        } else {
-            None
-        }
-    }
-
     /// The factor on the squared cap of a point `p` (map frame) beyond the cap from every wall:
-    /// seen through a wall when it lies in another region than the sensor's (`home`), a wall
-    /// misplaced when it lies on a long line in open floor, else 1.
+    /// seen through a wall when it lies outside the main free space and the sensor does not
+    /// (`inside`), a wall misplaced when it lies on a long line in open floor, else 1. One
+    /// lookup answers both.
     #[inline]
-    fn unexplained(&self, p: Point2<f64>, on_long_line: bool, home: Option<u32>) -> f64 {
-        if home.is_some() && self.regions.region(p).is_some_and(|r| Some(r) != home) {
+    fn unexplained(&self, p: Point2<f64>, on_long_line: bool, inside: bool) -> f64 {
+        let (from_wall, away) = self.floor.at(p);
+        if inside && away {
             self.behind
-        } else if on_long_line && self.open > 1.0 {
-            1.0 + (self.open - 1.0) * self.cost.openness(self.clutter.distance(p))
+        } else if on_long_line {
+            1.0 + (self.open - 1.0) * self.cost.openness(from_wall)
         } else {
             1.0
         }
