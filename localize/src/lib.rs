@@ -12,7 +12,7 @@ pub mod refine;
 pub mod settings;
 pub mod slide;
 
-pub use cost::{Cost, CostConfig, CostKind, CostMap};
+pub use cost::{Cost, CostConfig, CostKind};
 pub use gema2::{Gema2, Gema2Config};
 pub use localizer::{
     same_pose, FirstLook, Hypothesis, Judgement, Localization, Localizer, LocalizerConfig, LocateTimes, Status,

@@ -9,7 +9,7 @@ const FIELD_RESOLUTION: f64 = 0.05;
 /// Distances beyond this count as "far from any wall" when screening, metres.
 pub const FIELD_CAP: f64 = 0.5;
 /// How far [`MapModel::open_floor`] measures distances to the walls, metres: 1.5 times a
-/// `clutter_reach` of up to 1.33 m ([`crate::CostConfig::clutter_share`]).
+/// `clutter_reach` of up to 1.33 m ([`crate::CostConfig::openness`]).
 const OPEN_FLOOR_REACH: f64 = 2.0;
 
 /// A map prepared for localization: its corners sorted by inner angle, a ray caster for eq. 7,
@@ -26,9 +26,9 @@ pub struct MapModel {
     pub caster: RayCaster,
     pub field: DistanceField,
     /// Where a point stands among the walls, on the free space's 0.1 m grid: how far from the
-    /// nearest wall, further than `field` reaches (a surface the map lacks standing against a
-    /// wall or in open floor: [`crate::CostMap`]), and whether outside the main free space (a
-    /// scan point there was seen through a wall: the screen). One byte a cell.
+    /// nearest wall, further than `field` reaches (a scan line standing in open floor is a
+    /// wall misplaced), and whether outside the main free space (a scan point there was seen
+    /// through a wall). What the screen asks of a point no wall explains; one byte a cell.
     pub open_floor: OpenFloor,
     /// Each wall as refinement reads it, in one place.
     pub frames: Vec<WallFrame>,
@@ -63,11 +63,6 @@ impl WallFrame {
 }
 
 impl MapModel {
-    /// What eq. 7 reads of this map.
-    pub fn cost_map(&self) -> crate::CostMap<'_> {
-        crate::CostMap { caster: &self.caster, clutter: Some(&self.open_floor) }
-    }
-
     /// Whether the robot cannot be at `q`: outside a closed outline, or where the map's
     /// survey saw no free space. Such poses are never an answer.
     pub fn off_limits(&self, q: Point2<f64>) -> bool {

@@ -44,7 +44,7 @@ fn a_pose_from_a_scan_corner_reproduces_the_scan() {
             let p = pose_from_corners(c, mc);
             assert!(same_pose(&p, &truth, 0.15, 3f64.to_radians()), "eqs. 5-6 gave {p:?} for truth {truth:?}");
             let mut at =
-                |q| cost(&scan.view(), &q, m.cost_map(), &error, &CostConfig::default(), &mut scratch, &mut expected);
+                |q| cost(&scan.view(), &q, &m.caster, &error, &CostConfig::default(), &mut scratch, &mut expected);
             let points: Vec<_> = s.samples.iter().map(|q| q.point()).collect();
             let (refined, paired) = refine(&m, &points, &p, &RefineConfig::default());
             assert!(paired > 0.9, "refinement paired {paired}");
@@ -506,7 +506,7 @@ fn eq7_ranks_the_truth_of_furnished_scans_above_the_wrong_poses_the_plain_cost_p
             continue;
         }
         let mut at = |pose, cfg: &CostConfig| {
-            cost(&scan.view(), &pose, m.cost_map(), &error, cfg, &mut scratch, &mut expected).value
+            cost(&scan.view(), &pose, &m.caster, &error, cfg, &mut scratch, &mut expected).value
         };
         if at(answer, &plain) < at(truth, &plain) {
             fooled += 1;

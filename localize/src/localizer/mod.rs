@@ -230,11 +230,10 @@ impl Localizer {
         };
         let (prescreen, screen) = (mean(&self.screen_few), mean(&self.screen_pts));
         let final_cfg = self.final_cost_config();
-        let cost_at =
-            cost(scan, pose, model.cost_map(), &self.error, &final_cfg, &mut self.scratch, &mut self.expected);
+        let cost_at = cost(scan, pose, &model.caster, &self.error, &final_cfg, &mut self.scratch, &mut self.expected);
         let refined = refine(&model, &self.refine_pts, pose, &cfg.refine).0;
         let refined_cost =
-            cost(scan, &refined, model.cost_map(), &self.error, &final_cfg, &mut self.scratch, &mut self.expected);
+            cost(scan, &refined, &model.caster, &self.error, &final_cfg, &mut self.scratch, &mut self.expected);
         Judgement { prescreen, screen, cost: cost_at, refined, refined_cost }
     }
 
@@ -357,7 +356,7 @@ impl Localizer {
         let final_cfg = self.final_cost_config();
         for c in &self.candidates {
             let cost =
-                cost(scan, &c.pose, model.cost_map(), &self.error, &final_cfg, &mut self.scratch, &mut self.expected);
+                cost(scan, &c.pose, &model.caster, &self.error, &final_cfg, &mut self.scratch, &mut self.expected);
             if cost.value.is_finite() {
                 self.out.hypotheses.push(Hypothesis {
                     pose: c.pose,
@@ -408,7 +407,7 @@ impl Localizer {
         let model = Arc::clone(&self.model);
         for h in self.out.hypotheses.iter_mut().filter(|h| near(h)) {
             let pose = refine(&model, &self.polish_pts, &h.pose, &refine_cfg).0;
-            let c = cost(scan, &pose, model.cost_map(), &self.error, &final_cfg, &mut self.scratch, &mut self.expected);
+            let c = cost(scan, &pose, &model.caster, &self.error, &final_cfg, &mut self.scratch, &mut self.expected);
             if c.value < h.cost.value {
                 (h.pose, h.cost) = (pose, c);
             }
@@ -439,7 +438,7 @@ impl Localizer {
             c.score = cost_below(
                 scan,
                 &c.pose,
-                self.model.cost_map(),
+                &self.model.caster,
                 &self.error,
                 &cfg,
                 bound,
