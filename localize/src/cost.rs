@@ -190,7 +190,7 @@ pub fn cost_below(
     let (mut sum, mut inliers, mut through, mut beams) = (0.0, 0u32, 0u32, 0u32);
     let mut done = 0;
     let mut over = false;
-    let clutter = cfg.clutter_share < 1.0;
+    // no term above this can come down (with `clutter_share` at 1, none is above it)
     let least_front = cfg.clutter_share * cfg.front_cap;
     let part = if stoppable { PART } else { usize::MAX };
     caster.cast_while(pose, &g, scan.len(), stride, part, scratch, expected, |expected, cast| {
@@ -199,9 +199,8 @@ pub fn cost_below(
         for (k, &d_map) in expected.iter().enumerate().take(ready).skip(done) {
             let reading = scan.reading(k * stride);
             if let Some((mut c, verdict)) = beam_term(reading, d_map, expected, k, step, error, cfg, &g) {
-                if let (true, Reading::Valid(d), Verdict::Other) = (clutter, reading, &verdict) {
-                    // only a term above the least cap can change, and only short of a wall the
-                    // map puts in range
+                if let (Reading::Valid(d), Verdict::Other) = (reading, &verdict) {
+                    // only short of a wall the map puts in range
                     if d < d_map && d_map < g.range_max && c > least_front {
                         c = c.min(cfg.front_cap_at(d_map - d));
                     }

@@ -231,11 +231,9 @@ pub(super) fn screen_points(
     long: f64,
     out: &mut Vec<ScreenPoint>,
 ) {
-    let mut points = Vec::new();
-    subsample(seg, count, &mut points);
     out.clear();
     let long_lines = || lines.iter().filter(|l| l.length() >= long);
-    out.extend(points.into_iter().map(|at| ScreenPoint { at, on_long_line: long_lines().any(|l| on_line(l, at)) }));
+    out.extend(spread(seg, count).map(|at| ScreenPoint { at, on_long_line: long_lines().any(|l| on_line(l, at)) }));
 }
 
 /// How far from a line's visible extent a sample may lie and count as on it, metres: e(d) at
@@ -250,16 +248,17 @@ fn on_line(l: &SlideLine, q: Point2<f64>) -> bool {
 /// Up to `count` sample points spread evenly over the scan.
 pub(super) fn subsample(seg: &Segmentation, count: usize, out: &mut Vec<Point2<f64>>) {
     out.clear();
+    out.extend(spread(seg, count));
+}
+
+/// The points of [`subsample`], in scan order.
+fn spread(seg: &Segmentation, count: usize) -> impl Iterator<Item = Point2<f64>> + '_ {
     let n = seg.samples.len();
-    if n == 0 || count == 0 {
-        return;
-    }
-    let step = (n as f64 / count as f64).max(1.0);
-    let mut k = 0.0;
-    while (k as usize) < n {
-        out.push(seg.samples[k as usize].point());
-        k += step;
-    }
+    let step = (n as f64 / count.max(1) as f64).max(1.0);
+    // accumulated step by step, as the points have always been picked
+    std::iter::successors(Some(0.0), move |k| Some(k + step))
+        .take_while(move |&k| count > 0 && (k as usize) < n)
+        .map(|k| seg.samples[k as usize].point())
 }
 
 #[cfg(test)]
