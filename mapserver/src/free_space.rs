@@ -83,7 +83,7 @@ impl FreeSpace {
         // the grid's first cell lies beyond the bounds by 1.5 cells each way, so it is passable
         // and in the region around the map
         let around = self.labels.first().copied().filter(|&l| l != 0)?;
-        let largest = self.sizes.iter().skip(1).max().copied().unwrap_or(0);
+        let largest = self.largest_region().map_or(0, |r| self.sizes[r as usize]);
         if self.sizes[around as usize] >= largest {
             return None;
         }
