@@ -42,6 +42,8 @@ pub struct Outcome {
     /// Whether the localizer's full search ran (its first look did not settle the scan).
     pub full_search: bool,
     pub slide_search: bool,
+    /// Whether the loose slide ran after the slide search.
+    pub loose_slide: bool,
 }
 
 impl Outcome {
@@ -61,6 +63,7 @@ impl Outcome {
             steps: [0.0; 7],
             full_search: false,
             slide_search: false,
+            loose_slide: false,
         }
     }
 
@@ -78,6 +81,7 @@ impl Outcome {
         ];
         self.full_search = loc.full_search;
         self.slide_search = loc.slide_search;
+        self.loose_slide = loc.loose_slide;
         self
     }
 
@@ -172,9 +176,10 @@ impl Summary {
             100.0 * self.outcomes.iter().filter(|o| f(o)).count() as f64 / self.scans().max(1) as f64
         };
         s += &format!(
-            "first look settled {:.1} % of scans (the rest ran the full search); the slide search ran on {:.1} %\n",
+            "first look settled {:.1} % of scans (the rest ran the full search); the slide search ran on {:.1} %, the loose slide on {:.1} %\n",
             share(|o| !o.full_search),
-            share(|o| o.slide_search)
+            share(|o| o.slide_search),
+            share(|o| o.loose_slide)
         );
         let names = ["samples", "inference", "filter+corners", "matching", "coarse cost", "refine", "cost"];
         s += "median us per step:";

@@ -4,6 +4,7 @@ use acquire::{Scenario, SensorModel, Simulator};
 use laser::{pose, LaserScan, ScanGeometry};
 use localize::cost::cost;
 use localize::refine::{refine, RefineConfig};
+use localize::slide::SlideLine;
 use localize::{pose_from_corners, same_pose, CostConfig, Gema2, LocalizerConfig, MapModel, Status};
 use mapserver::{procedural, MapCornerConfig, RayScratch, Wall, WallMap};
 use segment::{ErrorModel, LineVisibilitySegmenter, Segmentation, Segmenter, SegmenterConfig};
@@ -393,6 +394,52 @@ fn tracking_restricts_the_slide_search_to_walls_near_the_last_pose() {
         true
     });
     assert!(checked >= 10, "{checked}");
+}
+
+/// Lines whose direction is known only to a few degrees (wall pieces between boxes) are left
+/// out of the slide search, and laid along walls by the loose slide when that found no confirmed
+/// pose: a scan whose every line is so uncertain, and fitted off by most of it, is still placed;
+/// without the loose slide it has no pose at all.
+#[test]
+fn the_loose_slide_places_scans_whose_lines_are_uncertain_in_direction() {
+    let map = procedural::office(2024, 3, 8);
+    let mut tracked = gema2(&map, LocalizerConfig::default());
+    let mut loose = gema2(&map, LocalizerConfig::default());
+    let strict_slide = localize::SlideConfig {
+        loose_direction_sigma: LocalizerConfig::default().slide.max_direction_sigma,
+        ..LocalizerConfig::default().slide
+    };
+    let mut strict = gema2(&map, LocalizerConfig { slide: strict_slide, ..LocalizerConfig::default() });
+    let sigma = 2.5f64.to_radians();
+    let (mut right, mut placed) = (0, 0);
+    let checked = each_ok_scan_without_corners(&map, 5, &mut tracked, |scan, cornerless, _| {
+        let truth = scan.truth.expect("simulated");
+        // every line uncertain by 2.5 degrees and fitted 2 degrees off
+        let lines: Vec<SlideLine> = cornerless
+            .lines
+            .iter()
+            .map(|l| SlideLine { direction_sigma: sigma, ..turned(&SlideLine::from(l), 0.8 * sigma) })
+            .collect();
+        let without = strict.localizer.locate_with_lines(&scan.view(), cornerless, lines.iter().copied());
+        assert!(without.hypotheses.is_empty() && !without.times.loose_slide);
+        let with = loose.localizer.locate_with_lines(&scan.view(), cornerless, lines.iter().copied());
+        if !with.times.slide_search || lines.len() < 2 {
+            return false;
+        }
+        assert!(with.times.loose_slide);
+        placed += with.best().is_some() as usize;
+        right += with.best().is_some_and(|h| same_pose(&h.pose, &truth, 0.3, 5f64.to_radians())) as usize;
+        true
+    });
+    assert!(checked >= 15, "{checked}");
+    assert!(right * 10 >= checked * 8, "{right} of {checked} right ({placed} placed)");
+}
+
+/// `line` turned by `angle` about its middle.
+fn turned(line: &SlideLine, angle: f64) -> SlideLine {
+    let middle = line.start + (line.end - line.start) / 2.0;
+    let r = nalgebra::UnitComplex::new(angle);
+    SlideLine { start: middle + r * (line.start - middle), end: middle + r * (line.end - middle), ..*line }
 }
 
 /// Under tracking the slide search sizes its step for the walls near the last pose, not for the

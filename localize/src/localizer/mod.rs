@@ -29,7 +29,7 @@ use crate::cost::{cost, cost_below, Cost, CostConfig};
 use crate::lowest::Lowest;
 use crate::model::MapModel;
 use crate::refine::{refine, RefineConfig};
-use crate::slide::SlideLine;
+use crate::slide::{loose_slide_lines, SlideLine};
 use laser::{Pose, ScanView};
 use mapserver::RayScratch;
 use nalgebra::Point2;
@@ -88,6 +88,8 @@ pub struct LocateTimes {
     pub full_search: bool,
     /// Whether the slide search ran: the full search's best pose was not confirmed either.
     pub slide_search: bool,
+    /// Whether the loose slide ran: the slide search's best pose was not confirmed either.
+    pub loose_slide: bool,
 }
 
 #[derive(Clone, Debug)]
@@ -287,6 +289,14 @@ impl Localizer {
             self.out.times.slide_search = true;
             self.search(scan, seg, Source::Slides, cfg.prescreened, cfg.slide.screened, cfg.refined);
             self.rank();
+            if !first.confirms(self.out.status, self.out.hypotheses.first()) {
+                loose_slide_lines(&self.lines, &cfg.slide, &mut self.slide_lines);
+                if !self.slide_lines.is_empty() {
+                    self.out.times.loose_slide = true;
+                    self.search(scan, seg, Source::LooseSlides, cfg.prescreened, cfg.slide.screened, cfg.refined);
+                    self.rank();
+                }
+            }
             if self.out.status == Status::Ok
                 && self.out.hypotheses.first().is_some_and(|h| h.cost.inliers < cfg.slide.min_inliers_ok)
             {
@@ -460,6 +470,9 @@ enum Source {
     Corners(usize),
     /// The longest scan lines laid along every map wall ([`crate::slide`]).
     Slides,
+    /// The lines `Slides` passed over for their uncertain direction
+    /// ([`crate::slide::loose_slide_lines`]), once `Slides` gave no confirmed pose.
+    LooseSlides,
 }
 
 /// How the search judges one pose of a scan ([`Localizer::judge`]).
