@@ -78,6 +78,8 @@ pub struct SlideConfig {
     /// Largest direction uncertainty of a line the loose slide uses ([`loose_slide_lines`]),
     /// radians; at most `max_direction_sigma` turns the loose slide off.
     pub loose_direction_sigma: f64,
+    /// How many lines the loose slide uses.
+    pub loose_lines: usize,
     /// Distance between the positions tried along a wall, metres. Refinement then pulls a
     /// pose onto the walls; along a wall with nothing else in view, a pose is at most half a
     /// step off, well inside the 0.3 m success radius.
@@ -108,6 +110,7 @@ impl Default for SlideConfig {
             min_wall: 1.0,
             max_direction_sigma: 1.5f64.to_radians(),
             loose_direction_sigma: 4f64.to_radians(),
+            loose_lines: 2,
             step: 0.15,
             slack: 0.2,
             shorter_walls: 0.25,
@@ -132,10 +135,10 @@ impl Default for SlideConfig {
 /// legs beside one wall), every position along the wall explains it equally well and the scan
 /// ends `ambiguous` or `failed`, never `ok`.
 pub fn slide_lines(lines: &[SlideLine], cfg: &SlideConfig, out: &mut Vec<usize>) {
-    longest_lines(lines, cfg, f64::NEG_INFINITY, cfg.max_direction_sigma, out);
+    longest_lines(lines, cfg, f64::NEG_INFINITY, cfg.max_direction_sigma, cfg.lines, out);
 }
 
-/// The indices of the lines the loose slide uses, as [`slide_lines`]: the `cfg.lines` longest
+/// The indices of the lines the loose slide uses, as [`slide_lines`]: the `cfg.loose_lines` longest
 /// of those the slide search passed over for their direction alone, uncertain by more than
 /// `cfg.max_direction_sigma` but at most `cfg.loose_direction_sigma`.
 ///
@@ -144,23 +147,26 @@ pub fn slide_lines(lines: &[SlideLine], cfg: &SlideConfig, out: &mut Vec<usize>)
 /// off, and laid along every wall it makes many more wrong poses than a sure one: slid with the
 /// sure ones (a limit of 2.5 degrees), the furnished warehouse gained 3 points but three of the
 /// four furnished office logs lost a scan or two. So these lines are slid only when the sure
-/// ones gave no confirmed pose (as the first look confirms one). Up to 4 degrees, over the 48
-/// simulated logs of `gema2 evaluate`: 13775 -> 13804 successes, wrong `ok` 62 -> 61, no log
-/// lost a success; the four furnished warehouses 80.3 / 78.7 / 87.7 / 78.7 -> 82.3 / 79.0 /
-/// 88.3 / 80.7 %. Turning each line by one standard deviation either way as well (three poses
-/// for one) placed no more furnished warehouse scans (979 against 976 of 1200), and fewer clean
-/// office scans whose lines were all fitted 2 degrees off.
+/// ones gave no confirmed pose (as the first look confirms one), the `cfg.loose_lines` longest
+/// up to 4 degrees. Over the 48 simulated logs of `gema2 evaluate`, two lines: 13775 -> 13798
+/// successes, `ok` and wrong `ok` unchanged, no log lost a success; the four furnished
+/// warehouses 80.3 / 78.7 / 87.7 / 78.7 -> 82.3 / 79.3 / 88.0 / 79.7 %. On CARMEN both ways,
+/// 1065 -> 1073 successes, but a median 8.0 -> 12.5 ms a scan, as most of its scans are never
+/// confirmed (one line: 1071 at 10.7 ms; six: no more successes than two). Turning each line by
+/// one standard deviation either way as well (three poses for one) placed no more furnished
+/// warehouse scans (979 against 976 of 1200), and fewer clean office scans whose lines were
+/// all fitted 2 degrees off.
 pub fn loose_slide_lines(lines: &[SlideLine], cfg: &SlideConfig, out: &mut Vec<usize>) {
     out.clear();
     if cfg.loose_direction_sigma > cfg.max_direction_sigma {
-        longest_lines(lines, cfg, cfg.max_direction_sigma, cfg.loose_direction_sigma, out);
+        longest_lines(lines, cfg, cfg.max_direction_sigma, cfg.loose_direction_sigma, cfg.loose_lines, out);
     }
 }
 
-/// The `cfg.lines` longest lines at least `cfg.min_length` long whose direction is uncertain
-/// by more than `above` and at most `up_to`, longest first, in `out` (cleared first); none
-/// when the scan has only one line.
-fn longest_lines(lines: &[SlideLine], cfg: &SlideConfig, above: f64, up_to: f64, out: &mut Vec<usize>) {
+/// The `count` longest lines at least `cfg.min_length` long whose direction is uncertain by
+/// more than `above` and at most `up_to`, longest first, in `out` (cleared first); none when the
+/// scan has only one line.
+fn longest_lines(lines: &[SlideLine], cfg: &SlideConfig, above: f64, up_to: f64, count: usize, out: &mut Vec<usize>) {
     out.clear();
     let usable =
         |l: &SlideLine| l.length() >= cfg.min_length && l.direction_sigma > above && l.direction_sigma <= up_to;
@@ -168,7 +174,7 @@ fn longest_lines(lines: &[SlideLine], cfg: &SlideConfig, above: f64, up_to: f64,
         out.extend((0..lines.len()).filter(|&i| usable(&lines[i])));
     }
     out.sort_by(|&a, &b| lines[b].length().total_cmp(&lines[a].length()));
-    out.truncate(cfg.lines);
+    out.truncate(count);
 }
 
 /// The step along walls for laying `lines[chosen]` along `walls`: `cfg.step`, or longer where
@@ -517,7 +523,7 @@ mod tests {
 
     #[test]
     fn the_loose_slide_takes_only_lines_the_slide_passed_over_for_their_direction() {
-        let cfg = SlideConfig { lines: 2, ..SlideConfig::default() };
+        let cfg = SlideConfig { loose_lines: 2, ..SlideConfig::default() };
         let with_sigma = |l: SlideLine, degrees: f64| SlideLine { direction_sigma: degrees.to_radians(), ..l };
         let a = Point2::new(2.0, -1.0);
         let sure = with_sigma(line(a, Point2::new(2.0, 2.0)), 1.0);
