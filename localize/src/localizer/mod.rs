@@ -15,7 +15,9 @@
 //! All this runs first for the single best corner with few hypotheses (the [`FirstLook`]),
 //! and for the `corners_tried` best only when that look's best pose is not confirmed. When
 //! that is not confirmed either, the scan's longest lines are laid along the map's walls
-//! ([`crate::slide`]) and those poses go through the same steps, ranked with the others.
+//! ([`crate::slide`]) and those poses go through the same steps, ranked with the others; and
+//! when that is not confirmed either, so are the lines too uncertain in direction for it
+//! ([`crate::slide::loose_slide_lines`]).
 
 mod candidates;
 mod config;
