@@ -7,7 +7,7 @@ use super::screen::{order_by_telling, within, FirstPass, Screen, ScreenPoint};
 use super::{Candidate, Localizer, LocalizerConfig, Source};
 use crate::matching::{arms_fit, pose_from_corners};
 use crate::model::MapModel;
-use crate::slide::{chord_poses, loose_slide_lines, slide_lines, slide_poses, slide_step, SlideLine, FROM_SLIDE};
+use crate::slide::{chord_poses, slide_lines, slide_poses, slide_step, SlideLine, FROM_SLIDE};
 use laser::Pose;
 use mapserver::runs::RunChain;
 use mapserver::Wall;
@@ -43,7 +43,7 @@ impl Localizer {
                 self.out.slide_step = Some(step);
             }
             Source::LooseSlides => {
-                loose_slide_lines(&self.lines, &cfg.slide, &mut self.slide_lines);
+                // the lines `locate_lines_given` chose: it runs this search only when there are some
                 slide_candidates(&mut offers, &self.lines, &self.slide_lines, &model, &cfg, prior);
             }
         }

@@ -473,7 +473,8 @@ enum Source {
     /// The longest scan lines laid along every map wall ([`crate::slide`]).
     Slides,
     /// The lines `Slides` passed over for their uncertain direction
-    /// ([`crate::slide::loose_slide_lines`]), once `Slides` gave no confirmed pose.
+    /// ([`crate::slide::loose_slide_lines`]), once `Slides` gave no confirmed pose; the caller
+    /// chooses them into `Localizer::slide_lines`.
     LooseSlides,
 }
 
