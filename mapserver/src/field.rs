@@ -15,17 +15,20 @@ pub struct DistanceField {
     inverse_resolution: f64,
     cap: f64,
     /// Distance in units of `cap / 255` (one byte, so the field of a whole floor stays in
-    /// cache: screening thousands of poses is bound by these lookups).
+    /// cache: screening thousands of poses is bound by these lookups), stored in tiles of
+    /// [`TILE`] x [`TILE`] cells (see [`tile_index`]).
     cells: Vec<u8>,
+    /// Tiles per row of tiles.
+    tile_cols: usize,
     /// The least of `cells` over each block of [`POOL`] x [`POOL`] cells (the last row and
     /// column of blocks may be partial): a lower bound of the distance from a table a
     /// `POOL * POOL`-th of the size, which stays in cache where `cells` of a large map do not.
     pooled: Vec<u8>,
     pooled_cols: usize,
-    /// One bit a cell: whether its nearest wall is one [`mark_nearest`](Self::mark_nearest)
+    /// One bit a cell, in the order of `cells`: whether its nearest wall is one [`mark_nearest`](Self::mark_nearest)
     /// marked. Empty until then.
     marked: Vec<u64>,
-    /// Nearest wall of each cell's centre.
+    /// Nearest wall of each cell's centre, in the order of `cells`.
     nearest: NearestWalls,
 }
 
@@ -42,6 +45,21 @@ enum NearestWalls {
 /// Side of the blocks of cells [`DistanceField::lower_bound`] reads, in cells.
 pub const POOL: usize = 4;
 
+/// Side of the tiles the cells are stored in, in cells: a tile of one-byte distances is one
+/// 64-byte cache line. Stored row by row, a point and the point a cell above it lie a whole row
+/// of the field apart, a cache miss each once the field outgrows the cache (a map built from a
+/// survey of a building: a megabyte and more). The scan points of neighbouring poses, which
+/// the screen reads one after the other, fall in the same few tiles. On the map built from
+/// the csail CARMEN log (a 1.3 MB field), screening went from 5.9-6.3 to 5.3-5.7 ms a scan and
+/// refinement from 484-503 to 440-462 us; a field that fits in the cache reads as fast either way.
+pub const TILE: usize = 8;
+
+/// Where cell (`c`, `r`) is stored, in a field `tile_cols` tiles wide.
+#[inline]
+fn tile_index(c: usize, r: usize, tile_cols: usize) -> usize {
+    (((r / TILE) * tile_cols + c / TILE) * TILE + r % TILE) * TILE + c % TILE
+}
+
 /// Largest number of cells a field may have before its resolution is coarsened.
 const MAX_CELLS: f64 = 16.0e6;
 
@@ -55,8 +73,12 @@ impl DistanceField {
         let origin = Point2::new(lo.x - cap, lo.y - cap);
         let cols = (w / resolution).ceil().max(1.0) as usize;
         let rows = (h / resolution).ceil().max(1.0) as usize;
-        let mut cells = vec![u8::MAX; cols * rows];
-        let mut nearest = vec![u32::MAX; cols * rows];
+        let tile_cols = cols.div_ceil(TILE);
+        // whole tiles: the cells past the last row and column are never read (`cell` says
+        // they lie outside) and say no wall is near
+        let stored = tile_cols * rows.div_ceil(TILE) * TILE * TILE;
+        let mut cells = vec![u8::MAX; stored];
+        let mut nearest = vec![u32::MAX; stored];
         let scale = 255.0 / cap;
         for (k, wall) in walls.iter().enumerate() {
             let c0 = (((wall.a.x.min(wall.b.x) - cap - origin.x) / resolution).floor().max(0.0)) as usize;
@@ -70,7 +92,7 @@ impl DistanceField {
                     let d = wall.closest(centre).0;
                     if d < cap {
                         let q = (d * scale) as u8;
-                        let i = r * cols + c;
+                        let i = tile_index(c, r, tile_cols);
                         if q < cells[i] {
                             cells[i] = q;
                             nearest[i] = k as u32;
@@ -89,7 +111,7 @@ impl DistanceField {
         for r in 0..rows {
             for c in 0..cols {
                 let b = (r / POOL) * pooled_cols + c / POOL;
-                pooled[b] = pooled[b].min(cells[r * cols + c]);
+                pooled[b] = pooled[b].min(cells[tile_index(c, r, tile_cols)]);
             }
         }
         DistanceField {
@@ -100,6 +122,7 @@ impl DistanceField {
             rows,
             cap,
             cells,
+            tile_cols,
             pooled,
             pooled_cols,
             marked: Vec::new(),
@@ -113,7 +136,7 @@ impl DistanceField {
     /// has some property most walls lack reads the bit first, and skips most lookups of a large
     /// map's nearest walls.
     pub fn mark_nearest(&mut self, marked: impl Fn(u32) -> bool) {
-        let cells = self.cols * self.rows;
+        let cells = self.cells.len();
         let mut bits = vec![0u64; cells.div_ceil(64)];
         for i in 0..cells {
             if self.nearest_of(i).is_some_and(&marked) {
@@ -162,7 +185,7 @@ impl DistanceField {
 
     #[inline]
     fn index(&self, p: Point2<f64>) -> Option<usize> {
-        self.cell(p).map(|(c, r)| r * self.cols + c)
+        self.cell(p).map(|(c, r)| tile_index(c, r, self.tile_cols))
     }
 
     /// The wall nearest to the centre of cell `i`, if any lies within the cap.
@@ -202,6 +225,23 @@ impl DistanceField {
 mod tests {
     use super::*;
     use proptest::prelude::*;
+
+    /// Every cell of a field of any shape has its own place among the stored cells.
+    #[test]
+    fn tiles_store_each_cell_once() {
+        for (cols, rows) in [(1usize, 1usize), (7, 3), (8, 8), (9, 17), (30, 5)] {
+            let tile_cols = cols.div_ceil(TILE);
+            let stored = tile_cols * rows.div_ceil(TILE) * TILE * TILE;
+            let mut seen = vec![false; stored];
+            for r in 0..rows {
+                for c in 0..cols {
+                    let i = tile_index(c, r, tile_cols);
+                    assert!(i < stored && !seen[i], "cell ({c}, {r}) of {cols} x {rows}");
+                    seen[i] = true;
+                }
+            }
+        }
+    }
 
     proptest! {
         #[test]
