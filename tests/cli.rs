@@ -82,16 +82,41 @@ fn a_malformed_map_is_rejected_naming_file_and_element() {
 fn a_malformed_log_line_is_rejected_naming_file_and_line() {
     let dir = tempfile::tempdir().unwrap();
     let log = dir.path().join("bad.log");
-    std::fs::write(&log, "PARAM a b\nFLASER 3 1.0 1.0 1.0 0 0 0 0 0 0 1 h 1\nFLASER 3 1.0 x 1.0 0 0 0 0 0 0 1 h 1\n")
-        .unwrap();
+    let good = "FLASER 3 1.0 1.0 1.0 0 0 0 0 0 0 1 h 1\n";
+    std::fs::write(&log, format!("PARAM a b\n{good}FLASER 3 1.0 x 1.0 0 0 0 0 0 0 1 h 1\n{good}")).unwrap();
     let csv = dir.path().join("bad.csv");
     let out = gema2(&["locate", "--map", "apartment", "--log", log.to_str().unwrap(), "--out", csv.to_str().unwrap()]);
+    // the run fails, naming the line...
     assert!(!out.status.success());
     let err = text(&out.stderr);
-    assert!(err.contains("bad.log:3") && err.contains("\"x\""), "{err}");
-    // the scan before the bad line is located, written and summed up, not lost with it
-    assert!(err.starts_with("scans 1 ") && err.contains("stopped there, after 1 scans"), "{err}");
-    assert_eq!(std::fs::read_to_string(&csv).unwrap().lines().count(), 2);
+    assert!(err.contains("skipped") && err.contains("bad.log:3") && err.contains("\"x\""), "{err}");
+    assert!(err.contains("1 malformed laser line skipped"), "{err}");
+    // ...but loses only that line's scan: the scans before and after it are located, written
+    // and summed up, and keep their places in the log (scans 0 and 2)
+    assert!(err.contains("scans 2 "), "{err}");
+    let rows: Vec<String> = std::fs::read_to_string(&csv).unwrap().lines().skip(1).map(str::to_owned).collect();
+    assert_eq!(rows.len(), 2, "{rows:?}");
+    assert!(rows[0].starts_with("0,") && rows[1].starts_with("2,"), "{rows:?}");
+}
+
+/// A log that cannot be read to its end (a gzip file cut short) ends the run there, with the
+/// scans before it located and summed up.
+#[test]
+fn a_log_cut_short_ends_the_run_after_the_scans_before_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let log = dir.path().join("cut.log");
+    let out = gema2(&["sim", "--map", "apartment", "--scans", "40", "--out", log.to_str().unwrap()]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let mut gz = flate2::write::GzEncoder::new(Vec::new(), flate2::Compression::default());
+    std::io::Write::write_all(&mut gz, &std::fs::read(&log).unwrap()).unwrap();
+    let bytes = gz.finish().unwrap();
+    let cut = dir.path().join("cut.log.gz");
+    std::fs::write(&cut, &bytes[..bytes.len() / 2]).unwrap();
+    let out = gema2(&["locate", "--map", "apartment", "--log", cut.to_str().unwrap()]);
+    assert!(!out.status.success());
+    let err = text(&out.stderr);
+    assert!(err.contains("cut.log.gz") && err.contains("stopped there"), "{err}");
+    assert!(err.starts_with("scans "), "{err}");
 }
 
 #[test]

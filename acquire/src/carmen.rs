@@ -110,19 +110,30 @@ pub fn open_log(path: &Path) -> Result<Box<dyn BufRead + Send>, LogError> {
     Ok(Box::new(BufReader::with_capacity(1 << 16, inner)))
 }
 
+/// A log line as read, and as text. Bytes that are not UTF-8 (a comment written in Latin-1, a
+/// line garbled on disk) become U+FFFD: such a line is read like any other, so it ends no run,
+/// and in a laser line the garbled token fails the parse, naming the line.
+#[derive(Debug, Default)]
+pub(crate) struct LineBuf {
+    bytes: Vec<u8>,
+    pub(crate) text: String,
+}
+
 /// Reads the next line of a log into `buf` and counts it: `None` at the end, `Some(Err)` on an
 /// I/O error naming the file.
 pub(crate) fn next_line(
     reader: &mut dyn BufRead,
-    buf: &mut String,
+    buf: &mut LineBuf,
     line: &mut usize,
     path: &Path,
 ) -> Option<Result<(), LogError>> {
-    buf.clear();
-    match reader.read_line(buf) {
+    buf.bytes.clear();
+    buf.text.clear();
+    match reader.read_until(b'\n', &mut buf.bytes) {
         Ok(0) => None,
         Ok(_) => {
             *line += 1;
+            buf.text.push_str(&String::from_utf8_lossy(&buf.bytes));
             Some(Ok(()))
         }
         Err(source) => Some(Err(LogError::Io { path: path.to_owned(), source })),
@@ -142,7 +153,7 @@ pub struct CarmenReader {
     reader: Box<dyn BufRead + Send>,
     path: PathBuf,
     line: usize,
-    buf: String,
+    buf: LineBuf,
     layout: FlaserLayout,
     no_truth: bool,
 }
@@ -155,7 +166,7 @@ impl CarmenReader {
 
     /// Reads from any source; `path` names it in errors.
     pub fn from_reader(reader: Box<dyn BufRead + Send>, path: &Path, layout: FlaserLayout) -> Self {
-        CarmenReader { reader, path: path.to_owned(), line: 0, buf: String::new(), layout, no_truth: false }
+        CarmenReader { reader, path: path.to_owned(), line: 0, buf: LineBuf::default(), layout, no_truth: false }
     }
 
     fn error(&self, message: impl Into<String>) -> LogError {
@@ -171,11 +182,11 @@ impl Iterator for CarmenReader {
             if let Err(e) = next_line(&mut self.reader, &mut self.buf, &mut self.line, &self.path)? {
                 return Some(Err(e));
             }
-            if self.buf.trim_end() == NO_TRUTH_MARKER {
+            if self.buf.text.trim_end() == NO_TRUTH_MARKER {
                 self.no_truth = true;
                 continue;
             }
-            let mut tokens = self.buf.split_ascii_whitespace();
+            let mut tokens = self.buf.text.split_ascii_whitespace();
             let parsed = match tokens.next() {
                 Some("ROBOTLASER1") => parse_robotlaser1(&tokens.collect::<Vec<_>>()),
                 Some("FLASER") => parse_flaser(&tokens.collect::<Vec<_>>(), &self.layout),
@@ -356,6 +367,30 @@ mod tests {
         let t = got.scan.truth.unwrap();
         assert!((t.translation.x - 1.0).abs() < 1e-9 && (laser::pose_theta(&t) - 0.5).abs() < 1e-9);
         assert!((got.scan.stamp - 12.5).abs() < 1e-9);
+    }
+
+    /// Bytes that are not UTF-8 end no run: a comment in Latin-1 is skipped like any comment,
+    /// and a laser line garbled on disk is that line's error alone, the next line read on.
+    #[test]
+    fn lines_that_are_not_utf8_are_read_on_past() {
+        let line = "FLASER 3 1.0 2.0 3.0 0 0 0 0 0 0 1 h 1\n";
+        let mut bytes = b"# caf\xe9 au lait\n".to_vec();
+        bytes.extend_from_slice(line.as_bytes());
+        bytes.extend_from_slice(b"FLASER 3 1.0 2\xff0 3.0 0 0 0 0 0 0 1 h 1\n");
+        bytes.extend_from_slice(line.as_bytes());
+        let reader = CarmenReader::from_reader(
+            Box::new(std::io::Cursor::new(bytes)),
+            Path::new("latin.log"),
+            FlaserLayout::default(),
+        );
+        let got: Vec<_> = reader.collect();
+        assert_eq!(got.len(), 3);
+        assert_eq!(got[0].as_ref().unwrap().line, 2);
+        match &got[1] {
+            Err(LogError::Line { line: 3, .. }) => {}
+            other => panic!("line 3 should be its own error: {other:?}"),
+        }
+        assert_eq!(got[2].as_ref().unwrap().scan.ranges, vec![1.0, 2.0, 3.0]);
     }
 
     #[test]

@@ -2,7 +2,7 @@
 //! a line; token 0 is a timestamp in microseconds, tokens 24 onwards are 682 ranges in mm for
 //! steps 44..=725 (0: no return). Errors name the file and line.
 
-use crate::carmen::{next_line, open_log, LogError};
+use crate::carmen::{next_line, open_log, LineBuf, LogError};
 use laser::{LaserScan, ScanGeometry};
 use std::io::BufRead;
 use std::path::{Path, PathBuf};
@@ -16,16 +16,16 @@ pub struct UrgLogReader {
     reader: Box<dyn BufRead + Send>,
     path: PathBuf,
     line: usize,
-    buf: String,
+    buf: LineBuf,
 }
 
 impl UrgLogReader {
     pub fn open(path: &Path) -> Result<Self, LogError> {
-        Ok(UrgLogReader { reader: open_log(path)?, path: path.to_owned(), line: 0, buf: String::new() })
+        Ok(UrgLogReader { reader: open_log(path)?, path: path.to_owned(), line: 0, buf: LineBuf::default() })
     }
 
     fn parse(&self) -> Result<LaserScan, String> {
-        let tokens: Vec<&str> = self.buf.split_ascii_whitespace().collect();
+        let tokens: Vec<&str> = self.buf.text.split_ascii_whitespace().collect();
         if tokens.len() < FIRST_READING + READINGS {
             return Err(format!("{} tokens, a scan needs {}", tokens.len(), FIRST_READING + READINGS));
         }
@@ -52,7 +52,7 @@ impl Iterator for UrgLogReader {
             if let Err(e) = next_line(&mut self.reader, &mut self.buf, &mut self.line, &self.path)? {
                 return Some(Err(e));
             }
-            if self.buf.trim().is_empty() {
+            if self.buf.text.trim().is_empty() {
                 continue;
             }
             return Some(self.parse().map_err(|message| LogError::Line {

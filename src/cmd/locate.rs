@@ -95,14 +95,26 @@ pub fn run(a: LocateArgs) -> Result<()> {
     let reader = CarmenReader::open(&a.log, a.flaser.layout().map_err(anyhow::Error::msg)?)?;
     let mut csv = a.out.as_deref().map(CsvOut::create).transpose()?;
     let dump = dump_request(&a)?;
-    let mut run = Run { dumped: false, summary: Summary::default(), diagnosis: Default::default(), unreadable: None };
+    let mut run = Run {
+        dumped: false,
+        summary: Summary::default(),
+        diagnosis: Default::default(),
+        unreadable: None,
+        malformed: Malformed::default(),
+    };
     let mut judge = None;
+    // a malformed laser line keeps its index, so the scans after it keep theirs
     for (index, item) in reader.enumerate() {
         let item = match item {
             Ok(item) => item,
+            Err(e @ acquire::LogError::Line { .. }) => {
+                // one bad line loses its own scan only: the run goes on, and fails at the end
+                run.malformed.add(e);
+                continue;
+            }
             Err(e) => {
-                // a line that cannot be read ends the run with its error, after the scans
-                // before it are written and summed up: they are not lost with it
+                // a log that cannot be read any further ends the run with its error, after the
+                // scans before it are written and summed up: they are not lost with it
                 run.unreadable = Some(e);
                 break;
             }
@@ -191,12 +203,35 @@ struct Run {
     summary: Summary,
     diagnosis: crate::diagnose::Diagnosis,
     unreadable: Option<acquire::LogError>,
+    malformed: Malformed,
+}
+
+/// The malformed laser lines a run skipped: each is reported as it is met, up to
+/// [`Malformed::REPORTED`] of them, and all are counted.
+#[derive(Default)]
+struct Malformed {
+    count: usize,
+    first: Option<acquire::LogError>,
+}
+
+impl Malformed {
+    const REPORTED: usize = 10;
+
+    fn add(&mut self, e: acquire::LogError) {
+        self.count += 1;
+        if self.count <= Self::REPORTED {
+            eprintln!("skipped {e}");
+        } else if self.count == Self::REPORTED + 1 {
+            eprintln!("(more malformed lines: counted, not shown)");
+        }
+        self.first.get_or_insert(e);
+    }
 }
 
 impl Run {
     /// Prints the summary (and diagnosis), then fails when the log could not be read to its
-    /// end, when no scan was located, or when a `--dump-scan` or `--diagnose` asked for had
-    /// nothing to work on.
+    /// end or held malformed laser lines, when no scan was located, or when a `--dump-scan` or
+    /// `--diagnose` asked for had nothing to work on.
     fn conclude(self, a: &LocateArgs, dump: Option<(usize, PathBuf)>) -> Result<()> {
         let located = self.summary.outcomes.len();
         // with no scan there is nothing to sum up: the error below says why
@@ -208,6 +243,10 @@ impl Run {
         }
         if let Some(e) = self.unreadable {
             anyhow::bail!("{e}; stopped there, after {located} scans");
+        }
+        if let Some(first) = self.malformed.first {
+            let n = self.malformed.count;
+            anyhow::bail!("{n} malformed laser line{} skipped, the first {first}", if n == 1 { "" } else { "s" });
         }
         if located == 0 {
             // an empty result is no answer: a script must not take it for one
