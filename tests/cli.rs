@@ -92,11 +92,12 @@ fn a_malformed_log_line_is_rejected_naming_file_and_line() {
     assert!(err.contains("skipped") && err.contains("bad.log:3") && err.contains("\"x\""), "{err}");
     assert!(err.contains("1 malformed laser line skipped"), "{err}");
     // ...but loses only that line's scan: the scans before and after it are located, written
-    // and summed up, and keep their places in the log (scans 0 and 2)
+    // and summed up, and the CSV keeps one row per laser line, the bad one `failed`
     assert!(err.contains("scans 2 "), "{err}");
     let rows: Vec<String> = std::fs::read_to_string(&csv).unwrap().lines().skip(1).map(str::to_owned).collect();
-    assert_eq!(rows.len(), 2, "{rows:?}");
-    assert!(rows[0].starts_with("0,") && rows[1].starts_with("2,"), "{rows:?}");
+    assert_eq!(rows.len(), 3, "{rows:?}");
+    assert!(rows[0].starts_with("0,") && rows[2].starts_with("2,"), "{rows:?}");
+    assert!(rows[1].starts_with("1,,,,,failed,"), "{rows:?}");
 }
 
 /// A log that cannot be read to its end (a gzip file cut short) ends the run there, with the

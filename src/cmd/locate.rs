@@ -108,7 +108,12 @@ pub fn run(a: LocateArgs) -> Result<()> {
         let item = match item {
             Ok(item) => item,
             Err(e @ acquire::LogError::Line { .. }) => {
-                // one bad line loses its own scan only: the run goes on, and fails at the end
+                // one bad line loses its own scan only: the run goes on, and fails at the end.
+                // Its row says `failed`, so the CSV keeps one row per laser line (DESIGN.md);
+                // the summary counts only the scans located.
+                if let (Some(w), true) = (csv.as_mut(), super::selected(index, a.every, a.offset)) {
+                    w.unreadable(index)?;
+                }
                 run.malformed.add(e);
                 continue;
             }
@@ -155,7 +160,7 @@ pub fn run(a: LocateArgs) -> Result<()> {
     run.conclude(&a, dump)
 }
 
-/// `--out`: the CSV of DESIGN.md with the `micros` column, one row per located scan.
+/// `--out`: the CSV of DESIGN.md with the `micros` column, one row per selected laser line.
 struct CsvOut(BufWriter<std::fs::File>);
 
 impl CsvOut {
@@ -175,6 +180,12 @@ impl CsvOut {
         let row =
             crate::report::csv_row(index, fields, loc.status.as_str(), micros, loc.hypotheses.len(), loc.candidates);
         writeln!(self.0, "{row}")?;
+        Ok(())
+    }
+
+    /// The row of scan `index`, whose line could not be read: no answer.
+    fn unreadable(&mut self, index: usize) -> Result<()> {
+        writeln!(self.0, "{}", crate::report::csv_row(index, None, Status::Failed.as_str(), 0.0, 0, 0))?;
         Ok(())
     }
 
