@@ -120,12 +120,24 @@ impl Segmenter for LineVisibilitySegmenter {
         build_samples(scan, &error, c.averaging, &mut out.samples);
         let t1 = Instant::now();
         infer_lines(&out.samples, scan.geometry.angle_increment, &error, &mut out.raw_lines);
-        let t2 = Instant::now();
-        filter_lines(&out.raw_lines, &out.samples, &error, &c.filter, &mut out.lines);
-        extract_corners(&out.lines, &c.corner, &mut out.corners);
-        extract_wall_ends(scan, &out.samples, &out.lines, c.averaging, &c.corner, &c.ends, &mut out.corners);
-        let t3 = Instant::now();
-        out.times = SegmentTimes { samples: t1 - t0, inference: t2 - t1, corners: t3 - t2 };
+        finish(scan, c, &error, [t0, t1, Instant::now()], out);
         out
     }
+}
+
+/// What every segmenter does once its raw lines are inferred: filtering (section 4.3), corners
+/// (eq. 4) and wall ends, then the steps' times from `started` (the scan's start, samples
+/// built, lines inferred).
+pub(crate) fn finish(
+    scan: &ScanView<'_>,
+    c: &SegmenterConfig,
+    error: &ErrorModel,
+    started: [Instant; 3],
+    out: &mut Segmentation,
+) {
+    filter_lines(&out.raw_lines, &out.samples, error, &c.filter, &mut out.lines);
+    extract_corners(&out.lines, &c.corner, &mut out.corners);
+    extract_wall_ends(scan, &out.samples, &out.lines, c.averaging, &c.corner, &c.ends, &mut out.corners);
+    let [t0, t1, t2] = started;
+    out.times = SegmentTimes { samples: t1 - t0, inference: t2 - t1, corners: t2.elapsed() };
 }

@@ -4,14 +4,11 @@
 //! paper's lines are. It exists so the two can be compared, and swapped, in one running
 //! pipeline.
 
-use crate::corner::extract_corners;
-use crate::end::extract_wall_ends;
-use crate::filter::filter_lines;
 use crate::fit::Moments;
 use crate::line::Line;
 use crate::noise::noise_scale;
 use crate::sample::{build_samples, ErrorModel, Sample};
-use crate::segmenter::{SegmentTimes, Segmentation, Segmenter, SegmenterConfig};
+use crate::segmenter::{finish, Segmentation, Segmenter, SegmenterConfig};
 use laser::ScanView;
 use std::time::Instant;
 
@@ -97,14 +94,8 @@ impl Segmenter for SplitAndMergeSegmenter {
                 start = k;
             }
         }
-        let t2 = Instant::now();
-        let out = &mut self.out;
-        filter_lines(&out.raw_lines, &out.samples, &error, &c.filter, &mut out.lines);
-        extract_corners(&out.lines, &c.corner, &mut out.corners);
-        extract_wall_ends(scan, &out.samples, &out.lines, c.averaging, &c.corner, &c.ends, &mut out.corners);
-        let t3 = Instant::now();
-        out.times = SegmentTimes { samples: t1 - t0, inference: t2 - t1, corners: t3 - t2 };
-        out
+        finish(scan, &c, &error, [t0, t1, Instant::now()], &mut self.out);
+        &self.out
     }
 }
 
