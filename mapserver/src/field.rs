@@ -14,6 +14,9 @@ pub struct DistanceField {
     rows: usize,
     inverse_resolution: f64,
     cap: f64,
+    /// What one unit of `cells` is, metres: `cap / 255`, divided once here rather than at
+    /// every lookup.
+    quantum: f64,
     /// Distance in units of `cap / 255` (one byte, so the field of a whole floor stays in
     /// cache: screening thousands of poses is bound by these lookups), stored in tiles of
     /// [`TILE`] x [`TILE`] cells (see [`tile_index`]).
@@ -121,6 +124,7 @@ impl DistanceField {
             cols,
             rows,
             cap,
+            quantum: cap / 255.0,
             cells,
             tile_cols,
             pooled,
@@ -167,7 +171,7 @@ impl DistanceField {
     #[inline]
     pub fn lower_bound(&self, p: Point2<f64>) -> f64 {
         match self.cell(p) {
-            Some((c, r)) => self.pooled[(r / POOL) * self.pooled_cols + c / POOL] as f64 * (self.cap / 255.0),
+            Some((c, r)) => self.pooled[(r / POOL) * self.pooled_cols + c / POOL] as f64 * self.quantum,
             None => self.cap,
         }
     }
@@ -207,7 +211,7 @@ impl DistanceField {
     #[inline]
     pub fn distance(&self, p: Point2<f64>) -> f64 {
         match self.index(p) {
-            Some(i) => self.cells[i] as f64 * (self.cap / 255.0),
+            Some(i) => self.cells[i] as f64 * self.quantum,
             None => self.cap,
         }
     }
