@@ -369,6 +369,48 @@ fn a_built_map_keeps_the_free_space_its_scans_saw() {
     assert!(mapserver::WallMap::load(&built).unwrap().seen_free.is_none());
 }
 
+/// A malformed laser line in a survey is left out of the map, not the end of it: the map is
+/// built from the other scans and written, as it would be without that line, and the run
+/// fails naming the line. With `--grid` too.
+#[test]
+fn a_survey_with_a_malformed_line_builds_its_map_from_the_other_scans() {
+    let dir = tempfile::tempdir().unwrap();
+    let log = dir.path().join("survey.log");
+    let log_s = log.to_str().unwrap();
+    let out = gema2(&["sim", "--map", "apartment", "--scans", "40", "--seed", "5", "--out", log_s]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let whole = std::fs::read_to_string(&log).unwrap();
+    let lines: Vec<&str> = whole.lines().collect();
+    let tenth = lines.iter().enumerate().filter(|(_, l)| l.starts_with("ROBOTLASER1")).nth(9).unwrap().0;
+    // the same survey without that scan, and with it garbled
+    let without: Vec<&str> = lines.iter().enumerate().filter(|&(k, _)| k != tenth).map(|(_, l)| *l).collect();
+    let mut garbled = lines.clone();
+    garbled[tenth] = "ROBOTLASER1 0 -2.0 nonsense";
+    let (clean, bad) = (dir.path().join("without.log"), dir.path().join("garbled.log"));
+    std::fs::write(&clean, without.join("\n") + "\n").unwrap();
+    std::fs::write(&bad, garbled.join("\n") + "\n").unwrap();
+    let (from_clean, from_bad) = (dir.path().join("a.json"), dir.path().join("b.json"));
+    let grid = dir.path().join("b.yaml");
+    let build = |log: &std::path::Path, out: &std::path::Path, extra: &[&str]| {
+        let mut args =
+            vec!["map", "build", "--log", log.to_str().unwrap(), "--every", "1", "--out", out.to_str().unwrap()];
+        args.extend_from_slice(extra);
+        gema2(&args)
+    };
+    let out = build(&clean, &from_clean, &[]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let out = build(&bad, &from_bad, &["--grid", grid.to_str().unwrap()]);
+    assert!(!out.status.success());
+    let err = text(&out.stderr);
+    assert!(err.contains(&format!("garbled.log:{}:", tenth + 1)) && err.contains("1 malformed laser line"), "{err}");
+    assert_eq!(
+        std::fs::read_to_string(&from_clean).unwrap(),
+        std::fs::read_to_string(&from_bad).unwrap(),
+        "the map of the survey without the line"
+    );
+    assert!(grid.exists(), "{err}");
+}
+
 /// The share of `walls`' length (sampled every 5 cm) lying within 0.1 m of one of `others`.
 fn share_within(walls: &[mapserver::Wall], others: &[mapserver::Wall]) -> f64 {
     let (mut near, mut all) = (0, 0);

@@ -109,7 +109,7 @@ pub fn run(a: BuildArgs) -> Result<()> {
         grid.save(path)?;
         eprintln!("{}: a {} x {} grid of {} m", path.display(), grid.width, grid.height, grid.resolution);
     }
-    let (map, scans, lines) = build(&a)?;
+    let Built { map, scans, lines, malformed } = build(&a)?;
     std::fs::write(&a.out, map.to_json("built")).with_context(|| format!("writing {}", a.out.display()))?;
     eprintln!("{}: {} walls from {lines} lines of {scans} scans", a.out.display(), map.walls.len());
     match &map.seen_free {
@@ -119,11 +119,18 @@ pub fn run(a: BuildArgs) -> Result<()> {
         }
         None => {}
     }
+    // the map is written from every other scan; the run still fails, so no script takes the
+    // survey for whole
+    if let Some(first) = malformed.first() {
+        let n = malformed.len();
+        bail!("{n} malformed laser line{} left out of the map, the first {first}", if n == 1 { "" } else { "s" });
+    }
     Ok(())
 }
 
-/// The map of `a`'s scans, with how many scans and scan lines it was built from.
-pub fn build(a: &BuildArgs) -> Result<(WallMap, usize, usize)> {
+/// The map of `a`'s scans, with how many scans and scan lines it was built from. Malformed
+/// laser lines are reported as they are met and left out.
+pub fn build(a: &BuildArgs) -> Result<Built> {
     // before the first pass over the log, which may be long
     check_metres("--min-length", a.min_length)?;
     check_metres("--seen-cell", a.seen_cell)?;
@@ -131,8 +138,16 @@ pub fn build(a: &BuildArgs) -> Result<(WallMap, usize, usize)> {
     let mut seg = LineVisibilitySegmenter::new(SegmenterConfig::default());
     let mut seen = Vec::new();
     let mut scans = 0;
+    let mut malformed = Vec::new();
     for item in survey(a)? {
-        let (scan, truth) = item?;
+        let (scan, truth) = match item? {
+            Surveyed::Scan(scan, truth) => (scan, truth),
+            Surveyed::Malformed(e) => {
+                eprintln!("skipped {e}");
+                malformed.push(e);
+                continue;
+            }
+        };
         scans += 1;
         for l in &seg.segment(&scan.view()).lines {
             if l.start.coords.norm().max(l.end.coords.norm()) > a.max_range || l.length() < a.min_length {
@@ -147,7 +162,17 @@ pub fn build(a: &BuildArgs) -> Result<(WallMap, usize, usize)> {
         bail!("{}: no wall was seen (seen twice, with --occupancy-cell 0)", a.log.display());
     }
     // a map from scans is good to about a decimetre (pose corrections, merging)
-    Ok((WallMap { walls, sigma: a.sigma, seen_free }, scans, seen.len()))
+    Ok(Built { map: WallMap { walls, sigma: a.sigma, seen_free }, scans, lines: seen.len(), malformed })
+}
+
+/// A map built from a survey, with what it was built from.
+pub struct Built {
+    pub map: WallMap,
+    /// Scans and scan lines used.
+    pub scans: usize,
+    pub lines: usize,
+    /// Laser lines of the log that could not be read as scans, and were left out.
+    pub malformed: Vec<acquire::LogError>,
 }
 
 /// The occupancy grid of the survey's beams ([`mapserver::SurveyGrid`]): returns up to
@@ -173,7 +198,7 @@ pub(crate) fn survey_grid(a: &BuildArgs) -> Result<mapserver::OccupancyGrid> {
     // the log twice: once for the grid's bounds, once for the beams
     let mut bounds: Option<(Point2<f64>, Point2<f64>)> = None;
     for item in survey(a)? {
-        let (scan, truth) = item?;
+        let Some((scan, truth)) = scan_of(item)? else { continue };
         for (s, e, _) in beams(&scan, &truth) {
             let (lo, hi) = bounds.unwrap_or((s, s));
             bounds = Some((lo.inf(&s).inf(&e), hi.sup(&s).sup(&e)));
@@ -187,7 +212,7 @@ pub(crate) fn survey_grid(a: &BuildArgs) -> Result<mapserver::OccupancyGrid> {
         bail!("--grid-cell {}: the survey spans too many cells of that size", a.grid_cell);
     };
     for item in survey(a)? {
-        let (scan, truth) = item?;
+        let Some((scan, truth)) = scan_of(item)? else { continue };
         for (sensor, end, hit) in beams(&scan, &truth) {
             grid.add_beam(sensor, end, hit);
         }
@@ -195,16 +220,37 @@ pub(crate) fn survey_grid(a: &BuildArgs) -> Result<mapserver::OccupancyGrid> {
     Ok(grid.to_occupancy_grid())
 }
 
+/// A laser line of the survey: a scan with its true pose, or a line that could not be read
+/// as one, which the map is built without.
+enum Surveyed {
+    Scan(LaserScan, Pose),
+    Malformed(acquire::LogError),
+}
+
 /// The scans the map is built from (every `every`-th from `offset`), each with its true pose.
-fn survey(a: &BuildArgs) -> Result<impl Iterator<Item = Result<(LaserScan, Pose)>> + '_> {
+/// A malformed laser line is handed on as such, for the first pass to report; an unreadable
+/// log or a scan without a pose is an error.
+fn survey(a: &BuildArgs) -> Result<impl Iterator<Item = Result<Surveyed>> + '_> {
     let reader = CarmenReader::open(&a.log, a.flaser.layout().map_err(anyhow::Error::msg)?)?;
     Ok(reader.enumerate().filter(move |(k, _)| super::selected(*k, a.every, a.offset)).map(move |(k, item)| {
-        let scan = item?.scan;
+        let scan = match item {
+            Ok(item) => item.scan,
+            Err(e @ acquire::LogError::Line { .. }) => return Ok(Surveyed::Malformed(e)),
+            Err(e) => return Err(e.into()),
+        };
         let truth = scan
             .truth
             .with_context(|| format!("{}: scan {k} has no pose: a map needs a corrected log", a.log.display()))?;
-        Ok((scan, truth))
+        Ok(Surveyed::Scan(scan, truth))
     }))
+}
+
+/// The scan of a surveyed line, `None` for a malformed one (passed over).
+fn scan_of(item: Result<Surveyed>) -> Result<Option<(LaserScan, Pose)>> {
+    Ok(match item? {
+        Surveyed::Scan(scan, truth) => Some((scan, truth)),
+        Surveyed::Malformed(_) => None,
+    })
 }
 
 /// Gaps along a wall up to this long (metres) are bridged, between sightings and along the
@@ -248,7 +294,7 @@ fn second_pass(a: &BuildArgs, candidates: &[Candidate]) -> Result<(Vec<Wall>, Op
     let short = 2.0 * a.sigma.max(0.05);
     if seen.is_some() || occupancy.is_some() {
         for item in survey(a)? {
-            let (scan, truth) = item?;
+            let Some((scan, truth)) = scan_of(item)? else { continue };
             let view = scan.view();
             let sensor = truth * Point2::origin();
             if let Some(o) = occupancy.as_mut() {

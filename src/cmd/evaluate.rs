@@ -247,6 +247,6 @@ fn grid_map(log: &Path, offset: usize) -> Result<WallMap> {
 /// The map `gema2 map build` makes of every other scan of `log` from `offset`, as its file
 /// reads back.
 fn built_map(log: &Path, offset: usize) -> Result<WallMap> {
-    let (map, _, _) = build_map::build(&BuildArgs::every_other(log, offset)?)?;
+    let map = build_map::build(&BuildArgs::every_other(log, offset)?)?.map;
     Ok(WallMap::parse(&map.to_json("built"), log)?)
 }
