@@ -7,6 +7,7 @@
 //! seen through and go; a door frame seen by one scan stays. Evaluate on scans the map was not
 //! built from (`--every 2` here, `locate --every 2 --offset 1` there).
 
+use super::Malformed;
 use acquire::CarmenReader;
 use anyhow::{bail, Context, Result};
 use clap::Args;
@@ -121,8 +122,8 @@ pub fn run(a: BuildArgs) -> Result<()> {
     }
     // the map is written from every other scan; the run still fails, so no script takes the
     // survey for whole
-    if let Some(first) = malformed.first() {
-        let n = malformed.len();
+    if let Some(first) = malformed.first {
+        let n = malformed.count;
         bail!("{n} malformed laser line{} left out of the map, the first {first}", if n == 1 { "" } else { "s" });
     }
     Ok(())
@@ -138,13 +139,12 @@ pub fn build(a: &BuildArgs) -> Result<Built> {
     let mut seg = LineVisibilitySegmenter::new(SegmenterConfig::default());
     let mut seen = Vec::new();
     let mut scans = 0;
-    let mut malformed = Vec::new();
+    let mut malformed = Malformed::default();
     for item in survey(a)? {
         let (scan, truth) = match item? {
             Surveyed::Scan(scan, truth) => (scan, truth),
             Surveyed::Malformed(e) => {
-                eprintln!("skipped {e}");
-                malformed.push(e);
+                malformed.add(e);
                 continue;
             }
         };
@@ -172,7 +172,7 @@ pub struct Built {
     pub scans: usize,
     pub lines: usize,
     /// Laser lines of the log that could not be read as scans, and were left out.
-    pub malformed: Vec<acquire::LogError>,
+    pub malformed: Malformed,
 }
 
 /// The occupancy grid of the survey's beams ([`mapserver::SurveyGrid`]): returns up to

@@ -1,6 +1,7 @@
 //! `gema2 locate`: the whole algorithm over a log, offline (no IPC). Writes the CSV of
 //! DESIGN.md and prints timing and, when the log holds truth, accuracy.
 
+use super::Malformed;
 use crate::report::{Outcome, Summary};
 use acquire::CarmenReader;
 use anyhow::{Context, Result};
@@ -107,11 +108,13 @@ pub fn run(a: LocateArgs) -> Result<()> {
     for (index, item) in reader.enumerate() {
         let item = match item {
             Ok(item) => item,
+            // a line `--every` and `--offset` leave out is no concern of this run
+            Err(acquire::LogError::Line { .. }) if !super::selected(index, a.every, a.offset) => continue,
             Err(e @ acquire::LogError::Line { .. }) => {
                 // one bad line loses its own scan only: the run goes on, and fails at the end.
                 // Its row says `failed`, so the CSV keeps one row per laser line (DESIGN.md);
                 // the summary counts only the scans located.
-                if let (Some(w), true) = (csv.as_mut(), super::selected(index, a.every, a.offset)) {
+                if let Some(w) = csv.as_mut() {
                     w.unreadable(index)?;
                 }
                 run.malformed.add(e);
@@ -215,28 +218,6 @@ struct Run {
     diagnosis: crate::diagnose::Diagnosis,
     unreadable: Option<acquire::LogError>,
     malformed: Malformed,
-}
-
-/// The malformed laser lines a run skipped: each is reported as it is met, up to
-/// [`Malformed::REPORTED`] of them, and all are counted.
-#[derive(Default)]
-struct Malformed {
-    count: usize,
-    first: Option<acquire::LogError>,
-}
-
-impl Malformed {
-    const REPORTED: usize = 10;
-
-    fn add(&mut self, e: acquire::LogError) {
-        self.count += 1;
-        if self.count <= Self::REPORTED {
-            eprintln!("skipped {e}");
-        } else if self.count == Self::REPORTED + 1 {
-            eprintln!("(more malformed lines: counted, not shown)");
-        }
-        self.first.get_or_insert(e);
-    }
 }
 
 impl Run {

@@ -45,6 +45,28 @@ pub fn selected(index: usize, every: usize, offset: usize) -> bool {
     index >= offset && (index - offset).is_multiple_of(every.max(1))
 }
 
+/// The malformed laser lines a run skipped: each is reported as it is met, up to
+/// [`Malformed::REPORTED`] of them, and all are counted.
+#[derive(Default)]
+pub struct Malformed {
+    pub count: usize,
+    pub first: Option<acquire::LogError>,
+}
+
+impl Malformed {
+    const REPORTED: usize = 10;
+
+    pub fn add(&mut self, e: acquire::LogError) {
+        self.count += 1;
+        if self.count <= Self::REPORTED {
+            eprintln!("skipped {e}");
+        } else if self.count == Self::REPORTED + 1 {
+            eprintln!("(more malformed lines: counted, not shown)");
+        }
+        self.first.get_or_insert(e);
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
