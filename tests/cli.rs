@@ -98,6 +98,10 @@ fn a_malformed_log_line_is_rejected_naming_file_and_line() {
     assert_eq!(rows.len(), 3, "{rows:?}");
     assert!(rows[0].starts_with("0,") && rows[2].starts_with("2,"), "{rows:?}");
     assert!(rows[1].starts_with("1,,,,,failed,"), "{rows:?}");
+    // `lines` segments the scans around it the same way
+    let out = gema2(&["lines", "--log", log.to_str().unwrap()]);
+    assert!(!out.status.success());
+    assert!(text(&out.stdout).contains("2 scans segmented") && text(&out.stderr).contains("bad.log:3"));
     // a bad line `--every` leaves out is no concern of the run
     let out = gema2(&["locate", "--map", "apartment", "--log", log.to_str().unwrap(), "--every", "2"]);
     assert!(out.status.success(), "{}", text(&out.stderr));

@@ -1,6 +1,7 @@
 //! `gema2 lines`: segmentation alone over a log, with lines and corners per scan and time per
 //! scan: how the paper's line inference fares on real readings.
 
+use super::Malformed;
 use crate::report::quantile;
 use acquire::urg_log::UrgLogReader;
 use acquire::CarmenReader;
@@ -30,19 +31,30 @@ pub struct LinesArgs {
 }
 
 pub fn run(a: LinesArgs) -> Result<()> {
-    let scans: Box<dyn Iterator<Item = Result<LaserScan>>> = match (&a.urg_log, &a.log) {
-        (Some(p), None) => Box::new(UrgLogReader::open(p)?.map(|r| r.map_err(anyhow::Error::from))),
-        (None, Some(p)) => Box::new(
-            CarmenReader::open(p, a.flaser.layout().map_err(anyhow::Error::msg)?)?
-                .map(|r| r.map(|s| s.scan).map_err(anyhow::Error::from)),
-        ),
+    let scans: Box<dyn Iterator<Item = Result<LaserScan, acquire::LogError>>> = match (&a.urg_log, &a.log) {
+        (Some(p), None) => Box::new(UrgLogReader::open(p)?),
+        (None, Some(p)) => {
+            Box::new(CarmenReader::open(p, a.flaser.layout().map_err(anyhow::Error::msg)?)?.map(|r| r.map(|s| s.scan)))
+        }
         _ => bail!("give exactly one of --urg-log and --log"),
     };
     let mut seg = segmenter_by_name(&a.implementation, SegmenterConfig::default())
         .ok_or_else(|| anyhow!("unknown implementation {:?}: {SEGMENTERS:?}", a.implementation))?;
     let (mut lines, mut corners, mut micros, mut valid) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+    let mut malformed = Malformed::default();
+    // laser lines read, malformed or not: `--show` counts them all, as `locate` numbers scans
+    let mut read = 0;
     for (k, scan) in scans.enumerate() {
-        let scan = scan?;
+        read = k + 1;
+        let scan = match scan {
+            Ok(scan) => scan,
+            // a bad line loses its own scan only, as in `locate`
+            Err(e @ acquire::LogError::Line { .. }) => {
+                malformed.add(e);
+                continue;
+            }
+            Err(e) => return Err(e.into()),
+        };
         let start = Instant::now();
         let out = seg.segment(&scan.view());
         if a.show == Some(k) {
@@ -91,8 +103,12 @@ pub fn run(a: LinesArgs) -> Result<()> {
     row("lines (after filtering)", &mut lines);
     row("corners", &mut corners);
     row("time per scan (us)", &mut micros);
-    if let Some(k) = a.show.filter(|&k| k >= n) {
-        bail!("--show {k}: the log holds {n} scans (0 to {})", n - 1);
+    if let Some(k) = a.show.filter(|&k| k >= read) {
+        bail!("--show {k}: the log holds {read} scans (0 to {})", read - 1);
+    }
+    if let Some(first) = malformed.first {
+        let n = malformed.count;
+        bail!("{n} malformed laser line{} skipped, the first {first}", if n == 1 { "" } else { "s" });
     }
     Ok(())
 }
