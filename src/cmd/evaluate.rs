@@ -7,6 +7,7 @@
 //! on the same map, scenario and seeds.
 
 use super::build_map::{self, BuildArgs};
+use super::Malformed;
 use crate::report::{Outcome, Summary};
 use acquire::{write_robotlaser1, CarmenReader, FlaserLayout, Scenario, SensorModel, Simulator};
 use anyhow::{bail, Context, Result};
@@ -143,16 +144,27 @@ pub fn run(a: EvaluateArgs) -> Result<()> {
         }
         total(&rows);
     }
+    let mut malformed = Malformed::default();
     if let Some(dir) = &a.carmen {
         header(&format!("{}: odd scans against a map of the even ones, and the other way round", dir.display()));
         let mut rows = Vec::new();
         for log in carmen_logs(dir)? {
-            let scans: Vec<LaserScan> = CarmenReader::open(&log, FlaserLayout::default())?
-                .map(|item| item.map(|i| i.scan))
-                .collect::<Result<_, _>>()?;
+            // a malformed line keeps its place, so the halves stay the ones `map build` and
+            // `locate --every 2` take; it is located in neither
+            let mut scans: Vec<Option<LaserScan>> = Vec::new();
+            for item in CarmenReader::open(&log, FlaserLayout::default())? {
+                match item {
+                    Ok(item) => scans.push(Some(item.scan)),
+                    Err(e @ acquire::LogError::Line { .. }) => {
+                        malformed.add(e);
+                        scans.push(None);
+                    }
+                    Err(e) => return Err(e.into()),
+                }
+            }
             let stem = log_stem(&log);
             for (built_from, located) in [(0, 1), (1, 0)] {
-                let half: Vec<LaserScan> = scans.iter().skip(located).step_by(2).cloned().collect();
+                let half: Vec<LaserScan> = scans.iter().skip(located).step_by(2).flatten().cloned().collect();
                 let name = format!("{stem} {}", if built_from == 0 { "odd" } else { "even" });
                 let mut maps = vec![(name.clone(), built_map(&log, built_from)?)];
                 if a.grids {
@@ -166,6 +178,10 @@ pub fn run(a: EvaluateArgs) -> Result<()> {
             }
         }
         total(&rows);
+    }
+    if let Some(first) = malformed.first {
+        let n = malformed.count;
+        bail!("{n} malformed laser line{} skipped, the first {first}", if n == 1 { "" } else { "s" });
     }
     Ok(())
 }
