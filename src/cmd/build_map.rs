@@ -120,12 +120,9 @@ pub fn run(a: BuildArgs) -> Result<()> {
         }
         None => {}
     }
-    // the map is written from every other scan; the run still fails, so no script takes the
-    // survey for whole
-    if let Some(first) = malformed.first {
-        let n = malformed.count;
-        bail!("{n} malformed laser line{} left out of the map, the first {first}", if n == 1 { "" } else { "s" });
-    }
+    // the map is written, built from the scans that could be read; the run still fails, so no
+    // script takes the survey for whole
+    malformed.into_result("left out of the map")?;
     Ok(())
 }
 

@@ -179,10 +179,7 @@ pub fn run(a: EvaluateArgs) -> Result<()> {
         }
         total(&rows);
     }
-    if let Some(first) = malformed.first {
-        let n = malformed.count;
-        bail!("{n} malformed laser line{} skipped, the first {first}", if n == 1 { "" } else { "s" });
-    }
+    malformed.into_result("skipped")?;
     Ok(())
 }
 

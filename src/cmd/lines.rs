@@ -106,9 +106,6 @@ pub fn run(a: LinesArgs) -> Result<()> {
     if let Some(k) = a.show.filter(|&k| k >= read) {
         bail!("--show {k}: the log holds {read} scans (0 to {})", read - 1);
     }
-    if let Some(first) = malformed.first {
-        let n = malformed.count;
-        bail!("{n} malformed laser line{} skipped, the first {first}", if n == 1 { "" } else { "s" });
-    }
+    malformed.into_result("skipped")?;
     Ok(())
 }

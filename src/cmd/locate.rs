@@ -236,10 +236,7 @@ impl Run {
         if let Some(e) = self.unreadable {
             anyhow::bail!("{e}; stopped there, after {located} scans");
         }
-        if let Some(first) = self.malformed.first {
-            let n = self.malformed.count;
-            anyhow::bail!("{n} malformed laser line{} skipped, the first {first}", if n == 1 { "" } else { "s" });
-        }
+        self.malformed.into_result("skipped")?;
         if located == 0 {
             // an empty result is no answer: a script must not take it for one
             anyhow::bail!(

@@ -49,8 +49,8 @@ pub fn selected(index: usize, every: usize, offset: usize) -> bool {
 /// [`Malformed::REPORTED`] of them, and all are counted.
 #[derive(Default)]
 pub struct Malformed {
-    pub count: usize,
-    pub first: Option<acquire::LogError>,
+    count: usize,
+    first: Option<acquire::LogError>,
 }
 
 impl Malformed {
@@ -64,6 +64,18 @@ impl Malformed {
             eprintln!("(more malformed lines: counted, not shown)");
         }
         self.first.get_or_insert(e);
+    }
+
+    /// An error when any line was skipped, saying how many and naming the first; what was
+    /// done with them is `done` ("skipped").
+    pub fn into_result(self, done: &str) -> anyhow::Result<()> {
+        match self.first {
+            Some(first) => {
+                let n = self.count;
+                anyhow::bail!("{n} malformed laser line{} {done}, the first {first}", if n == 1 { "" } else { "s" })
+            }
+            None => Ok(()),
+        }
     }
 }
 
