@@ -153,14 +153,7 @@ pub fn run(a: EvaluateArgs) -> Result<()> {
             // `locate --every 2` take; it is located in neither
             let mut scans: Vec<Option<LaserScan>> = Vec::new();
             for item in CarmenReader::open(&log, FlaserLayout::default())? {
-                match item {
-                    Ok(item) => scans.push(Some(item.scan)),
-                    Err(e @ acquire::LogError::Line { .. }) => {
-                        malformed.add(e);
-                        scans.push(None);
-                    }
-                    Err(e) => return Err(e.into()),
-                }
+                scans.push(malformed.take(item)?.map(|i| i.scan));
             }
             let stem = log_stem(&log);
             for (built_from, located) in [(0, 1), (1, 0)] {

@@ -46,15 +46,8 @@ pub fn run(a: LinesArgs) -> Result<()> {
     let mut read = 0;
     for (k, scan) in scans.enumerate() {
         read = k + 1;
-        let scan = match scan {
-            Ok(scan) => scan,
-            // a bad line loses its own scan only, as in `locate`
-            Err(e @ acquire::LogError::Line { .. }) => {
-                malformed.add(e);
-                continue;
-            }
-            Err(e) => return Err(e.into()),
-        };
+        // a bad line loses its own scan only, as in `locate`
+        let Some(scan) = malformed.take(scan)? else { continue };
         let start = Instant::now();
         let out = seg.segment(&scan.view());
         if a.show == Some(k) {

@@ -66,6 +66,19 @@ impl Malformed {
         self.first.get_or_insert(e);
     }
 
+    /// A reader's item as the run takes it: the scan, or `None` for a malformed line, added
+    /// here; a log that cannot be read on stays an error.
+    pub fn take<T>(&mut self, item: Result<T, acquire::LogError>) -> Result<Option<T>, acquire::LogError> {
+        match item {
+            Ok(item) => Ok(Some(item)),
+            Err(e @ acquire::LogError::Line { .. }) => {
+                self.add(e);
+                Ok(None)
+            }
+            Err(e) => Err(e),
+        }
+    }
+
     /// An error when any line was skipped, saying how many and naming the first; what was
     /// done with them is `done` ("skipped").
     pub fn into_result(self, done: &str) -> anyhow::Result<()> {
