@@ -379,7 +379,7 @@ fn a_built_map_keeps_the_free_space_its_scans_saw() {
 
 /// A malformed laser line in a survey is left out of the map, not the end of it: the map is
 /// built from the other scans and written, as it would be without that line, and the run
-/// fails naming the line. With `--grid` too.
+/// fails naming the line. With `--grid` too, and in `evaluate --carmen`.
 #[test]
 fn a_survey_with_a_malformed_line_builds_its_map_from_the_other_scans() {
     let dir = tempfile::tempdir().unwrap();
@@ -417,6 +417,21 @@ fn a_survey_with_a_malformed_line_builds_its_map_from_the_other_scans() {
         "the map of the survey without the line"
     );
     assert!(grid.exists(), "{err}");
+    // `evaluate --carmen` reads the log, then builds each half's map from it again: the line
+    // is reported once, and the table is printed before the run fails
+    let carmen = dir.path().join("carmen");
+    std::fs::create_dir(&carmen).unwrap();
+    std::fs::copy(&bad, carmen.join("garbled.log")).unwrap();
+    let out = gema2(&["evaluate", "--no-sim", "--carmen", carmen.to_str().unwrap()]);
+    assert!(!out.status.success());
+    let err = text(&out.stderr);
+    assert_eq!(
+        err.matches(&format!("garbled.log:{}:", tenth + 1)).count(),
+        2,
+        "named when met, and in the error: {err}"
+    );
+    assert!(err.contains("1 malformed laser line skipped"), "{err}");
+    assert!(text(&out.stdout).contains("garbled odd") && text(&out.stdout).contains("garbled even"));
 }
 
 /// The share of `walls`' length (sampled every 5 cm) lying within 0.1 m of one of `others`.

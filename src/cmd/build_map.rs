@@ -110,7 +110,8 @@ pub fn run(a: BuildArgs) -> Result<()> {
         grid.save(path)?;
         eprintln!("{}: a {} x {} grid of {} m", path.display(), grid.width, grid.height, grid.resolution);
     }
-    let Built { map, scans, lines, malformed } = build(&a)?;
+    let mut malformed = Malformed::default();
+    let Built { map, scans, lines } = build(&a, &mut malformed)?;
     std::fs::write(&a.out, map.to_json("built")).with_context(|| format!("writing {}", a.out.display()))?;
     eprintln!("{}: {} walls from {lines} lines of {scans} scans", a.out.display(), map.walls.len());
     match &map.seen_free {
@@ -127,8 +128,8 @@ pub fn run(a: BuildArgs) -> Result<()> {
 }
 
 /// The map of `a`'s scans, with how many scans and scan lines it was built from. Malformed
-/// laser lines are reported as they are met and left out.
-pub fn build(a: &BuildArgs) -> Result<Built> {
+/// laser lines are left out, added to `malformed`.
+pub fn build(a: &BuildArgs, malformed: &mut Malformed) -> Result<Built> {
     // before the first pass over the log, which may be long
     check_metres("--min-length", a.min_length)?;
     check_metres("--seen-cell", a.seen_cell)?;
@@ -136,7 +137,6 @@ pub fn build(a: &BuildArgs) -> Result<Built> {
     let mut seg = LineVisibilitySegmenter::new(SegmenterConfig::default());
     let mut seen = Vec::new();
     let mut scans = 0;
-    let mut malformed = Malformed::default();
     for item in survey(a)? {
         let (scan, truth) = match item? {
             Surveyed::Scan(scan, truth) => (scan, truth),
@@ -159,7 +159,7 @@ pub fn build(a: &BuildArgs) -> Result<Built> {
         bail!("{}: no wall was seen (seen twice, with --occupancy-cell 0)", a.log.display());
     }
     // a map from scans is good to about a decimetre (pose corrections, merging)
-    Ok(Built { map: WallMap { walls, sigma: a.sigma, seen_free }, scans, lines: seen.len(), malformed })
+    Ok(Built { map: WallMap { walls, sigma: a.sigma, seen_free }, scans, lines: seen.len() })
 }
 
 /// A map built from a survey, with what it was built from.
@@ -168,8 +168,6 @@ pub struct Built {
     /// Scans and scan lines used.
     pub scans: usize,
     pub lines: usize,
-    /// Laser lines of the log that could not be read as scans, and were left out.
-    pub malformed: Malformed,
 }
 
 /// The occupancy grid of the survey's beams ([`mapserver::SurveyGrid`]): returns up to

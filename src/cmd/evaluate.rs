@@ -251,8 +251,9 @@ fn grid_map(log: &Path, offset: usize) -> Result<WallMap> {
 }
 
 /// The map `gema2 map build` makes of every other scan of `log` from `offset`, as its file
-/// reads back.
+/// reads back. The log's malformed lines are left out unreported: [`run`] reported them when
+/// it read the log.
 fn built_map(log: &Path, offset: usize) -> Result<WallMap> {
-    let map = build_map::build(&BuildArgs::every_other(log, offset)?)?.map;
+    let map = build_map::build(&BuildArgs::every_other(log, offset)?, &mut Malformed::silent())?.map;
     Ok(WallMap::parse(&map.to_json("built"), log)?)
 }

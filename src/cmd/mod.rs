@@ -51,17 +51,27 @@ pub fn selected(index: usize, every: usize, offset: usize) -> bool {
 pub struct Malformed {
     count: usize,
     first: Option<acquire::LogError>,
+    /// Counts without reporting ([`Malformed::silent`]).
+    silent: bool,
 }
 
 impl Malformed {
     const REPORTED: usize = 10;
 
+    /// One that counts the lines without reporting them: for another pass over a log whose
+    /// malformed lines were reported already.
+    pub fn silent() -> Self {
+        Malformed { silent: true, ..Malformed::default() }
+    }
+
     pub fn add(&mut self, e: acquire::LogError) {
         self.count += 1;
-        if self.count <= Self::REPORTED {
-            eprintln!("skipped {e}");
-        } else if self.count == Self::REPORTED + 1 {
-            eprintln!("(more malformed lines: counted, not shown)");
+        if !self.silent {
+            if self.count <= Self::REPORTED {
+                eprintln!("skipped {e}");
+            } else if self.count == Self::REPORTED + 1 {
+                eprintln!("(more malformed lines: counted, not shown)");
+            }
         }
         self.first.get_or_insert(e);
     }
