@@ -271,12 +271,40 @@ fn a_selection_of_no_scan_is_an_error() {
     // measurements of nothing: bench and demo printed tables of NaN and exited 0
     for (args, why) in [
         (&["bench", "--scans", "0"][..], "must be at least 1"),
+        (&["bench", "--rounds", "0"], "must be at least 1"),
         (&["bench", "--beams", "68,1"], "a scan needs at least 2 beams"),
         (&["bench", "--pipeline", "--seconds", "0"], "must be a number of seconds above 0"),
         (&["demo", "--scans", "0"], "must be at least 1"),
     ] {
         let out = gema2(args);
         assert!(!out.status.success() && text(&out.stderr).contains(why), "{args:?}: {}", text(&out.stderr));
+    }
+}
+
+/// `gema2 bench` times every stage of the office scans in rounds, lists each round's median total
+/// and shows the quietest round stage by stage.
+#[test]
+fn bench_lists_its_rounds_and_times_every_stage() {
+    let out = gema2(&["bench", "--stages-only", "--scans", "4", "--rounds", "2"]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let table = text(&out.stdout);
+    let rounds = table.lines().find(|l| l.contains("median total of each of 2 rounds")).expect("the rounds line");
+    let totals: Vec<f64> = rounds
+        .split(':')
+        .nth(1)
+        .and_then(|r| r.split(" us").next())
+        .map(|r| r.split(" / ").filter_map(|t| t.trim().parse().ok()).collect())
+        .unwrap_or_default();
+    assert_eq!(totals.len(), 2, "{rounds}");
+    let shown = table
+        .lines()
+        .find(|l| l.trim_start().starts_with("total") && l.contains("median"))
+        .and_then(|l| l.split_whitespace().nth(2))
+        .and_then(|t| t.parse::<f64>().ok())
+        .expect("the total line");
+    assert_eq!(shown, totals.iter().copied().fold(f64::INFINITY, f64::min), "{table}");
+    for stage in ["line inference", "matching", "cost function"] {
+        assert!(table.contains(stage), "{stage}: {table}");
     }
 }
 
