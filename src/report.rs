@@ -44,6 +44,8 @@ pub struct Outcome {
     pub slide_search: bool,
     /// Whether the loose slide ran after the slide search.
     pub loose_slide: bool,
+    /// Whether the slide search ran again with wider budgets.
+    pub escalated: bool,
 }
 
 impl Outcome {
@@ -64,6 +66,7 @@ impl Outcome {
             full_search: false,
             slide_search: false,
             loose_slide: false,
+            escalated: false,
         }
     }
 
@@ -82,6 +85,7 @@ impl Outcome {
         self.full_search = loc.full_search;
         self.slide_search = loc.slide_search;
         self.loose_slide = loc.loose_slide;
+        self.escalated = loc.escalated;
         self
     }
 
@@ -176,10 +180,11 @@ impl Summary {
             100.0 * self.outcomes.iter().filter(|o| f(o)).count() as f64 / self.scans().max(1) as f64
         };
         s += &format!(
-            "first look settled {:.1} % of scans (the rest ran the full search); the slide search ran on {:.1} %, the loose slide on {:.1} %\n",
+            "first look settled {:.1} % of scans (the rest ran the full search); the slide search ran on {:.1} %, the loose slide on {:.1} %, the wider slide on {:.1} %\n",
             share(|o| !o.full_search),
             share(|o| o.slide_search),
-            share(|o| o.loose_slide)
+            share(|o| o.loose_slide),
+            share(|o| o.escalated)
         );
         let names = ["samples", "inference", "filter+corners", "matching", "coarse cost", "refine", "cost"];
         s += "median us per step:";

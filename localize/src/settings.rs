@@ -68,6 +68,7 @@ impl LocalizerConfig {
         "slide_loose_sigma_deg (at most slide_sigma_deg: no loose slide)",
         "slide_loose_lines (0: no loose slide)",
         "slide_min_inliers_ok",
+        "escalate_through (a fraction of the beams; 1: never search wider)",
         "error_constant",
         "error_proportional",
     ];
@@ -141,6 +142,7 @@ impl LocalizerConfig {
             "slide_loose_sigma_deg" => self.slide.loose_direction_sigma = s.degrees()?,
             "slide_loose_lines" => self.slide.loose_lines = s.count()?,
             "slide_min_inliers_ok" => self.slide.min_inliers_ok = s.fraction()?,
+            "escalate_through" => self.escalate_through = s.fraction()?,
             "error_constant" => self.error.constant = s.positive()?,
             "error_proportional" => self.error.proportional = s.non_negative()?,
             _ => return Ok(false),

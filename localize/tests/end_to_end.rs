@@ -526,6 +526,44 @@ fn the_thorough_search_finds_a_pose_the_default_budgets_pass_over() {
     assert!(cost < default_cost, "thorough costs {cost}, the default's answer {default_cost}");
 }
 
+/// A best pose that sees through walls sends the slide search round once more with wider
+/// budgets ([`LocalizerConfig::escalated`]): only then, so every other scan keeps its answer;
+/// among these 300 furnished warehouse scans it turns more wrong answers right than right ones
+/// wrong (2 and none, of 17 sent round). Never on a map that declares itself approximate, whose
+/// right poses see through it.
+#[test]
+fn a_best_pose_seeing_through_walls_sends_the_slide_search_round_wider() {
+    let map = procedural::by_name("warehouse").expect("a bundled map");
+    let mut sim = Simulator::new(&map, SensorModel::urg04lx(), Scenario::Furniture, 1);
+    let never = LocalizerConfig { escalate_through: 1.0, ..LocalizerConfig::default() };
+    let mut narrow = gema2(&map, never);
+    let mut wide = gema2(&map, LocalizerConfig::default());
+    let mut approximate = gema2(&WallMap { sigma: 0.1, ..map.clone() }, LocalizerConfig::default());
+    let (mut escalated, mut gained, mut lost) = (0, 0, 0);
+    for _ in 0..300 {
+        let scan = sim.next_scan();
+        let truth = scan.truth.expect("a simulated scan has its truth");
+        let right = |pose: Option<laser::Pose>| pose.is_some_and(|p| same_pose(&p, &truth, 0.3, 5f64.to_radians()));
+        let (_, before) = narrow.process(&scan.view());
+        assert!(!before.times.escalated);
+        let (before_status, before_pose) = (before.status, before.best().map(|h| h.pose));
+        let before_through = before.hypotheses.first().map_or(1.0, |h| h.cost.through);
+        let (_, after) = wide.process(&scan.view());
+        let after_pose = after.best().map(|h| h.pose);
+        if after.times.escalated {
+            escalated += 1;
+            assert!(before_status == Status::Failed || before_through > 0.01, "{before_status:?} {before_through}");
+            gained += (right(after_pose) && !right(before_pose)) as usize;
+            lost += (right(before_pose) && !right(after_pose)) as usize;
+        } else {
+            assert_eq!(after_pose, before_pose);
+        }
+        let (_, rough) = approximate.process(&scan.view());
+        assert!(!rough.times.escalated);
+    }
+    assert!(escalated > 0 && gained > lost, "{escalated} escalated: {gained} right that were wrong, {lost} wrong");
+}
+
 /// Eq. 7 with furniture told from open floor (LESSONS.md, item 2): among furnished warehouse
 /// scans whose answer, found with the plain one-sided cost, is wrong and costs less than the
 /// truth by that cost, the clutter-aware cost puts the truth below the wrong answer in most

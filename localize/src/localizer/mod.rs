@@ -17,7 +17,8 @@
 //! that is not confirmed either, the scan's longest lines are laid along the map's walls
 //! ([`crate::slide`]) and those poses go through the same steps, ranked with the others; and
 //! when that is not confirmed either, so are the lines too uncertain in direction for it
-//! ([`crate::slide::loose_slide_lines`]).
+//! ([`crate::slide::loose_slide_lines`]). A best pose that still sees through walls sends the
+//! slide search round once more with wider budgets ([`LocalizerConfig::escalated`]).
 
 mod candidates;
 mod config;
@@ -92,6 +93,9 @@ pub struct LocateTimes {
     pub slide_search: bool,
     /// Whether the loose slide ran: the slide search's best pose was not confirmed either.
     pub loose_slide: bool,
+    /// Whether the slide search ran again with wider budgets: the best pose after the slide
+    /// searches saw through walls ([`LocalizerConfig::escalate_through`]).
+    pub escalated: bool,
 }
 
 #[derive(Clone, Debug)]
@@ -299,6 +303,15 @@ impl Localizer {
                     self.rank();
                 }
             }
+            if self.escalates() {
+                self.out.times.escalated = true;
+                // the search reads its budgets from the configuration
+                let wide = cfg.escalated();
+                self.config = wide;
+                self.search(scan, seg, Source::Slides, wide.prescreened, wide.slide.screened, wide.refined);
+                self.config = cfg;
+                self.rank();
+            }
             if self.out.status == Status::Ok
                 && self.out.hypotheses.first().is_some_and(|h| h.cost.inliers < cfg.slide.min_inliers_ok)
             {
@@ -324,6 +337,19 @@ impl Localizer {
             _ => None,
         };
         &self.out
+    }
+
+    /// Whether the best pose after the slide searches is one the scan contradicts, so that the
+    /// slide search runs again with the budgets of [`LocalizerConfig::escalated`]: it is
+    /// `failed`, or more of its beams see through walls than
+    /// [`LocalizerConfig::escalate_through`] allows, on a map that does not declare itself
+    /// approximate (where right poses see through its errors).
+    fn escalates(&self) -> bool {
+        let through = self.config.escalate_through;
+        through < 1.0
+            && !self.model.map.is_approximate()
+            && (self.out.status == Status::Failed
+                || self.out.hypotheses.first().is_none_or(|h| h.cost.through > through))
     }
 
     /// Makes the candidates of `source`, keeps the `screened` best by the screen (its first
