@@ -87,7 +87,7 @@ pub fn dump(seg: &Segmentation, loc: &Localization, truth: &Pose, model: &locali
     let near = |p: &Pose, d: f64, a: f64| same_pose(p, truth, d, a.to_radians());
     let loose = loc.all_candidates.iter().position(|c| near(&c.0, 0.8, 15.0));
     eprintln!(
-        "  candidates {} (scores {:.4}..{:.4}; first within 0.8 m / 15 deg: {:?}), lines {}, full search {}, slide search {} (step {:?}), loose slide {}, wider slide {}",
+        "  candidates {} (scores {:.4}..{:.4}; first within 0.8 m / 15 deg: {:?}), lines {}, full search {}, slide search {} (step {:?}), loose slide {}, wider slide {}, grid {}",
         loc.all_candidates.len(),
         loc.all_candidates.iter().map(|c| c.1).fold(f64::INFINITY, f64::min),
         loc.all_candidates.iter().map(|c| c.1).fold(f64::NEG_INFINITY, f64::max),
@@ -97,7 +97,8 @@ pub fn dump(seg: &Segmentation, loc: &Localization, truth: &Pose, model: &locali
         loc.times.slide_search,
         loc.slide_step,
         loc.times.loose_slide,
-        loc.times.escalated
+        loc.times.escalated,
+        loc.times.grid_search
     );
     for (k, h) in loc.hypotheses.iter().take(6).enumerate() {
         eprintln!(
@@ -108,6 +109,7 @@ pub fn dump(seg: &Segmentation, loc: &Localization, truth: &Pose, model: &locali
             h.cost.beams,
             match h.scan_corner {
                 localize::FROM_SLIDE => "slide".to_string(),
+                localize::FROM_GRID => "grid".to_string(),
                 c => format!("c{c}"),
             },
             if near(&h.pose, SUCCESS_POSITION, SUCCESS_HEADING_DEG) { "right" } else { "wrong" }

@@ -46,6 +46,8 @@ pub struct Outcome {
     pub loose_slide: bool,
     /// Whether the slide search ran again with wider budgets.
     pub escalated: bool,
+    /// Whether the grid search ran after that.
+    pub grid_search: bool,
 }
 
 impl Outcome {
@@ -67,6 +69,7 @@ impl Outcome {
             slide_search: false,
             loose_slide: false,
             escalated: false,
+            grid_search: false,
         }
     }
 
@@ -86,6 +89,7 @@ impl Outcome {
         self.slide_search = loc.slide_search;
         self.loose_slide = loc.loose_slide;
         self.escalated = loc.escalated;
+        self.grid_search = loc.grid_search;
         self
     }
 
@@ -180,11 +184,12 @@ impl Summary {
             100.0 * self.outcomes.iter().filter(|o| f(o)).count() as f64 / self.scans().max(1) as f64
         };
         s += &format!(
-            "first look settled {:.1} % of scans (the rest ran the full search); the slide search ran on {:.1} %, the loose slide on {:.1} %, the wider slide on {:.1} %\n",
+            "first look settled {:.1} % of scans (the rest ran the full search); the slide search ran on {:.1} %, the loose slide on {:.1} %, the wider slide on {:.1} %, the grid on {:.1} %\n",
             share(|o| !o.full_search),
             share(|o| o.slide_search),
             share(|o| o.loose_slide),
-            share(|o| o.escalated)
+            share(|o| o.escalated),
+            share(|o| o.grid_search)
         );
         let names = ["samples", "inference", "filter+corners", "matching", "coarse cost", "refine", "cost"];
         s += "median us per step:";

@@ -3,6 +3,7 @@
 
 pub mod cost;
 pub mod gema2;
+pub mod grid;
 pub mod localizer;
 mod lowest;
 pub mod matching;
@@ -14,6 +15,7 @@ pub mod slide;
 
 pub use cost::{Cost, CostConfig, CostKind};
 pub use gema2::{Gema2, Gema2Config};
+pub use grid::{GridConfig, FROM_GRID};
 pub use localizer::{
     same_pose, FirstLook, Hypothesis, Judgement, Localization, Localizer, LocalizerConfig, LocateTimes, Status,
 };

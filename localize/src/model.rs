@@ -12,6 +12,9 @@ pub const FIELD_CAP: f64 = 0.5;
 /// `clutter_reach` of up to 1.33 m ([`crate::CostConfig::openness`]).
 const OPEN_FLOOR_REACH: f64 = 2.0;
 
+/// How many of the map's main wall directions the grid search lays scan lines along.
+const WALL_DIRECTIONS: usize = 4;
+
 /// A map prepared for localization: its corners sorted by inner angle, a ray caster for eq. 7,
 /// a distance field for screening that also names each point's nearest wall for refinement.
 pub struct MapModel {
@@ -19,6 +22,9 @@ pub struct MapModel {
     /// The walls as straight runs ([`mapserver::runs`]): what corners come from and scan
     /// lines slide along.
     pub runs: Vec<Wall>,
+    /// The main directions of the runs, in [0, pi), the heaviest first: the headings the grid
+    /// search tries lay the scan's lines along them ([`crate::grid::wall_directions`]).
+    pub wall_directions: Vec<f64>,
     /// The chains of more than one run (curved or bent walls), along which the slide search
     /// also lays scan lines as chords ([`crate::slide::chord_poses`]).
     pub bends: Vec<RunChain>,
@@ -84,6 +90,7 @@ impl MapModel {
         let runs: Vec<Wall> = chains.iter().flat_map(RunChain::runs).collect();
         MapModel {
             corners: CornerIndex::of_runs(&map, &runs, corners),
+            wall_directions: crate::grid::wall_directions(&runs, WALL_DIRECTIONS),
             runs,
             bends: chains.into_iter().filter(|c| c.run_count() >= 2).collect(),
             caster: RayCaster::new(&walls),

@@ -5,6 +5,7 @@
 
 use super::screen::{order_by_telling, within, FirstPass, Screen, ScreenPoint};
 use super::{Candidate, Localizer, LocalizerConfig, Source};
+use crate::grid::{grid_headings, grid_positions, FROM_GRID};
 use crate::matching::{arms_fit, pose_from_corners};
 use crate::model::MapModel;
 use crate::slide::{chord_poses, slide_lines, slide_poses, slide_step, SlideLine, FROM_SLIDE};
@@ -42,6 +43,7 @@ impl Localizer {
                 let step = slide_candidates(&mut offers, &self.lines, &self.slide_lines, &model, &cfg, prior);
                 self.out.slide_step = Some(step);
             }
+            Source::Grid => grid_candidates(&mut offers, &self.lines, &model, &cfg, prior, &mut self.grid),
             Source::LooseSlides => {
                 // the lines `locate_lines_given` chose: it runs this search only when there are some
                 slide_candidates(&mut offers, &self.lines, &self.slide_lines, &model, &cfg, prior);
@@ -163,4 +165,44 @@ fn slide_candidates(
         }
     }
     step
+}
+
+/// Offers poses on a grid over the map's free space, at the headings that lay the scan's
+/// longest lines along the map's main wall directions ([`crate::grid`]): positions in the main
+/// free space, at least 0.1 m from every wall, `cfg.grid.step` apart, or further apart when the
+/// map is too large for `cfg.grid.max_poses` poses. With `prior` (the last pose and the tracking
+/// radius), only positions within the radius of it. `positions` is scratch space.
+fn grid_candidates(
+    offers: &mut Offers<'_>,
+    lines: &[SlideLine],
+    model: &MapModel,
+    cfg: &LocalizerConfig,
+    prior: Option<(Point2<f64>, f64)>,
+    positions: &mut Vec<Point2<f64>>,
+) {
+    let headings = grid_headings(lines, &model.wall_directions, cfg.grid.headings);
+    if headings.is_empty() {
+        return;
+    }
+    let may_stand = |p: Point2<f64>| {
+        prior.is_none_or(|(q, r)| (p - q).norm() <= r)
+            && !model.open_floor.at(p).1
+            && !model.off_limits(p)
+            && model.field.distance(p) >= 0.1
+    };
+    let mut step = cfg.grid.step;
+    grid_positions(model.map.bounds(), step, may_stand, positions);
+    let poses = positions.len() * headings.len();
+    if poses > cfg.grid.max_poses {
+        // as many positions as the budget allows, spread over the same free space
+        step *= (poses as f64 / cfg.grid.max_poses.max(1) as f64).sqrt();
+        grid_positions(model.map.bounds(), step, may_stand, positions);
+    }
+    // every point tells poses this far apart: the first pass reads them as they come
+    offers.order_by(|_| 0.0);
+    for heading in headings {
+        for p in positions.iter() {
+            offers.offer(Pose::new(p.coords, heading), FROM_GRID, u32::MAX);
+        }
+    }
 }

@@ -4,6 +4,7 @@
 
 use super::{Hypothesis, Status};
 use crate::cost::CostConfig;
+use crate::grid::GridConfig;
 use crate::refine::RefineConfig;
 use crate::slide::SlideConfig;
 use segment::ErrorModel;
@@ -179,16 +180,23 @@ pub struct LocalizerConfig {
     /// When the best pose after the slide searches is `failed`, or sees through walls with more
     /// than this fraction of its beams (as no confirmed pose may: [`FirstLook::max_through`]),
     /// the slide search runs once more with the wider budgets of
-    /// [`escalated`](Self::escalated), and its poses are ranked with the others. Not on a map
-    /// that declares itself approximate, whose right poses see through its errors. 1: never.
+    /// [`escalated`](Self::escalated), and its poses are ranked with the others; when the best
+    /// pose then still does, so does the grid search ([`crate::grid`], [`Self::grid`]). Not on
+    /// a map that declares itself approximate, whose right poses see through its errors. 1:
+    /// never.
     ///
     /// At the right pose only noise and mixed pixels see through a drawn map's walls, so such an
-    /// answer is most likely wrong and the time is spent where it can change the answer: 0.3-6 %
-    /// of the simulated scans. Over the 48 simulated logs of `gema2 evaluate`: successes 13798 ->
-    /// 13818, `ok` 11591 -> 11586, wrong `ok` 62 -> 55, no log lost a success, the furnished
-    /// warehouse 82.3 -> 83.0 %. The medians do not move; the p99 does, where scans are sent
-    /// round: the furnished warehouse's from 7-11 to 17 ms, the largest of a log (a furnished
-    /// office) from 16 to 40 ms. Measured with an earlier form of this rule (judged after the
+    /// answer is most likely wrong and the time is spent where it can change the answer: 0.3-7 %
+    /// of the simulated scans go round, and 4-5 % of the furnished warehouse's go on to the
+    /// grid. Over the 48 simulated logs of `gema2 evaluate`: successes 13798 -> 13818 with the
+    /// wider slide alone and 13839 with the grid, `ok` 11591 -> 11586 -> 11590, wrong `ok` 62 ->
+    /// 55 -> 53, no log lost a success; the furnished warehouse 82.3 -> 83.0 -> 84.3 % (its
+    /// other simulator seeds 82.3 / 78.7 / 82.0 -> 84.3 / 79.7 / 84.3 %). The medians do not
+    /// move; the p99 does, where scans are sent round: the furnished warehouse's from 7-11 to
+    /// 22-26 ms, the largest of a log (an office) from 16 to 47 ms. On the 4994-wall office
+    /// (343 x 112 m) a scan sent round takes 100-120 ms more for the wider slide and 50-80 ms
+    /// for the grid, and its furnished log's success does not move (64 %). Measured with an
+    /// earlier form of this rule (judged after the
     /// cornerless scan's rule, within one success of this one): a wider corner search as well
     /// found 4 scans alone and none beyond the wider slide's; the loose slide once more, 1 more
     /// scan for a p99 of 50 ms; a limit of 0.5 % of the beams, 20 more scans and 11 fewer wrong
@@ -196,6 +204,9 @@ pub struct LocalizerConfig {
     /// (approximate, so left out) it took the median from 11.5 to 41.6 ms a scan for 2 more
     /// successes.
     pub escalate_through: f64,
+    /// The grid search that follows the wider slide when its answer still sees through walls
+    /// ([`crate::grid`]).
+    pub grid: GridConfig,
     /// Tracking (section 5.1): after an `ok` scan, only poses within this many metres of it
     /// are made, the most the robot moves between two located scans. A map corner is matched
     /// only within this plus the scan corner's own range of the last pose, and only walls
@@ -248,6 +259,7 @@ impl Default for LocalizerConfig {
             first_look: FirstLook::default(),
             slide: SlideConfig::default(),
             escalate_through: 0.01,
+            grid: GridConfig::default(),
             track_radius: None,
         }
     }
@@ -291,8 +303,10 @@ impl LocalizerConfig {
     /// The slide search's budgets for a scan whose answer sees through walls
     /// ([`escalate_through`](Self::escalate_through)): the 12 longest lines are slid along every
     /// run down to 0.3 m (up to 30 000 poses), the screen's first pass keeps 10 000 of them
-    /// instead of 1024 and its full pass as many, the 32-beam coarse cost keeps 500 instead of 64,
-    /// and 20 poses instead of 6 are refined. Budgets already wider stay as they are. Measured
+    /// instead of 1024 and its full pass 4000, the 32-beam coarse cost keeps 500 instead of 64,
+    /// and 20 poses instead of 6 are refined (so are the grid search's). Budgets already wider
+    /// stay as they are. With the grid search after it, the full pass keeping 10 000 gave one
+    /// scan fewer over the 48 simulated logs, for a largest p99 of 53 ms against 47. Measured
     /// with the earlier form of the rule (see [`escalate_through`](Self::escalate_through)),
     /// which gained 23 scans with these budgets: with [`thorough`](Self::thorough)'s (100 000
     /// poses, 2000 kept, 40 refined) the 48 simulated logs gained the same 23, for a p99 of up to
@@ -306,7 +320,7 @@ impl LocalizerConfig {
                 lines: self.slide.lines.max(12),
                 min_wall: self.slide.min_wall.min(0.3),
                 max_poses: self.slide.max_poses.max(30_000),
-                screened: self.slide.screened.max(10_000),
+                screened: self.slide.screened.max(4_000),
                 ..self.slide
             },
             ..self

@@ -18,7 +18,8 @@
 //! ([`crate::slide`]) and those poses go through the same steps, ranked with the others; and
 //! when that is not confirmed either, so are the lines too uncertain in direction for it
 //! ([`crate::slide::loose_slide_lines`]). A best pose that still sees through walls sends the
-//! slide search round once more with wider budgets ([`LocalizerConfig::escalated`]).
+//! slide search round once more with wider budgets ([`LocalizerConfig::escalated`]), and when
+//! that does not help either, the grid search ([`crate::grid`]).
 
 mod candidates;
 mod config;
@@ -96,6 +97,9 @@ pub struct LocateTimes {
     /// Whether the slide search ran again with wider budgets: the best pose after the slide
     /// searches saw through walls ([`LocalizerConfig::escalate_through`]).
     pub escalated: bool,
+    /// Whether the grid search ran ([`crate::grid`]): the best pose after the wider slide still
+    /// saw through walls.
+    pub grid_search: bool,
 }
 
 #[derive(Clone, Debug)]
@@ -151,6 +155,8 @@ pub struct Localizer {
     candidates: Vec<Candidate>,
     /// [`Self::keep_best`]'s kept candidates as (x, position), sorted by x.
     kept_by_x: Vec<(f64, usize)>,
+    /// The grid search's positions.
+    grid: Vec<Point2<f64>>,
     /// The scan's lines as the slide search reads them, and those it lays along walls.
     lines: Vec<SlideLine>,
     slide_lines: Vec<usize>,
@@ -180,6 +186,7 @@ impl Localizer {
             polish_pts: Vec::new(),
             candidates: Vec::new(),
             kept_by_x: Vec::new(),
+            grid: Vec::new(),
             lines: Vec::new(),
             slide_lines: Vec::new(),
             scratch: RayScratch::default(),
@@ -311,6 +318,13 @@ impl Localizer {
                 self.search(scan, seg, Source::Slides, wide.prescreened, wide.slide.screened, wide.refined);
                 self.config = cfg;
                 self.rank();
+                if cfg.grid.headings > 0 && self.escalates() {
+                    self.out.times.grid_search = true;
+                    self.config = wide;
+                    self.search(scan, seg, Source::Grid, wide.grid.prescreened, wide.grid.screened, wide.refined);
+                    self.config = cfg;
+                    self.rank();
+                }
             }
             if self.out.status == Status::Ok
                 && self.out.hypotheses.first().is_some_and(|h| h.cost.inliers < cfg.slide.min_inliers_ok)
@@ -502,6 +516,9 @@ enum Source {
     /// ([`crate::slide::loose_slide_lines`]), once `Slides` gave no confirmed pose; the caller
     /// chooses them into `Localizer::slide_lines`.
     LooseSlides,
+    /// Poses on a grid over the free space at the headings the scan's lines give
+    /// ([`crate::grid`]).
+    Grid,
 }
 
 /// How the search judges one pose of a scan ([`Localizer::judge`]).
