@@ -23,14 +23,14 @@ pub const FROM_GRID: u16 = u16::MAX - 1;
 /// How the grid search lays out its poses and how many it carries on.
 ///
 /// Measured over the 48 simulated logs of `gema2 evaluate`, after the wider slide (13818
-/// successes without the grid): at these defaults 13839, for a largest p99 of a log of 47 ms;
-/// 8 headings, a 0.1 m step, 10 000 kept by either pass, 13841 at 163 ms; a 0.15 m step,
-/// 13836-13842; the first pass keeping 2000 against 10 000, one or two scans fewer at a third
-/// less time.
+/// successes without the grid): at these defaults 13843, for a largest p99 of a log of 50 ms.
+/// With the longest line's heading for its votes (not their precision-weighted mean) and only
+/// the four most voted headings, 13839; with those, a 0.1 m step, 10 000 kept by either pass,
+/// 13841 at 163 ms; a 0.15 m step, 13836-13842; the first pass keeping 2000 against 10 000, one
+/// or two scans fewer at a third less time.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct GridConfig {
-    /// Headings tried (the most voted first); 0 turns the grid search off. In a map whose walls
-    /// run two ways the first four are its quarter turns.
+    /// Most headings tried ([`grid_headings`]); 0 turns the grid search off.
     pub headings: usize,
     /// Distance between grid positions, metres; coarsened when the grid would hold more than
     /// `max_poses` poses. Half the diagonal of a 0.2 m cell is 0.14 m, about what the screen and
@@ -44,7 +44,7 @@ pub struct GridConfig {
 
 impl Default for GridConfig {
     fn default() -> Self {
-        GridConfig { headings: 4, step: 0.2, max_poses: 150_000, prescreened: 2000, screened: 1024 }
+        GridConfig { headings: 8, step: 0.2, max_poses: 150_000, prescreened: 2000, screened: 1024 }
     }
 }
 
@@ -53,8 +53,13 @@ const VOTING_LINES: usize = 6;
 const VOTING_MIN_LENGTH: f64 = 0.3;
 /// ...whose direction is known to this (radians: the loose slide's lines too).
 const VOTING_MAX_SIGMA: f64 = 4.0 * PI / 180.0;
-/// Votes for headings closer than this (radians) count as one heading, the longest line's.
-const SAME_HEADING: f64 = 1.5 * PI / 180.0;
+/// Votes for headings closer than this (radians) count as one heading.
+const SAME_HEADING: f64 = 3.0 * PI / 180.0;
+/// Headings voted less than this share of the most voted one are not tried.
+const MIN_VOTE_SHARE: f64 = 0.5;
+/// A line's direction is taken as no surer than this (radians) when it votes: the fit's own
+/// figure for a long line in a clean scan is far smaller than the walls are straight.
+const MIN_SIGMA: f64 = 0.25 * PI / 180.0;
 
 /// The map's main wall directions, in [0, pi): peaks of the histogram of its walls' directions
 /// (1 degree bins, weighted by length) that hold at least 3 % of the walls' length, at most
@@ -97,29 +102,49 @@ pub fn wall_directions(walls: &[Wall], max: usize) -> Vec<f64> {
 }
 
 /// Up to `count` sensor headings that lay the scan's longest lines along the map's wall
-/// `directions`, the most voted first: each line votes its length for the four headings that
-/// turn it onto each direction either way.
+/// `directions`, the most voted first, and only those voted at least [`MIN_VOTE_SHARE`] of the
+/// most voted. Each line votes for the four headings that turn it onto each direction either
+/// way, with its length over its direction's uncertainty (a long, sure line counts most); votes
+/// within [`SAME_HEADING`] are one heading, at their mean weighted by the lines' precision
+/// (1 / sigma^2), so that one uncertain line does not set it. In a map whose walls run two ways,
+/// lines that agree give the four quarter turns of one heading; lines that disagree (a line
+/// along a grazing beam, fitted a few degrees off) give a second four, searched too when they
+/// weigh as much.
 pub fn grid_headings(lines: &[SlideLine], directions: &[f64], count: usize) -> Vec<f64> {
     let mut voting: Vec<&SlideLine> =
         lines.iter().filter(|l| l.length() >= VOTING_MIN_LENGTH && l.direction_sigma <= VOTING_MAX_SIGMA).collect();
     voting.sort_by(|a, b| b.length().total_cmp(&a.length()));
     voting.truncate(VOTING_LINES);
-    let mut votes: Vec<(f64, f64)> = Vec::new();
+    // (first heading voted, precision-weighted sum of the votes' offsets from it, sum of the
+    // precisions, votes)
+    let mut votes: Vec<(f64, f64, f64, f64)> = Vec::new();
     for l in voting {
         let d = l.direction();
         let along = d.y.atan2(d.x);
+        let sigma = l.direction_sigma.max(MIN_SIGMA);
+        let (precision, vote) = (1.0 / (sigma * sigma), l.length() / sigma);
         for &wall in directions {
             for turn in [0.0, PI] {
                 let heading = wrap_angle(wall + turn - along);
-                match votes.iter_mut().find(|(h, _)| angle_diff(*h, heading).abs() < SAME_HEADING) {
-                    Some(vote) => vote.1 += l.length(),
-                    None => votes.push((heading, l.length())),
+                match votes.iter_mut().find(|v| angle_diff(heading, v.0).abs() < SAME_HEADING) {
+                    Some(v) => {
+                        v.1 += precision * angle_diff(heading, v.0);
+                        v.2 += precision;
+                        v.3 += vote;
+                    }
+                    None => votes.push((heading, 0.0, precision, vote)),
                 }
             }
         }
     }
-    votes.sort_by(|a, b| b.1.total_cmp(&a.1));
-    votes.into_iter().take(count).map(|(h, _)| h).collect()
+    votes.sort_by(|a, b| b.3.total_cmp(&a.3));
+    let top = votes.first().map_or(0.0, |v| v.3);
+    votes
+        .into_iter()
+        .take_while(|v| v.3 >= MIN_VOTE_SHARE * top)
+        .take(count)
+        .map(|(first, offsets, precision, _)| wrap_angle(first + offsets / precision))
+        .collect()
 }
 
 /// The grid's positions, the centres of cells `step` wide over `bounds`, where `may_stand`.
@@ -186,6 +211,35 @@ mod tests {
                 prop_assert!(headings.iter().any(|&h| angle_diff(h, turned).abs() < 1e-6), "{:?}", headings);
             }
         }
+    }
+
+    /// Two lines 5 degrees apart in a map of walls along 0 and 90 degrees: each sets a heading
+    /// and its quarter turns when it weighs at least half as much as the other, and only the
+    /// heavier one's when it weighs less.
+    #[test]
+    fn lines_that_disagree_give_both_headings_when_they_weigh_alike() {
+        let dirs = [0.0, PI / 2.0];
+        let line = |length: f64, degrees: f64| {
+            let a = degrees.to_radians();
+            SlideLine {
+                start: Point2::origin(),
+                end: Point2::new(length * a.cos(), length * a.sin()),
+                direction_sigma: 0.01,
+            }
+        };
+        let both = grid_headings(&[line(2.0, 10.0), line(1.5, 15.0)], &dirs, 8);
+        assert_eq!(both.len(), 8, "{both:?}");
+        for turned in [-10.0f64, -15.0] {
+            assert!(both.iter().any(|&h| angle_diff(h, turned.to_radians()).abs() < 1e-9), "{both:?}");
+        }
+        let one = grid_headings(&[line(2.0, 10.0), line(0.9, 15.0)], &dirs, 8);
+        assert_eq!(one.len(), 4, "{one:?}");
+        // lines within the same-heading tolerance make one heading between them, nearer the surer
+        let sure = SlideLine { direction_sigma: 0.005, ..line(1.0, 11.0) };
+        let merged = grid_headings(&[line(2.0, 10.0), sure], &dirs, 8);
+        assert_eq!(merged.len(), 4, "{merged:?}");
+        let h = merged.iter().copied().find(|h| angle_diff(*h, -0.18).abs() < 0.1).expect("a heading near -10.5");
+        assert!(h < (-10.5f64).to_radians() && h > (-11.0f64).to_radians(), "{}", h.to_degrees());
     }
 
     #[test]
