@@ -151,23 +151,50 @@ pub fn grid_headings(lines: &[SlideLine], directions: &[f64], count: usize) -> V
 pub fn grid_positions(
     bounds: (Point2<f64>, Point2<f64>),
     step: f64,
-    may_stand: impl Fn(Point2<f64>) -> bool,
+    may_stand: &impl Fn(Point2<f64>) -> bool,
     out: &mut Vec<Point2<f64>>,
 ) {
     out.clear();
+    out.extend(cells(bounds, step).filter(|&p| may_stand(p)));
+}
+
+/// Most cells of the bounds a grid visits, whatever the free space: a map kilometres wide
+/// with little free space in it is not walked at the step of a room.
+const MAX_CELLS: f64 = 4.0e6;
+
+/// The grid's positions where the sensor `may_stand`, in `out`, and their step: `step`, or as
+/// much wider as keeps them within `max_poses` poses at `headings` a position (the positions
+/// at `step` are counted first, then spread as evenly over the same space), and the bounds
+/// within [`MAX_CELLS`] cells.
+pub fn grid_within(
+    bounds: (Point2<f64>, Point2<f64>),
+    step: f64,
+    headings: usize,
+    max_poses: usize,
+    may_stand: impl Fn(Point2<f64>) -> bool,
+    out: &mut Vec<Point2<f64>>,
+) -> f64 {
     let (lo, hi) = bounds;
-    if step <= 0.0 || !(hi.x >= lo.x && hi.y >= lo.y) {
-        return;
+    let area = (hi.x - lo.x) * (hi.y - lo.y);
+    let mut step = if area.is_finite() && area > 0.0 { step.max((area / MAX_CELLS).sqrt()) } else { step };
+    grid_positions(bounds, step, &may_stand, out);
+    let poses = out.len() * headings;
+    if poses > max_poses {
+        step *= (poses as f64 / max_poses.max(1) as f64).sqrt();
+        grid_positions(bounds, step, &may_stand, out);
     }
-    let (cols, rows) = (((hi.x - lo.x) / step).ceil() as usize, ((hi.y - lo.y) / step).ceil() as usize);
-    for r in 0..rows {
-        for c in 0..cols {
-            let p = Point2::new(lo.x + (c as f64 + 0.5) * step, lo.y + (r as f64 + 0.5) * step);
-            if may_stand(p) {
-                out.push(p);
-            }
-        }
-    }
+    step
+}
+
+/// The centres of the cells `step` wide over `bounds`, row by row (none for a step that is
+/// not positive or bounds that are not).
+fn cells(bounds: (Point2<f64>, Point2<f64>), step: f64) -> impl Iterator<Item = Point2<f64>> {
+    let (lo, hi) = bounds;
+    let count = |extent: f64| if step > 0.0 && extent >= 0.0 { (extent / step).ceil() as usize } else { 0 };
+    let (cols, rows) = (count(hi.x - lo.x), count(hi.y - lo.y));
+    (0..rows).flat_map(move |r| {
+        (0..cols).map(move |c| Point2::new(lo.x + (c as f64 + 0.5) * step, lo.y + (r as f64 + 0.5) * step))
+    })
 }
 
 #[cfg(test)]
@@ -255,16 +282,38 @@ mod tests {
         assert_eq!(grid_headings(&[line(2.0, 0.001)], &dirs, 4).len(), 2);
     }
 
+    /// The grid widens its step to keep within its budget over the free space, and walks no
+    /// more than its most cells of a map kilometres wide, however little of it is free.
+    #[test]
+    fn the_grid_keeps_its_poses_within_the_budget() {
+        let room = (Point2::new(0.0, 0.0), Point2::new(40.0, 30.0));
+        let mut out = Vec::new();
+        assert_eq!(grid_within(room, 0.2, 8, 1_000_000, |_| true, &mut out), 0.2);
+        assert_eq!(out.len(), 200 * 150);
+        let step = grid_within(room, 0.2, 8, 100_000, |_| true, &mut out);
+        // about: the widened grid's cells round up at the room's edges
+        assert!(out.len() * 8 <= 102_000 && out.len() * 8 > 90_000, "{step}: {}", out.len());
+        // half the room free: the step for the half
+        let half = grid_within(room, 0.2, 8, 100_000, |p| p.x < 20.0, &mut out);
+        assert!((half - step / 2f64.sqrt()).abs() < 0.01, "{half} {step}");
+        // 10 km square with a 20 m room in a corner: the cap holds
+        let huge = (Point2::new(0.0, 0.0), Point2::new(10_000.0, 10_000.0));
+        let wide = grid_within(huge, 0.2, 8, 150_000, |p| p.x < 20.0 && p.y < 20.0, &mut out);
+        assert!(wide >= 5.0 - 1e-9 && !out.is_empty(), "{wide}: {}", out.len());
+        assert_eq!(grid_within(room, 0.2, 8, 100_000, |_| false, &mut out), 0.2);
+        assert!(out.is_empty());
+    }
+
     #[test]
     fn grid_positions_are_where_the_sensor_may_stand() {
         let mut out = Vec::new();
         let bounds = (Point2::new(0.0, 0.0), Point2::new(2.0, 1.0));
-        grid_positions(bounds, 0.5, |_| true, &mut out);
+        grid_positions(bounds, 0.5, &|_| true, &mut out);
         assert_eq!(out.len(), 8);
         assert_eq!(out[0], Point2::new(0.25, 0.25));
-        grid_positions(bounds, 0.5, |p| p.x < 1.0, &mut out);
+        grid_positions(bounds, 0.5, &|p: Point2<f64>| p.x < 1.0, &mut out);
         assert_eq!(out.len(), 4);
-        grid_positions(bounds, 0.0, |_| true, &mut out);
+        grid_positions(bounds, 0.0, &|_| true, &mut out);
         assert!(out.is_empty());
     }
 }

@@ -5,7 +5,7 @@
 
 use super::screen::{order_by_telling, within, FirstPass, Screen, ScreenPoint};
 use super::{Candidate, Localizer, LocalizerConfig, Source};
-use crate::grid::{grid_headings, grid_positions, FROM_GRID};
+use crate::grid::{grid_headings, grid_within, FROM_GRID};
 use crate::matching::{arms_fit, pose_from_corners};
 use crate::model::MapModel;
 use crate::slide::{chord_poses, slide_lines, slide_poses, slide_step, SlideLine, FROM_SLIDE};
@@ -190,14 +190,7 @@ fn grid_candidates(
             && !model.off_limits(p)
             && model.field.distance(p) >= 0.1
     };
-    let mut step = cfg.grid.step;
-    grid_positions(model.map.bounds(), step, may_stand, positions);
-    let poses = positions.len() * headings.len();
-    if poses > cfg.grid.max_poses {
-        // as many positions as the budget allows, spread over the same free space
-        step *= (poses as f64 / cfg.grid.max_poses.max(1) as f64).sqrt();
-        grid_positions(model.map.bounds(), step, may_stand, positions);
-    }
+    grid_within(model.map.bounds(), cfg.grid.step, headings.len(), cfg.grid.max_poses, may_stand, positions);
     // every point tells poses this far apart: the first pass reads them as they come
     offers.order_by(|_| 0.0);
     for heading in headings {
