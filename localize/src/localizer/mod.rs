@@ -312,18 +312,11 @@ impl Localizer {
             }
             if self.escalates() {
                 self.out.times.escalated = true;
-                // the search reads its budgets from the configuration
                 let wide = cfg.escalated();
-                self.config = wide;
-                self.search(scan, seg, Source::Slides, wide.prescreened, wide.slide.screened, wide.refined);
-                self.config = cfg;
-                self.rank();
+                self.search_wider(scan, seg, Source::Slides, wide.prescreened, wide.slide.screened);
                 if cfg.grid.headings > 0 && self.escalates() {
                     self.out.times.grid_search = true;
-                    self.config = wide;
-                    self.search(scan, seg, Source::Grid, wide.grid.prescreened, wide.grid.screened, wide.refined);
-                    self.config = cfg;
-                    self.rank();
+                    self.search_wider(scan, seg, Source::Grid, cfg.grid.prescreened, cfg.grid.screened);
                 }
             }
             if self.out.status == Status::Ok
@@ -364,6 +357,24 @@ impl Localizer {
             && self.model.map.sigma <= 0.0
             && (self.out.status == Status::Failed
                 || self.out.hypotheses.first().is_none_or(|h| h.cost.through > through))
+    }
+
+    /// [`search`](Self::search) with the budgets of [`LocalizerConfig::escalated`] (the search
+    /// reads them from the configuration), then [`rank`](Self::rank) as configured.
+    fn search_wider(
+        &mut self,
+        scan: &ScanView<'_>,
+        seg: &Segmentation,
+        source: Source,
+        prescreened: usize,
+        screened: usize,
+    ) {
+        let cfg = self.config;
+        let wide = cfg.escalated();
+        self.config = wide;
+        self.search(scan, seg, source, prescreened, screened, wide.refined);
+        self.config = cfg;
+        self.rank();
     }
 
     /// Makes the candidates of `source`, keeps the `screened` best by the screen (its first
