@@ -569,6 +569,33 @@ fn a_best_pose_seeing_through_walls_sends_the_slide_search_round_wider() {
     assert!(gained > lost, "{escalated} escalated: {gained} right that were wrong, {lost} wrong");
 }
 
+/// In a sparse scan one or two beams through walls at their edges are a large fraction of the
+/// beams: the wider searches also need [`LocalizerConfig::escalate_min_beams`] of them, or
+/// 68-beam scans, whose right poses often see through 1.5-3 % of the beams, would all go round.
+#[test]
+fn a_sparse_scan_is_not_sent_round_for_a_beam_or_two_through_walls() {
+    let map = procedural::by_name("office").expect("a bundled map");
+    let mut sim = Simulator::new(&map, SensorModel::urg04lx_with_beams(68), Scenario::Clean, 3);
+    let never = LocalizerConfig { escalate_through: 1.0, ..LocalizerConfig::default() };
+    let mut before = gema2(&map, never);
+    let mut after = gema2(&map, LocalizerConfig::default());
+    let (mut few, mut escalated) = (0, 0);
+    for _ in 0..60 {
+        let scan = sim.next_scan();
+        let (_, b) = before.process(&scan.view());
+        let (status, through) = (b.status, b.hypotheses.first().map(|h| (h.cost.through, h.cost.beams)));
+        let (_, a) = after.process(&scan.view());
+        let beams_through = through.map_or(0.0, |(t, n)| t * n as f64);
+        if status != Status::Failed && through.is_some_and(|(t, _)| t > 0.01) && beams_through < 6.5 {
+            few += 1;
+            assert!(!a.times.escalated, "{beams_through} beams through walls");
+        }
+        escalated += a.times.escalated as usize;
+    }
+    assert!(few > 0, "no scan had a beam or two through walls");
+    assert!(escalated * 10 <= 60, "{escalated} of 60 sent round");
+}
+
 /// Eq. 7 with furniture told from open floor (LESSONS.md, item 2): among furnished warehouse
 /// scans whose answer, found with the plain one-sided cost, is wrong and costs less than the
 /// truth by that cost, the clutter-aware cost puts the truth below the wrong answer in most

@@ -349,14 +349,17 @@ impl Localizer {
     /// Whether the best pose after the slide searches is one the scan contradicts, so that the
     /// slide search runs again with the budgets of [`LocalizerConfig::escalated`]: it is
     /// `failed`, or more of its beams see through walls than
-    /// [`LocalizerConfig::escalate_through`] allows, on a map that states no error (on one that
-    /// does, right poses see through its errors).
+    /// [`LocalizerConfig::escalate_through`] and [`LocalizerConfig::escalate_min_beams`] allow,
+    /// on a map that states no error (on one that does, right poses see through its errors).
     fn escalates(&self) -> bool {
         let through = self.config.escalate_through;
         through < 1.0
             && self.model.map.sigma <= 0.0
             && (self.out.status == Status::Failed
-                || self.out.hypotheses.first().is_none_or(|h| h.cost.through > through))
+                || self.out.hypotheses.first().is_none_or(|h| {
+                    let beams_through = (h.cost.through * h.cost.beams as f64).round() as usize;
+                    h.cost.through > through && beams_through >= self.config.escalate_min_beams
+                }))
     }
 
     /// [`search`](Self::search) with the budgets of [`LocalizerConfig::escalated`] (the search
