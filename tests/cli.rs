@@ -143,7 +143,7 @@ fn unknown_maps_and_missing_logs_are_clear_errors() {
 fn map_info_reads_a_bundled_map_or_a_file() {
     let out = gema2(&["map", "info", "apartment"]);
     assert!(out.status.success(), "{}", text(&out.stderr));
-    let walls = mapserver::bundled("apartment").unwrap().unwrap().walls.len();
+    let walls = map::bundled("apartment").unwrap().unwrap().walls.len();
     assert!(text(&out.stdout).starts_with(&format!("apartment: {walls} walls, ")), "{}", text(&out.stdout));
     let dir = tempfile::tempdir().unwrap();
     let file = dir.path().join("radial.json");
@@ -173,7 +173,7 @@ fn an_office_of_n_walls_says_when_it_cannot_come_near_n() {
     assert!(!text(&out.stderr).contains("asked"), "{}", text(&out.stderr));
     let out = gema2(&["map", "generate", "office-3", "--out", f]);
     assert!(out.status.success(), "{}", text(&out.stderr));
-    let walls = mapserver::load_map(f).unwrap().walls.len();
+    let walls = mapio::load_map(f).unwrap().walls.len();
     assert!(walls > 3);
     assert!(text(&out.stderr).contains(&format!("3 asked: the nearest office the generator makes has {walls}")));
     for bad in ["office-0", "office-many", "office--5"] {
@@ -386,14 +386,14 @@ fn a_built_map_keeps_the_free_space_its_scans_saw() {
     assert!(out.status.success(), "{}", text(&out.stderr));
     let out = gema2(&["map", "build", "--log", log_s, "--every", "1", "--out", built.to_str().unwrap()]);
     assert!(out.status.success(), "{}", text(&out.stderr));
-    let map = mapserver::WallMap::load(&built).expect("the built map loads");
+    let map = map::WallMap::load(&built).expect("the built map loads");
     let seen = map.seen_free.as_ref().expect("a built map says where its scans saw free space");
     let reader = acquire::CarmenReader::open(&log, acquire::FlaserLayout::default()).unwrap();
     for item in reader {
         let truth = item.unwrap().scan.truth.expect("simulated logs hold the truth");
         assert!(seen.contains(nalgebra::Point2::from(truth.translation.vector)), "{truth:?}");
     }
-    let (lo, hi) = mapserver::bundled("apartment").unwrap().unwrap().bounds();
+    let (lo, hi) = map::bundled("apartment").unwrap().unwrap().bounds();
     for q in [lo - nalgebra::Vector2::new(0.5, 0.5), hi + nalgebra::Vector2::new(0.5, 0.5)] {
         assert!(!seen.contains(q), "{q} lies beyond the building's walls");
     }
@@ -402,7 +402,7 @@ fn a_built_map_keeps_the_free_space_its_scans_saw() {
     assert!(text(&out.stderr).contains("success"), "{}", text(&out.stderr));
     let out = gema2(&["map", "build", "--log", log_s, "--seen-cell", "0", "--out", built.to_str().unwrap()]);
     assert!(out.status.success(), "{}", text(&out.stderr));
-    assert!(mapserver::WallMap::load(&built).unwrap().seen_free.is_none());
+    assert!(map::WallMap::load(&built).unwrap().seen_free.is_none());
 }
 
 /// A malformed laser line in a survey is left out of the map, not the end of it: the map is
@@ -463,7 +463,7 @@ fn a_survey_with_a_malformed_line_builds_its_map_from_the_other_scans() {
 }
 
 /// The share of `walls`' length (sampled every 5 cm) lying within 0.1 m of one of `others`.
-fn share_within(walls: &[mapserver::Wall], others: &[mapserver::Wall]) -> f64 {
+fn share_within(walls: &[map::Wall], others: &[map::Wall]) -> f64 {
     let (mut near, mut all) = (0, 0);
     for w in walls {
         let steps = (w.length() / 0.05).ceil().max(1.0) as usize;
@@ -489,7 +489,7 @@ fn a_map_built_among_people_draws_the_walls_and_not_the_people() {
     let out =
         gema2(&["sim", "--map", "apartment", "--scenario", "people", "--scans", "60", "--seed", "3", "--out", log_s]);
     assert!(out.status.success(), "{}", text(&out.stderr));
-    let plan = mapserver::bundled("apartment").unwrap().unwrap().walls;
+    let plan = map::bundled("apartment").unwrap().unwrap().walls;
     let mut shares = Vec::new();
     for cell in ["0.05", "0"] {
         let out = gema2(&[
@@ -505,7 +505,7 @@ fn a_map_built_among_people_draws_the_walls_and_not_the_people() {
             built.to_str().unwrap(),
         ]);
         assert!(out.status.success(), "{}", text(&out.stderr));
-        let walls = mapserver::WallMap::load(&built).unwrap().walls;
+        let walls = map::WallMap::load(&built).unwrap().walls;
         shares.push((share_within(&walls, &plan), share_within(&plan, &walls)));
     }
     let [(on_plan, of_plan), (old_on_plan, old_of_plan)] = shares[..] else { unreachable!() };
@@ -642,8 +642,8 @@ fn a_survey_grid_of_a_log_locates_the_scans_it_was_not_built_from() {
     let build = ["map", "build", "--log", &p("survey.log"), "--grid", &p("grid.yaml"), "--out", &p("built.json")];
     let out = gema2(&build);
     assert!(out.status.success() && text(&out.stderr).contains("grid.yaml: a "), "{}", text(&out.stderr));
-    let grid = mapserver::OccupancyGrid::load(Path::new(&p("grid.yaml"))).unwrap();
-    assert!(grid.cells.contains(&mapserver::ros::Cell::Occupied) && grid.cells.contains(&mapserver::ros::Cell::Free));
+    let grid = mapio::OccupancyGrid::load(Path::new(&p("grid.yaml"))).unwrap();
+    assert!(grid.cells.contains(&mapio::ros::Cell::Occupied) && grid.cells.contains(&mapio::ros::Cell::Free));
     let out = gema2(&["locate", "--map", &p("grid.yaml"), "--log", &p("survey.log"), "--every", "2", "--offset", "1"]);
     assert!(out.status.success(), "{}", text(&out.stderr));
     let err = text(&out.stderr);

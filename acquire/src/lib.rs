@@ -1,5 +1,8 @@
 //! GEMA2 laser sources: CARMEN log replay and a laser simulator (the Hokuyo SCIP 2.0 driver
 //! comes in its own module).
+//!
+//! One job: laser scans in, as a library and as the pipeline's acquire stage ([`node`]). Depends
+//! on `laser`, `map` and `mapio` (the simulator's world), and on `messages` for the stage.
 
 pub mod carmen;
 pub mod node;

@@ -135,7 +135,7 @@ fn source(a: &AcquireArgs) -> Result<(Source, &'static str)> {
         let reader = CarmenReader::open(path, a.flaser.layout().map_err(anyhow::Error::msg)?)?;
         return Ok((Box::new(reader.map(|r| r.map(|s| s.scan).map_err(anyhow::Error::from))), "carmen-log"));
     }
-    let map = mapserver::load_map(&a.map)?;
+    let map = mapio::load_map(&a.map)?;
     let mut sim = Simulator::new(&map, SensorModel::urg04lx(), a.scenario, a.seed);
     Ok((Box::new(std::iter::from_fn(move || Some(Ok(sim.next_scan())))), "simulator"))
 }

@@ -8,7 +8,7 @@
 
 use laser::rng::Rng;
 use laser::{pose, LaserScan, Pose, ScanGeometry};
-use mapserver::{DistanceField, FreeSpace, RayCaster, RayScratch, Wall, WallMap};
+use map::{DistanceField, FreeSpace, RayCaster, RayScratch, Wall, WallMap};
 use nalgebra::{Point2, Vector2};
 use std::f64::consts::TAU;
 use std::str::FromStr;
@@ -358,11 +358,10 @@ fn ray_circle(o: Point2<f64>, dir: Vector2<f64>, c: Point2<f64>, r: f64) -> Opti
 #[cfg(test)]
 mod tests {
     use super::*;
-    use mapserver::procedural;
 
     #[test]
     fn clean_scans_match_ray_casting_within_the_noise() {
-        let map = procedural::apartment();
+        let map = worlds::apartment();
         let mut model = SensorModel::urg04lx();
         model.dropout = 0.0;
         model.mixed_pixel = 0.0;
@@ -385,7 +384,7 @@ mod tests {
 
     #[test]
     fn scenarios_place_their_obstacles_near_the_robot() {
-        let map = procedural::office(1, 2, 8);
+        let map = worlds::office(1, 2, 8);
         let mut sim = Simulator::new(&map, SensorModel::urg04lx(), Scenario::People, 9);
         let mut people = 0;
         for _ in 0..30 {
@@ -422,7 +421,7 @@ mod tests {
 
     #[test]
     fn same_seed_same_log() {
-        let map = procedural::apartment();
+        let map = worlds::apartment();
         let mut a = Simulator::new(&map, SensorModel::urg04lx(), Scenario::People, 5);
         let mut b = Simulator::new(&map, SensorModel::urg04lx(), Scenario::People, 5);
         for _ in 0..5 {

@@ -2,7 +2,7 @@
 
 use serde::{Deserialize, Serialize};
 
-/// Readings at or below this range are error codes or noise, never points (DESIGN.md).
+/// Readings at or below this range are error codes or noise, never points (docs/design.md).
 pub const MIN_VALID_RANGE: f64 = 0.02;
 
 /// Most "no return" readings in a row that can be returns lost on a surface the sensor sees on
@@ -79,7 +79,7 @@ impl ScanGeometry {
         self.angle_min + i as f64 * self.angle_increment
     }
 
-    /// Whether a reading is a measurement (DESIGN.md).
+    /// Whether a reading is a measurement (docs/design.md).
     ///
     /// Ranges travel as `f32`: a "no return" written as the maximum range comes back a hair
     /// below it (5.6 becomes 5.5999999), so the comparison with the maximum allows for `f32`

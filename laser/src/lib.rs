@@ -4,9 +4,12 @@
 //! plus one range per beam. Stages read ranges through a borrowed [`ScanView`], so a process can
 //! hand a slice that lives in shared memory straight to the algorithms without copying.
 //!
-//! Conventions (DESIGN.md): SI units; the sensor frame follows ROS REP 103 (x forward, y left,
+//! Conventions (docs/design.md): SI units; the sensor frame follows ROS REP 103 (x forward, y left,
 //! angles counter-clockwise). A reading is valid only when it is finite, above
 //! [`MIN_VALID_RANGE`] and below the sensor's maximum range; invalid readings are never points.
+//!
+//! One job: what a scan and a pose are. Depends on nalgebra and serde only; every other crate
+//! may depend on it.
 
 mod geometry;
 mod pose;
@@ -52,7 +55,7 @@ impl ScanView<'_> {
         self.ranges.is_empty()
     }
 
-    /// Classifies reading `i` (DESIGN.md's validity rule).
+    /// Classifies reading `i` (docs/design.md's validity rule).
     #[inline]
     pub fn reading(&self, i: usize) -> Reading {
         self.geometry.classify(self.ranges[i] as f64)

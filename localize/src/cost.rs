@@ -2,7 +2,7 @@
 //! pose, d'_i, explain the measured d_i.
 //!
 //! Eq. 7 sums (d_i - d'_i)^2. Unmapped objects (people, furniture) make it prefer wrong poses
-//! (LESSONS.md), so the default [`CostKind::OneSided`] form normalises each residual by the
+//! (docs/how-it-works.md, "Where the paper falls short"), so the default [`CostKind::OneSided`] form normalises each residual by the
 //! sensor's noise at that range and caps it differently on each side: a reading *shorter* than
 //! the map predicts can be an object in front of the wall and costs at most `front_cap`; a
 //! reading *longer* than the map predicts means seeing through a mapped wall and costs up to
@@ -14,7 +14,7 @@
 //! A short reading's cap also depends on how far short it falls ([`CostConfig::clutter_share`]):
 //! furniture stands against walls, so a surface the map lacks a few tenths of a metre in front
 //! of the wall the beam was going to meet is what a right pose sees, while a surface metres
-//! short of it, out in open floor, is what a wrong pose makes of the scan (LESSONS.md, item 2:
+//! short of it, out in open floor, is what a wrong pose makes of the scan (docs/how-it-works.md, "Where the paper falls short", item 2:
 //! the true pose of a furnished scan often cost more than a wrong one, whose unexplained
 //! readings float in the open).
 //!
@@ -30,7 +30,7 @@
 
 use laser::Pose;
 use laser::{Reading, ScanView};
-use mapserver::{RayCaster, RayScratch};
+use map::{RayCaster, RayScratch};
 use segment::ErrorModel;
 
 /// Which form of eq. 7.
@@ -374,7 +374,7 @@ pub fn surface_dropouts(scan: &ScanView<'_>, error: &ErrorModel) -> usize {
 mod tests {
     use super::*;
     use laser::{pose, ScanGeometry};
-    use mapserver::Wall;
+    use map::Wall;
 
     /// A 181-beam, 180-degree scan with 10 m of range.
     fn geometry() -> ScanGeometry {
@@ -556,10 +556,10 @@ mod tests {
     /// march, so poses are stopped part way.
     #[test]
     fn a_pose_stopped_early_costs_more_than_the_bound_and_the_others_cost_the_same() {
-        let map = mapserver::procedural::office_with_walls(3, 1000);
+        let map = worlds::office_with_walls(3, 1000);
         let caster = RayCaster::new(&map.walls);
         let g = ScanGeometry::centred(361, 180f64.to_radians(), 60.0);
-        let (lo, hi) = mapserver::map::bounds_of(&map.walls);
+        let (lo, hi) = map::map::bounds_of(&map.walls);
         let truth = pose(lo.x + 0.37 * (hi.x - lo.x), lo.y + 0.41 * (hi.y - lo.y), 0.3);
         let (mut scratch, mut expected) = (RayScratch::default(), Vec::new());
         caster.cast(&truth, &g, 361, 1, &mut scratch, &mut expected);

@@ -4,7 +4,7 @@
 use crate::localizer::{Localization, Localizer, LocalizerConfig};
 use crate::model::MapModel;
 use laser::ScanView;
-use mapserver::MapCornerConfig;
+use map::MapCornerConfig;
 use segment::{LineVisibilitySegmenter, Segmentation, Segmenter, SegmenterConfig};
 use std::sync::Arc;
 

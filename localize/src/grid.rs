@@ -12,7 +12,7 @@
 
 use crate::slide::SlideLine;
 use laser::{angle_diff, wrap_angle};
-use mapserver::Wall;
+use map::Wall;
 use nalgebra::Point2;
 use std::f64::consts::PI;
 
@@ -102,10 +102,10 @@ pub fn wall_directions(walls: &[Wall], max: usize) -> Vec<f64> {
 }
 
 /// Up to `count` sensor headings that lay the scan's longest lines along the map's wall
-/// `directions`, the most voted first, and only those voted at least [`MIN_VOTE_SHARE`] of the
+/// `directions`, the most voted first, and only those voted at least `MIN_VOTE_SHARE` of the
 /// most voted. Each line votes for the four headings that turn it onto each direction either
 /// way, with its length over its direction's uncertainty (a long, sure line counts most); votes
-/// within [`SAME_HEADING`] are one heading, at their mean weighted by the lines' precision
+/// within `SAME_HEADING` are one heading, at their mean weighted by the lines' precision
 /// (1 / sigma^2), so that one uncertain line does not set it. In a map whose walls run two ways,
 /// lines that agree give the four quarter turns of one heading; lines that disagree (a line
 /// along a grazing beam, fitted a few degrees off) give a second four, searched too when they
@@ -165,7 +165,7 @@ const MAX_CELLS: f64 = 4.0e6;
 /// The grid's positions where the sensor `may_stand`, in `out`, and their step: `step`, or as
 /// much wider as keeps them within `max_poses` poses at `headings` a position (the positions
 /// at `step` are counted first, then spread as evenly over the same space), and the bounds
-/// within [`MAX_CELLS`] cells.
+/// within `MAX_CELLS` cells.
 pub fn grid_within(
     bounds: (Point2<f64>, Point2<f64>),
     step: f64,

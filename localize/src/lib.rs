@@ -1,5 +1,9 @@
 //! GEMA2 localization (paper section 5): scan corners matched against the map's corners give
 //! pose hypotheses (eqs. 5-6), which the ray-cast cost function (eq. 7) ranks.
+//!
+//! One job: localization, as a library ([`Localizer`], [`Gema2`] for segmentation and
+//! localization together) and as the pipeline's localize stage ([`node`]).  Depends on `laser`, `segment` and `map`; on `messages` and
+//! `mapserver` (the map's wire form) for the stage alone.
 
 pub mod cost;
 pub mod gema2;

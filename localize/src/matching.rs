@@ -2,7 +2,7 @@
 //! sensor pose.
 
 use laser::Pose;
-use mapserver::MapCorner;
+use map::MapCorner;
 use nalgebra::{Isometry2, Vector2};
 use segment::Corner;
 
@@ -45,7 +45,7 @@ pub fn pose_from_corners(c: &Corner, m: &MapCorner) -> Pose {
 mod tests {
     use super::*;
     use laser::{pose, pose_theta, wrap_angle};
-    use mapserver::MapArm;
+    use map::MapArm;
     use nalgebra::Point2;
     use proptest::prelude::*;
     use segment::Arm;

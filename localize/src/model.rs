@@ -1,7 +1,7 @@
 //! Everything the localizer pre-computes from a wall map, once.
 
-use mapserver::runs::RunChain;
-use mapserver::{CornerIndex, DistanceField, FreeSpace, MapCornerConfig, OpenFloor, Outside, RayCaster, Wall, WallMap};
+use map::runs::RunChain;
+use map::{CornerIndex, DistanceField, FreeSpace, MapCornerConfig, OpenFloor, Outside, RayCaster, Wall, WallMap};
 use nalgebra::{Point2, Vector2};
 
 /// Distance field resolution, metres.
@@ -19,7 +19,7 @@ const WALL_DIRECTIONS: usize = 4;
 /// a distance field for screening that also names each point's nearest wall for refinement.
 pub struct MapModel {
     pub map: WallMap,
-    /// The walls as straight runs ([`mapserver::runs`]): what corners come from and scan
+    /// The walls as straight runs ([`map::runs`]): what corners come from and scan
     /// lines slide along.
     pub runs: Vec<Wall>,
     /// The main directions of the runs, in [0, pi), the heaviest first: the headings the grid
@@ -79,7 +79,7 @@ impl MapModel {
         // the cost, screening and refinement read the drawn geometry, in as few walls as hold it
         let walls = map.joined_walls();
         let mut field = DistanceField::new(&walls, FIELD_RESOLUTION, FIELD_CAP);
-        let closed_sides = mapserver::view::closed_sides(&walls);
+        let closed_sides = map::view::closed_sides(&walls);
         // the screen asks the field which points' nearest wall has a closed side before it
         // looks the wall up (few walls have one: a building's outer walls)
         if let Some(closed) = &closed_sides {

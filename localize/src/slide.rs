@@ -15,8 +15,8 @@
 //! scan confirms.
 
 use laser::Pose;
-use mapserver::runs::RunChain;
-use mapserver::Wall;
+use map::runs::RunChain;
+use map::Wall;
 use nalgebra::{Isometry2, Point2, UnitComplex, Vector2};
 use segment::Line;
 
@@ -439,7 +439,7 @@ mod tests {
                 Point2::new(r * a.cos(), r * a.sin())
             };
             let walls: Vec<Wall> = (0..sides).map(|k| Wall { a: p(k), b: p(k + 1) }).collect();
-            let chains = mapserver::runs::chains_of_runs(&walls, 0.03);
+            let chains = map::runs::chains_of_runs(&walls, 0.03);
             prop_assert_eq!(chains.len(), 1);
             // the wall's points over 0.3 rad of arc (three runs), seen from the truth
             let truth = pose(x, y, th);

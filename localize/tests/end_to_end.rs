@@ -6,7 +6,7 @@ use localize::cost::cost;
 use localize::refine::{refine, RefineConfig};
 use localize::slide::SlideLine;
 use localize::{pose_from_corners, same_pose, CostConfig, Gema2, LocalizerConfig, MapModel, Status};
-use mapserver::{procedural, MapCornerConfig, RayScratch, Wall, WallMap};
+use map::{MapCornerConfig, RayScratch, Wall, WallMap};
 use segment::{ErrorModel, LineVisibilitySegmenter, Segmentation, Segmenter, SegmenterConfig};
 use std::sync::Arc;
 
@@ -24,7 +24,7 @@ fn gema2(map: &WallMap, config: LocalizerConfig) -> Gema2 {
 /// below the cost of a pose a metre away.
 #[test]
 fn a_pose_from_a_scan_corner_reproduces_the_scan() {
-    let map = procedural::apartment();
+    let map = worlds::apartment();
     let m = model(map.clone());
     let mut sim = Simulator::new(&map, SensorModel::urg04lx(), Scenario::Clean, 21);
     let mut seg = LineVisibilitySegmenter::new(SegmenterConfig::default());
@@ -68,9 +68,9 @@ fn a_pose_from_a_scan_corner_reproduces_the_scan() {
 #[test]
 fn most_clean_scans_are_localized_to_centimetres() {
     // the apartment drawn as a plan draws it too: walls 12 cm thick, two faces and door jambs
-    let thick = mapserver::thick::thicken(&procedural::apartment(), 0.12);
+    let thick = map::thick::thicken(&worlds::apartment(), 0.12);
     for (name, seed, floor) in [("apartment", 5u64, 0.93), ("radial", 6, 0.92), ("thick apartment", 7, 0.93)] {
-        let map = procedural::by_name(name).unwrap_or_else(|| thick.clone());
+        let map = worlds::by_name(name).unwrap_or_else(|| thick.clone());
         let mut gema2 = gema2(&map, LocalizerConfig::default());
         let mut sim = Simulator::new(&map, SensorModel::urg04lx(), Scenario::Clean, seed);
         let (n, mut right, mut wrong_ok, mut error) = (100, 0, 0, 0.0);
@@ -99,7 +99,7 @@ fn most_clean_scans_are_localized_to_centimetres() {
 /// these scans.
 #[test]
 fn a_sensor_noisier_than_its_error_model_is_still_localized() {
-    let map = procedural::apartment();
+    let map = worlds::apartment();
     let mut gema2 = gema2(&map, LocalizerConfig::default());
     let sensor = SensorModel { noise_constant: 0.02, noise_proportional: 0.01, ..SensorModel::urg04lx() };
     let mut sim = Simulator::new(&map, sensor, Scenario::Clean, 3);
@@ -129,7 +129,7 @@ fn a_sensor_noisier_than_its_error_model_is_still_localized() {
 /// lost returns show in the right poses' through-wall fraction.
 #[test]
 fn returns_lost_as_maximum_range_are_not_seen_through_walls() {
-    let map = procedural::apartment();
+    let map = worlds::apartment();
     let sensor = SensorModel {
         geometry: ScanGeometry::centred(181, 180f64.to_radians(), 30.0),
         beams: 181,
@@ -165,7 +165,7 @@ fn returns_lost_as_maximum_range_are_not_seen_through_walls() {
 /// negated, is localized as the original is.
 #[test]
 fn a_laser_listing_its_beams_clockwise_is_localized_as_one_listing_them_counter_clockwise() {
-    let map = procedural::apartment();
+    let map = worlds::apartment();
     let (mut ccw, mut cw) = (gema2(&map, LocalizerConfig::default()), gema2(&map, LocalizerConfig::default()));
     let mut sim = Simulator::new(&map, SensorModel::urg04lx(), Scenario::Clean, 12);
     let (n, mut right, mut agree) = (40, 0, 0);
@@ -201,7 +201,7 @@ fn a_laser_listing_its_beams_clockwise_is_localized_as_one_listing_them_counter_
 /// the next best is matched in its place instead of the scan making no candidate.
 #[test]
 fn a_best_corner_of_a_kind_the_map_lacks_gives_way_to_the_next() {
-    let map = procedural::apartment();
+    let map = worlds::apartment();
     let no_ends =
         Arc::new(MapModel::new(map.clone(), &MapCornerConfig { wall_ends: false, ..MapCornerConfig::default() }));
     // one scan corner, no first look, no slide search: the corner alone decides
@@ -239,7 +239,7 @@ fn locate(map: &WallMap, ranges: Vec<f32>, geometry: ScanGeometry) -> Status {
 /// NaN, all-invalid, single-wall and cornerless scans fail; none panics.
 #[test]
 fn hopeless_scans_fail_cleanly() {
-    let map = procedural::apartment();
+    let map = worlds::apartment();
     let g = ScanGeometry::urg04lx();
     let n = ScanGeometry::urg04lx_beams(1);
     assert_eq!(locate(&map, vec![f32::NAN; n], g), Status::Failed);
@@ -277,7 +277,7 @@ fn hopeless_scans_fail_cleanly() {
     assert_eq!(locate(&map, vec![2.0; n], g), Status::Failed);
     // a scan in a map it does not belong to (a lone box)
     let lone = WallMap::new(vec![Wall::new(0.0, 0.0, 1.0, 0.0), Wall::new(1.0, 0.0, 1.0, 1.0)]);
-    let mut sim = Simulator::new(&procedural::apartment(), SensorModel::urg04lx(), Scenario::Clean, 3);
+    let mut sim = Simulator::new(&worlds::apartment(), SensorModel::urg04lx(), Scenario::Clean, 3);
     let scan = sim.next_scan();
     assert_ne!(locate(&lone, scan.ranges.clone(), scan.geometry), Status::Ok);
 }
@@ -286,7 +286,7 @@ fn hopeless_scans_fail_cleanly() {
 /// scene costs fewer candidates; after a failed scan the search is global again.
 #[test]
 fn tracking_restricts_matching_to_the_last_pose() {
-    let map = procedural::office(2024, 3, 8);
+    let map = worlds::office(2024, 3, 8);
     let mut sim = Simulator::new(&map, SensorModel::urg04lx(), Scenario::Clean, 8);
     let config = LocalizerConfig { track_radius: Some(6.0), ..LocalizerConfig::default() };
     let mut gema2 = gema2(&map, config);
@@ -318,7 +318,7 @@ fn tracking_restricts_matching_to_the_last_pose() {
 /// only poses within the radius of the last one.
 #[test]
 fn tracking_finds_the_pose_from_corners_beyond_its_radius() {
-    let map = procedural::office(2024, 3, 8);
+    let map = worlds::office(2024, 3, 8);
     let mut sim = Simulator::new(&map, SensorModel::urg04lx(), Scenario::Clean, 8);
     let radius = 0.5;
     let mut g = gema2(&map, LocalizerConfig { track_radius: Some(radius), ..LocalizerConfig::default() });
@@ -376,7 +376,7 @@ fn each_ok_scan_without_corners(
 /// only along the walls near the last pose.
 #[test]
 fn tracking_restricts_the_slide_search_to_walls_near_the_last_pose() {
-    let map = procedural::office(2024, 3, 8);
+    let map = worlds::office(2024, 3, 8);
     // every candidate kept by the screen, so `candidates` counts all the poses made
     let keep_all = LocalizerConfig { prescreened: 1 << 20, ..LocalizerConfig::default() };
     let tracking = LocalizerConfig { track_radius: Some(6.0), ..keep_all };
@@ -402,7 +402,7 @@ fn tracking_restricts_the_slide_search_to_walls_near_the_last_pose() {
 /// without the loose slide it has no pose at all.
 #[test]
 fn the_loose_slide_places_scans_whose_lines_are_uncertain_in_direction() {
-    let map = procedural::office(2024, 3, 8);
+    let map = worlds::office(2024, 3, 8);
     let mut tracked = gema2(&map, LocalizerConfig::default());
     // the loose slide alone: no wider search after it
     let no_wider = LocalizerConfig { escalate_through: 1.0, ..LocalizerConfig::default() };
@@ -448,7 +448,7 @@ fn turned(line: &SlideLine, angle: f64) -> SlideLine {
 /// steps were the same).
 #[test]
 fn tracking_slides_at_the_step_its_nearby_walls_allow() {
-    let map = procedural::office_with_walls(3, 5000);
+    let map = worlds::office_with_walls(3, 5000);
     let tracking = LocalizerConfig { track_radius: Some(6.0), ..LocalizerConfig::default() };
     let mut tracked = gema2(&map, tracking);
     let mut global = gema2(&map, LocalizerConfig::default());
@@ -469,7 +469,7 @@ fn tracking_slides_at_the_step_its_nearby_walls_allow() {
 /// scans whose best corners are furniture go on to the full search.
 #[test]
 fn the_first_look_settles_clean_scans_and_defers_furnished_ones() {
-    let map = procedural::apartment();
+    let map = worlds::apartment();
     let full_only = LocalizerConfig {
         first_look: localize::FirstLook { corners: 0, ..Default::default() },
         ..LocalizerConfig::default()
@@ -511,7 +511,7 @@ fn the_first_look_settles_clean_scans_and_defers_furnished_ones() {
 /// that answer.
 #[test]
 fn the_thorough_search_finds_a_pose_the_default_budgets_pass_over() {
-    let map = procedural::by_name("warehouse").expect("a bundled map");
+    let map = worlds::by_name("warehouse").expect("a bundled map");
     let mut sim = Simulator::new(&map, SensorModel::urg04lx(), Scenario::Furniture, 9);
     let scan = (0..18).map(|_| sim.next_scan()).last().expect("18 scans");
     let truth = scan.truth.expect("a simulated scan has its truth");
@@ -534,7 +534,7 @@ fn the_thorough_search_finds_a_pose_the_default_budgets_pass_over() {
 /// poses see through it.
 #[test]
 fn a_best_pose_seeing_through_walls_sends_the_slide_search_round_wider() {
-    let map = procedural::by_name("warehouse").expect("a bundled map");
+    let map = worlds::by_name("warehouse").expect("a bundled map");
     let mut sim = Simulator::new(&map, SensorModel::urg04lx(), Scenario::Furniture, 1);
     let never = LocalizerConfig { escalate_through: 1.0, ..LocalizerConfig::default() };
     let mut narrow = gema2(&map, never);
@@ -574,7 +574,7 @@ fn a_best_pose_seeing_through_walls_sends_the_slide_search_round_wider() {
 /// 68-beam scans, whose right poses often see through 1.5-3 % of the beams, would all go round.
 #[test]
 fn a_sparse_scan_is_not_sent_round_for_a_beam_or_two_through_walls() {
-    let map = procedural::by_name("office").expect("a bundled map");
+    let map = worlds::by_name("office").expect("a bundled map");
     let mut sim = Simulator::new(&map, SensorModel::urg04lx_with_beams(68), Scenario::Clean, 3);
     let never = LocalizerConfig { escalate_through: 1.0, ..LocalizerConfig::default() };
     let mut before = gema2(&map, never);
@@ -596,13 +596,13 @@ fn a_sparse_scan_is_not_sent_round_for_a_beam_or_two_through_walls() {
     assert!(escalated * 10 <= 60, "{escalated} of 60 sent round");
 }
 
-/// Eq. 7 with furniture told from open floor (LESSONS.md, item 2): among furnished warehouse
+/// Eq. 7 with furniture told from open floor (docs/how-it-works.md, "Where the paper falls short", item 2): among furnished warehouse
 /// scans whose answer, found with the plain one-sided cost, is wrong and costs less than the
 /// truth by that cost, the clutter-aware cost puts the truth below the wrong answer in most
 /// (5 of 7 in these 120 scans; with the plain cost, none).
 #[test]
 fn eq7_ranks_the_truth_of_furnished_scans_above_the_wrong_poses_the_plain_cost_prefers() {
-    let map = procedural::by_name("warehouse").expect("a bundled map");
+    let map = worlds::by_name("warehouse").expect("a bundled map");
     let m = model(map.clone());
     let plain = CostConfig { clutter_share: 1.0, ..CostConfig::default() };
     let aware = CostConfig::default();
@@ -641,7 +641,7 @@ fn eq7_ranks_the_truth_of_furnished_scans_above_the_wrong_poses_the_plain_cost_p
 /// `ambiguous`. Nothing else changes: the same poses in the same order.
 #[test]
 fn a_slid_pose_needs_half_its_beams_to_be_ok() {
-    let map = procedural::apartment();
+    let map = worlds::apartment();
     let lenient_cfg = LocalizerConfig {
         slide: localize::SlideConfig { min_inliers_ok: 0.0, ..Default::default() },
         ..LocalizerConfig::default()
@@ -673,7 +673,7 @@ fn a_slid_pose_needs_half_its_beams_to_be_ok() {
 /// a metre away is worse at the screen and at eq. 7.
 #[test]
 fn judging_the_true_pose_grades_it_as_the_search_does() {
-    let map = procedural::apartment();
+    let map = worlds::apartment();
     let mut g = gema2(&map, LocalizerConfig::default());
     let mut sim = Simulator::new(&map, SensorModel::urg04lx(), Scenario::Clean, 5);
     let mut judged = 0;
@@ -706,7 +706,7 @@ fn judging_the_true_pose_grades_it_as_the_search_does() {
 /// a little above, which is what decides between near-equal poses. It never raises a cost.
 #[test]
 fn polishing_brings_the_answer_nearer_the_truth_in_cost() {
-    let map = procedural::apartment();
+    let map = worlds::apartment();
     // every scan's hypotheses contested, so each answer is polished
     let polished = LocalizerConfig { polish_margin: f64::INFINITY, ..LocalizerConfig::default() };
     let plain = LocalizerConfig { polish_points: 0, ..LocalizerConfig::default() };
@@ -780,7 +780,7 @@ fn refinement_does_not_wander_where_the_points_say_nothing() {
 /// to match and every joint was a wall end: 68 % of clean scans right, one `ok` in nine wrong.
 #[test]
 fn a_map_drawn_in_kinked_pieces_localizes_as_the_whole_walls_do() {
-    let whole = procedural::by_name("office").expect("the bundled office");
+    let whole = worlds::by_name("office").expect("the bundled office");
     let mut rng = laser::rng::Rng::new(12345);
     let mut pieces = Vec::new();
     for w in &whole.walls {
@@ -864,7 +864,7 @@ fn a_round_hall_is_localized_from_chords_of_its_curved_wall() {
 /// the boxes' beams cost more, and a drawn map is unaffected by that setting.
 #[test]
 fn an_approximate_map_charges_short_readings_its_own_cap() {
-    let drawn = procedural::apartment();
+    let drawn = worlds::apartment();
     let approximate = WallMap { sigma: 0.1, ..drawn.clone() };
     let mut sim = Simulator::new(&drawn, SensorModel::urg04lx(), Scenario::Furniture, 3);
     let cap = |front_cap_approximate: f64| LocalizerConfig { front_cap_approximate, ..LocalizerConfig::default() };

@@ -3,9 +3,10 @@
 //! (inner angle and tolerance, optionally within a region), and reloads the map when its file
 //! (or a ROS map's image) changes or on SIGHUP, publishing a new version.
 
-use crate::{load_map, CornerIndex, MapCornerConfig, WallMap};
 use anyhow::{anyhow, bail, Result};
 use clap::Args;
+use map::{CornerIndex, MapCornerConfig, WallMap};
+use mapio::load_map;
 use messages::iceoryx2::port::update_connections::UpdateConnections;
 use messages::{
     open_corner_queries, open_topic, publish, CornerQuery, CornerReply, MapCornerMsg, MapMsg, Topic, MAX_CORNERS,
@@ -37,7 +38,7 @@ extern "C" fn on_sighup(_: libc::c_int) {
 /// When the map's files last changed: a ROS map's YAML file or the image it names.
 fn modified(spec: &str) -> Option<SystemTime> {
     let path = Path::new(spec);
-    let files = if crate::ros::is_ros_map(path) { crate::ros::files_of(path) } else { vec![path.to_owned()] };
+    let files = if mapio::ros::is_ros_map(path) { mapio::ros::files_of(path) } else { vec![path.to_owned()] };
     files.iter().filter_map(|f| std::fs::metadata(f).and_then(|m| m.modified()).ok()).max()
 }
 

@@ -1,7 +1,7 @@
 //! The map on the wire: [`MapMsg`] written from a [`WallMap`] and read back, checked, by every
 //! process that subscribes to it.
 
-use crate::{SeenFree, Wall, WallMap};
+use map::{SeenFree, Wall, WallMap};
 use messages::{MapMsg, MAX_SEEN_WORDS, MAX_WALLS};
 
 /// Writes `map` into a (zeroed) map message as `version`. Walls beyond [`MAX_WALLS`] are an
@@ -79,7 +79,7 @@ mod tests {
 
     #[test]
     fn a_map_round_trips_and_bad_messages_are_refused() {
-        let map = crate::procedural::by_name("apartment").expect("bundled procedural map");
+        let map = map::bundled("apartment").expect("a bundled map").expect("it parses");
         let mut m = boxed_msg();
         map_to_msg(&map, 7, &mut m).unwrap();
         let back = map_from_msg(&m).unwrap();
@@ -97,7 +97,7 @@ mod tests {
     /// malformed one is refused.
     #[test]
     fn the_seen_free_space_crosses_and_is_coarsened_to_fit() {
-        let mut map = crate::procedural::by_name("apartment").expect("bundled procedural map");
+        let mut map = map::bundled("apartment").expect("a bundled map").expect("it parses");
         let (lo, hi) = map.bounds();
         let mut seen = SeenFree::covering(lo, hi, 0.2).unwrap();
         seen.mark_ray(lo + nalgebra::Vector2::new(1.0, 1.0), hi - nalgebra::Vector2::new(1.0, 1.0));

@@ -7,6 +7,9 @@
 //! blocks in a `WaitSet` instead of polling. Whoever creates a service fixes its settings, so
 //! they are defined here once ([`Topic::settings`]) and every process opens through
 //! [`open_topic`].
+//!
+//! One job: the wire contract. Depends on iceoryx2, serde and nothing of the algorithm; every
+//! process depends on it, and no library algorithm does.
 
 mod outlet;
 mod payload;

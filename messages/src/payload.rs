@@ -223,9 +223,9 @@ pub struct MapMsg {
     /// Increases every time the map server (re)loads the map.
     pub version: u32,
     pub count: u32,
-    /// The map's accuracy, metres (see `mapserver::WallMap::sigma`).
+    /// The map's accuracy, metres (see `map::WallMap::sigma`).
     pub sigma: f64,
-    /// Where the map's survey saw free space (see `mapserver::SeenFree`): `seen_cols` x
+    /// Where the map's survey saw free space (see `map::SeenFree`): `seen_cols` x
     /// `seen_rows` cells of `seen_cell` metres from `seen_origin`, row by row, one bit each in
     /// `seen_bits`. No cells: the map has none.
     pub seen_origin: [f64; 2],

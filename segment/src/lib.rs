@@ -5,6 +5,9 @@
 //! Internally the paper's (u, v) sensor frame is replaced by the REP 103 sensor frame (x
 //! forward, y left): the geometry is the same up to a rotation, and everything this crate
 //! returns is in the frame the rest of the project uses.
+//!
+//! One job: segmentation, as a library ([`segmenter`]) and as the pipeline's segment stage
+//! ([`node`]). Depends on `laser`, and on `messages` for the stage alone.
 
 pub mod corner;
 pub mod end;

@@ -2,7 +2,7 @@
 //!
 //! e(d) (section 3) is a calibration: the paper measured 2 cm for its sensor. A sensor noisier
 //! than its configured e(d) breaks two things at once: line visibility shatters walls into
-//! fragments (LESSONS.md, point 4), and the cost function counts the right pose's beams as
+//! fragments (docs/how-it-works.md, "Where the paper falls short", point 4), and the cost function counts the right pose's beams as
 //! outliers and as seeing through walls, so the right pose is reported `failed`. With e(d)
 //! calibrated for 1 cm + 0.5 % of range, simulated scans at twice that noise were located
 //! right 95 % of the time but all save 11 % of them were `failed`.
@@ -12,7 +12,7 @@
 //! beam angle), whatever the incidence and the beam spacing. Scaled by b^2, the amount by which
 //! a triple misses that is, to first order, the second difference of the readings' noise, with
 //! standard deviation sqrt(6) sigma; only depth jumps, corners and curved surfaces add to it,
-//! a few percent of the beams. (The ranges' plain second difference d[i-1] - 2 d[i] + d[i+1]
+//! a few percent of the beams. (The ranges' plain second difference `d[i-1] - 2 d[i] + d[i+1]`
 //! is not zero on a wall met at grazing incidence: a noiseless corridor seen by a 1-degree
 //! scanner reads 0.25 with it.) The median of |miss| / (sqrt(6) e(d) / 3) therefore measures
 //! the ratio of the real noise to the configured one. Jumps move the median

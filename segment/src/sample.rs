@@ -6,7 +6,7 @@ use serde::{Deserialize, Serialize};
 
 /// The sensor's measurement error e(d) (section 3): a bound on how far a reading at range d can
 /// be from the true surface. The paper calibrated a constant 2 cm; at realistic noise a term
-/// proportional to range is needed (LESSONS.md), so both are allowed.
+/// proportional to range is needed (docs/how-it-works.md, "Where the paper falls short"), so both are allowed.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct ErrorModel {
     /// Constant part, metres.
@@ -33,7 +33,7 @@ impl ErrorModel {
 
 impl Default for ErrorModel {
     /// 3 cm + 1.5 % of range: about three standard deviations of a URG-04LX-class sensor
-    /// (1 cm + 0.5 % of range), the best of those measured in LESSONS.md.
+    /// (1 cm + 0.5 % of range), the best of those measured in docs/how-it-works.md, "Where the paper falls short".
     fn default() -> Self {
         ErrorModel { constant: 0.03, proportional: 0.015 }
     }

@@ -7,7 +7,7 @@ use acquire::{Scenario, SensorModel, Simulator};
 use anyhow::Result;
 use clap::Args;
 use localize::{Gema2, LocalizerConfig, MapModel};
-use mapserver::{procedural, MapCornerConfig, WallMap};
+use map::{MapCornerConfig, WallMap};
 use segment::SegmenterConfig;
 use std::sync::Arc;
 use std::time::Instant;
@@ -191,7 +191,7 @@ pub fn run_bench(a: BenchArgs) -> Result<()> {
     if a.pipeline {
         return bench_pipeline(&a);
     }
-    let office = mapserver::load_map("office")?;
+    let office = mapio::load_map("office")?;
     println!(
         "GEMA2 per-stage time per scan: bundled office ({} walls), URG-04LX 682 beams, clean, {} scans",
         office.walls.len(),
@@ -247,7 +247,7 @@ pub fn run_bench(a: BenchArgs) -> Result<()> {
         "\nScaling: median total locate time per scan (us) [success %], office maps of about W walls, {} scans each",
         a.scans
     );
-    let maps: Vec<WallMap> = a.walls.iter().map(|&w| procedural::office_with_walls(3, w)).collect();
+    let maps: Vec<WallMap> = a.walls.iter().map(|&w| worlds::office_with_walls(3, w)).collect();
     print!("{:>8}", "beams");
     for m in &maps {
         print!("  {:>16}", format!("{} walls", m.walls.len()));

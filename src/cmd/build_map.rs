@@ -12,7 +12,8 @@ use acquire::CarmenReader;
 use anyhow::{bail, Context, Result};
 use clap::Args;
 use laser::{LaserScan, Pose, Reading};
-use mapserver::{Occupancy, SeenFree, Wall, WallMap};
+use map::{SeenFree, Wall, WallMap};
+use mapio::Occupancy;
 use nalgebra::{Point2, Vector2};
 use segment::{LineVisibilitySegmenter, Segmenter, SegmenterConfig};
 use std::f64::consts::PI;
@@ -117,7 +118,7 @@ pub fn run(a: BuildArgs) -> Result<()> {
     match &map.seen_free {
         Some(s) => eprintln!("  free space seen on {} cells of {} m", s.seen_cells(), s.cell()),
         None if a.seen_cell > 0.0 => {
-            eprintln!("  no free space kept: the raster would exceed {} cells", mapserver::seen::MAX_CELLS)
+            eprintln!("  no free space kept: the raster would exceed {} cells", map::seen::MAX_CELLS)
         }
         None => {}
     }
@@ -170,10 +171,10 @@ pub struct Built {
     pub lines: usize,
 }
 
-/// The occupancy grid of the survey's beams ([`mapserver::SurveyGrid`]): returns up to
+/// The occupancy grid of the survey's beams ([`mapio::SurveyGrid`]): returns up to
 /// `--max-range` only (far hits are sparse and blurred), and the cells crossed that far by the
 /// beams that reach farther or return nothing.
-pub(crate) fn survey_grid(a: &BuildArgs) -> Result<mapserver::OccupancyGrid> {
+pub(crate) fn survey_grid(a: &BuildArgs) -> Result<mapio::OccupancyGrid> {
     // each beam's sensor, end and whether the end is a return
     let beams = |scan: &LaserScan, truth: &Pose| -> Vec<(Point2<f64>, Point2<f64>, bool)> {
         let view = scan.view();
@@ -203,7 +204,7 @@ pub(crate) fn survey_grid(a: &BuildArgs) -> Result<mapserver::OccupancyGrid> {
         bail!("{}: no beam to draw a grid from", a.log.display());
     };
     let margin = Vector2::new(2.0 * a.grid_cell, 2.0 * a.grid_cell);
-    let Some(mut grid) = mapserver::SurveyGrid::covering(lo - margin, hi + margin, a.grid_cell) else {
+    let Some(mut grid) = mapio::SurveyGrid::covering(lo - margin, hi + margin, a.grid_cell) else {
         bail!("--grid-cell {}: the survey spans too many cells of that size", a.grid_cell);
     };
     for item in survey(a)? {
@@ -275,7 +276,7 @@ fn second_pass(a: &BuildArgs, candidates: &[Candidate]) -> Result<(Vec<Wall>, Op
     if all.is_empty() {
         return Ok((all, None));
     }
-    let (lo, hi) = mapserver::map::bounds_of(&all);
+    let (lo, hi) = map::map::bounds_of(&all);
     let (lo, hi) = (lo - Vector2::new(1.0, 1.0), hi + Vector2::new(1.0, 1.0));
     let mut seen = if a.seen_cell > 0.0 { SeenFree::covering(lo, hi, a.seen_cell) } else { None };
     let mut occupancy = if a.occupancy_cell > 0.0 { Occupancy::covering(lo, hi, a.occupancy_cell) } else { None };

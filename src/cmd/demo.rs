@@ -6,7 +6,7 @@ use acquire::{Scenario, SensorModel, Simulator};
 use anyhow::Result;
 use clap::Args;
 use localize::{Gema2, LocalizerConfig, MapModel};
-use mapserver::MapCornerConfig;
+use map::MapCornerConfig;
 use segment::SegmenterConfig;
 use std::sync::Arc;
 
@@ -29,7 +29,7 @@ impl Default for DemoArgs {
 }
 
 pub fn run(a: DemoArgs) -> Result<()> {
-    let map = mapserver::load_map(&a.map)?;
+    let map = mapio::load_map(&a.map)?;
     let model = Arc::new(MapModel::new(map.clone(), &MapCornerConfig::default()));
     println!(
         "GEMA2 on the {} map ({} walls, {} corners): simulated URG-04LX, {} scans per scenario",

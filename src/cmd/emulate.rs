@@ -40,7 +40,7 @@ pub fn run(a: EmulateArgs) -> Result<()> {
     if let Some(r) = a.rs232.filter(|r| !acquire::scip::BIT_RATES.contains(r)) {
         anyhow::bail!("--rs232 {r}: a URG-04LX runs at one of {:?} bit/s", acquire::scip::BIT_RATES);
     }
-    let map = mapserver::load_map(&a.map)?;
+    let map = mapio::load_map(&a.map)?;
     let mut sim = Simulator::new(&map, SensorModel::urg04lx(), a.scenario, a.seed);
     let source = Box::new(move || {
         let scan = sim.next_scan();

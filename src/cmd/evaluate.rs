@@ -14,7 +14,7 @@ use anyhow::{bail, Context, Result};
 use clap::Args;
 use laser::LaserScan;
 use localize::{Gema2, Gema2Config, MapModel, Status};
-use mapserver::{procedural, WallMap};
+use map::WallMap;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
@@ -181,11 +181,11 @@ pub fn run(a: EvaluateArgs) -> Result<()> {
 fn suite_maps(seeds: &[u64]) -> Result<Vec<(String, WallMap)>> {
     let mut maps = Vec::new();
     for name in ["apartment", "radial", "office", "warehouse"] {
-        maps.push((name.to_string(), mapserver::load_map(name)?));
+        maps.push((name.to_string(), mapio::load_map(name)?));
     }
     for kind in ["apartment", "office", "radial", "warehouse"] {
         for &seed in seeds {
-            let map = procedural::by_name_seeded(kind, seed).with_context(|| format!("no generated {kind}"))?;
+            let map = worlds::by_name_seeded(kind, seed).with_context(|| format!("no generated {kind}"))?;
             let name = format!("{kind} seed {seed}");
             maps.push((name.clone(), WallMap::parse(&map.to_json(kind), Path::new(&name))?));
         }
@@ -246,7 +246,7 @@ fn log_stem(log: &Path) -> String {
 /// `offset`, traced into walls as `--map GRID.yaml` traces it.
 fn grid_map(log: &Path, offset: usize) -> Result<WallMap> {
     let grid = build_map::survey_grid(&BuildArgs::every_other(log, offset)?)?;
-    grid.to_wall_map(&mapserver::trace::TraceConfig::default(), None)
+    grid.to_wall_map(&mapio::trace::TraceConfig::default(), None)
         .map_err(|e| anyhow::anyhow!("{}: the grid of every other scan from {offset}: {e}", log.display()))
 }
 

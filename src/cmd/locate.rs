@@ -1,5 +1,5 @@
 //! `gema2 locate`: the whole algorithm over a log, offline (no IPC). Writes the CSV of
-//! DESIGN.md and prints timing and, when the log holds truth, accuracy.
+//! docs/design.md and prints timing and, when the log holds truth, accuracy.
 
 use super::Malformed;
 use crate::report::{Outcome, Summary};
@@ -88,7 +88,7 @@ pub fn configs(a: &LocateArgs) -> Result<Gema2Config> {
 }
 
 pub fn run(a: LocateArgs) -> Result<()> {
-    let map = mapserver::load_map(&a.map)?;
+    let map = mapio::load_map(&a.map)?;
     let config = configs(&a)?;
     let loc_cfg = config.localizer;
     let model = Arc::new(MapModel::new(map, &config.map_corners));
@@ -112,7 +112,7 @@ pub fn run(a: LocateArgs) -> Result<()> {
             Err(acquire::LogError::Line { .. }) if !super::selected(index, a.every, a.offset) => continue,
             Err(e @ acquire::LogError::Line { .. }) => {
                 // one bad line loses its own scan only: the run goes on, and fails at the end.
-                // Its row says `failed`, so the CSV keeps one row per laser line (DESIGN.md);
+                // Its row says `failed`, so the CSV keeps one row per laser line (docs/design.md);
                 // the summary counts only the scans located.
                 if let Some(w) = csv.as_mut() {
                     w.unreadable(index)?;
@@ -163,7 +163,7 @@ pub fn run(a: LocateArgs) -> Result<()> {
     run.conclude(&a, dump)
 }
 
-/// `--out`: the CSV of DESIGN.md with the `micros` column, one row per selected laser line.
+/// `--out`: the CSV of docs/design.md with the `micros` column, one row per selected laser line.
 struct CsvOut(BufWriter<std::fs::File>);
 
 impl CsvOut {

@@ -2,7 +2,7 @@
 
 use anyhow::{bail, Context, Result};
 use clap::Subcommand;
-use mapserver::{procedural, MapCornerConfig};
+use map::MapCornerConfig;
 use std::path::{Path, PathBuf};
 
 #[derive(Subcommand)]
@@ -32,14 +32,14 @@ pub enum MapCommand {
         /// The map_server YAML file.
         yaml: PathBuf,
         /// Largest distance of the outline from its walls, in cells.
-        #[arg(long, default_value_t = mapserver::trace::TraceConfig::default().tolerance)]
+        #[arg(long, default_value_t = mapio::trace::TraceConfig::default().tolerance)]
         tolerance: f64,
         /// Occupied blobs of fewer cells are noise.
-        #[arg(long, default_value_t = mapserver::trace::TraceConfig::default().min_cells)]
+        #[arg(long, default_value_t = mapio::trace::TraceConfig::default().min_cells)]
         min_cells: f64,
         /// How far behind the edge of a face's cells the surface is, in cells (half a cell:
         /// a surface lies anywhere in the cell it marks occupied).
-        #[arg(long, default_value_t = mapserver::trace::TraceConfig::default().face_depth)]
+        #[arg(long, default_value_t = mapio::trace::TraceConfig::default().face_depth)]
         face_depth: f64,
         /// The map's accuracy, metres (default: half a cell).
         #[arg(long)]
@@ -82,7 +82,7 @@ pub fn run(c: MapCommand) -> Result<()> {
         MapCommand::Build(a) => super::build_map::run(a),
         MapCommand::Thicken { map, thickness, out } => thicken(&map, thickness, &out),
         MapCommand::ImportRos { yaml, tolerance, min_cells, face_depth, sigma, out } => {
-            let trace = mapserver::trace::TraceConfig { tolerance, min_cells, face_depth };
+            let trace = mapio::trace::TraceConfig { tolerance, min_cells, face_depth };
             import_ros(&yaml, trace, sigma, &out)
         }
         MapCommand::ExportRos { map, resolution, thickness, out } => export_ros(&map, resolution, thickness, &out),
@@ -97,11 +97,11 @@ fn generate(kind: &str, seed: Option<u64>, out: &Path) -> Result<()> {
         let n =
             super::positive_count(n).map_err(|e| anyhow::anyhow!("{kind:?}: office-N needs a wall count N: {e}"))?;
         asked = Some(n);
-        procedural::office_with_walls(seed.unwrap_or(1), n)
+        worlds::office_with_walls(seed.unwrap_or(1), n)
     } else {
         let map = match seed {
-            None => procedural::by_name(kind),
-            Some(seed) => procedural::by_name_seeded(kind, seed),
+            None => worlds::by_name(kind),
+            Some(seed) => worlds::by_name_seeded(kind, seed),
         };
         match map {
             Some(m) => m,
@@ -122,8 +122,8 @@ fn thicken(map: &str, thickness: f64, out: &Path) -> Result<()> {
     if !(thickness.is_finite() && thickness > 0.0) {
         bail!("--thickness {thickness}: a wall thickness is a positive number of metres");
     }
-    let m = mapserver::load_map(map)?;
-    let thick = mapserver::thick::thicken(&m, thickness);
+    let m = mapio::load_map(map)?;
+    let thick = map::thick::thicken(&m, thickness);
     let name = format!("{}-thick", out.file_stem().map_or("map".into(), |s| s.to_string_lossy()));
     std::fs::write(out, thick.to_json(&name)).with_context(|| format!("writing {}", out.display()))?;
     eprintln!("{}: {} walls (from {})", out.display(), thick.walls.len(), m.walls.len());
@@ -131,8 +131,8 @@ fn thicken(map: &str, thickness: f64, out: &Path) -> Result<()> {
 }
 
 /// `map import-ros`: a map_server grid traced into walls.
-fn import_ros(yaml: &Path, trace: mapserver::trace::TraceConfig, sigma: Option<f64>, out: &Path) -> Result<()> {
-    let mapserver::trace::TraceConfig { tolerance, min_cells, face_depth } = trace;
+fn import_ros(yaml: &Path, trace: mapio::trace::TraceConfig, sigma: Option<f64>, out: &Path) -> Result<()> {
+    let mapio::trace::TraceConfig { tolerance, min_cells, face_depth } = trace;
     let cells = [min_cells, face_depth];
     if !(tolerance.is_finite() && tolerance > 0.0 && cells.iter().all(|v| v.is_finite() && *v >= 0.0)) {
         bail!(
@@ -143,7 +143,7 @@ fn import_ros(yaml: &Path, trace: mapserver::trace::TraceConfig, sigma: Option<f
     if let Some(s) = sigma.filter(|s| !(s.is_finite() && *s >= 0.0)) {
         bail!("--sigma {s}: a map's accuracy is a non-negative number of metres");
     }
-    let grid = mapserver::OccupancyGrid::load(yaml)?;
+    let grid = mapio::OccupancyGrid::load(yaml)?;
     let map = grid.to_wall_map(&trace, sigma).map_err(|e| anyhow::anyhow!("{}: {e}", yaml.display()))?;
     let name = yaml.file_stem().map_or("map".into(), |s| s.to_string_lossy());
     std::fs::write(out, map.to_json(&name)).with_context(|| format!("writing {}", out.display()))?;
@@ -160,8 +160,8 @@ fn import_ros(yaml: &Path, trace: mapserver::trace::TraceConfig, sigma: Option<f
 
 /// `map export-ros`: the walls drawn as a map_server grid.
 fn export_ros(map: &str, resolution: f64, thickness: f64, out: &Path) -> Result<()> {
-    let m = mapserver::load_map(map)?;
-    let grid = mapserver::OccupancyGrid::from_walls(&m, resolution, thickness).map_err(anyhow::Error::msg)?;
+    let m = mapio::load_map(map)?;
+    let grid = mapio::OccupancyGrid::from_walls(&m, resolution, thickness).map_err(anyhow::Error::msg)?;
     grid.save(out)?;
     eprintln!("{}: a {} x {} grid of {resolution} m", out.display(), grid.width, grid.height);
     Ok(())
@@ -170,7 +170,7 @@ fn export_ros(map: &str, resolution: f64, thickness: f64, out: &Path) -> Result<
 /// `map info`: what the localizer prepares from the map, in brief.
 fn info(map: &str) -> Result<()> {
     // its corners and what it rules out
-    let model = localize::model::MapModel::new(mapserver::load_map(map)?, &MapCornerConfig::default());
+    let model = localize::model::MapModel::new(mapio::load_map(map)?, &MapCornerConfig::default());
     let m = &model.map;
     let (lo, hi) = m.bounds();
     println!(

@@ -83,7 +83,7 @@ impl SimArgs {
 }
 
 pub fn run(a: SimArgs) -> Result<()> {
-    let map = mapserver::load_map(&a.map)?;
+    let map = mapio::load_map(&a.map)?;
     let mut sim = Simulator::new(&map, a.sensor()?, a.scenario, a.seed);
     let file = std::fs::File::create(&a.out).with_context(|| format!("creating {}", a.out.display()))?;
     let mut w = BufWriter::new(file);

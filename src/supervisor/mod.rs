@@ -4,6 +4,7 @@
 //! service, and reports latency per stage and per hop, throughput and accuracy.
 
 pub mod child;
+mod control;
 pub mod monitor;
 pub mod pipeline;
 mod run;

@@ -1,16 +1,14 @@
 //! The supervisor's loop.
 
 use super::child::{stop, StageProcess};
+use super::control::{claim_prefix, ControlServer};
 use super::monitor::Monitor;
 use super::pipeline::{set_arg, Kind, Pipeline, Restart, StageSpec, SupervisorSpec, EMBEDDED};
 use super::swap::{Swap, SwapOutcome};
 use anyhow::{anyhow, bail, Context, Result};
 use clap::Args;
 use messages::iceoryx2::prelude::*;
-use messages::iceoryx2::service::port_factory::server::ServerCreateError;
-use messages::{
-    open_control, open_topic, ready_listener, ControlReply, ControlRequest, Look, PoseMsg, Topic, MAX_INSTANCE,
-};
+use messages::{open_control, open_topic, ready_listener, Look, PoseMsg, Topic, MAX_INSTANCE};
 use std::collections::HashSet;
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -44,6 +42,23 @@ pub struct RunArgs {
     /// With --record: start a new numbered file past this size (e.g. 500M).
     #[arg(long, requires = "record")]
     pub max_size: Option<String>,
+}
+
+impl Default for RunArgs {
+    /// The embedded default: the simulator in the bundled office, 300 scans at the pipeline's
+    /// rate, under the `gema2` prefix.
+    fn default() -> Self {
+        RunArgs {
+            pipeline: None,
+            scans: None,
+            rate: None,
+            prefix: "gema2".into(),
+            out: None,
+            timeout: None,
+            record: None,
+            max_size: None,
+        }
+    }
 }
 
 /// Hands out instance numbers 1..=MAX_INSTANCE.
@@ -162,33 +177,10 @@ pub fn run(a: RunArgs) -> Result<()> {
     report(&monitor, &stages, scans, out)
 }
 
-/// The supervisor's end of the control service, which `gema2 swap` asks.
-pub(super) type ControlServer =
-    messages::iceoryx2::port::server::Server<ipc::Service, ControlRequest, (), ControlReply, ()>;
-type ControlService = messages::iceoryx2::service::port_factory::request_response::PortFactory<
-    ipc::Service,
-    ControlRequest,
-    (),
-    ControlReply,
-    (),
->;
-
 /// The `--out` CSV.
 fn create_out(path: &Path) -> Result<std::io::BufWriter<std::fs::File>> {
     let file = std::fs::File::create(path).with_context(|| format!("creating {}", path.display()))?;
     Ok(std::io::BufWriter::new(file))
-}
-
-/// The control service's server. The service takes one: holding it claims the prefix, so a
-/// second run under the same prefix stops here instead of mixing its scans and poses with this
-/// one's.
-fn claim_prefix(control: &ControlService, prefix: &str) -> Result<ControlServer> {
-    control.server_builder().create().map_err(|e| match e {
-        ServerCreateError::ExceedsMaxSupportedServers => {
-            anyhow!("prefix {prefix:?} is in use by another `gema2 run`: give this one its own --prefix")
-        }
-        e => anyhow!("control: {e:?}"),
-    })
 }
 
 /// Applies the command line's `--scans`, `--rate` and `--record` to the pipeline; returns the
@@ -369,6 +361,14 @@ fn stop_all(stages: &mut [StageProcess]) {
     }
 }
 
+/// What a run's report ends with: where to go from here.
+const NEXT: &str = "next:
+  gema2 run --record run.rrd && gema2 inspect run.rrd   record every message, then read the recording
+  gema2 locate --map MAP --log LOG.log                  locate a CARMEN log of your own, offline
+  gema2 swap segment --impl split-and-merge             swap a stage while a run runs (another terminal)
+  gema2 evaluate                                        the accuracy suite (docs/results.md)
+  gema2 --help                                          everything else";
+
 /// Prints the latency and accuracy figures and the restarts, and writes the poses received
 /// to `out` as CSV. A run asked for scans that got no pose back is an error.
 fn report(
@@ -381,6 +381,7 @@ fn report(
     for st in stages.iter().filter(|s| s.restarts > 0) {
         println!("stage {} restarted {} times", st.spec.name, st.restarts);
     }
+    println!("{NEXT}");
     if let Some((mut f, path)) = out {
         monitor.write_csv(&mut f).and_then(|_| f.flush()).with_context(|| format!("writing {}", path.display()))?;
     }

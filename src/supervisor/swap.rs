@@ -4,6 +4,7 @@
 //! one; nothing else restarts. While both run, downstream skips duplicate scans.
 
 use super::child::{spawn, stop, StageProcess};
+use super::control::ControlServer;
 use super::pipeline::Kind;
 use anyhow::{anyhow, Result};
 use clap::Args;
@@ -46,7 +47,7 @@ fn reply(request: &Request, ok: bool, message: &str) {
 impl Swap {
     /// Takes the next control request, if any, and starts the replacement.
     pub fn accept(
-        server: &super::run::ControlServer,
+        server: &ControlServer,
         stages: &mut [StageProcess],
         prefix: &str,
         instance: impl FnOnce() -> usize,

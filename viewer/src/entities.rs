@@ -15,7 +15,7 @@ pub const TIMELINE_ACQUIRED: &str = "acquired";
 pub const MAP_WALLS: &str = "world/map/walls";
 /// Static: the map's corners (`Points2D`), labelled with their inner angle in degrees.
 pub const MAP_CORNERS: &str = "world/map/corners";
-/// Static, for a map that keeps its survey's free space (`mapserver::SeenFree`, as maps built
+/// Static, for a map that keeps its survey's free space (`map::SeenFree`, as maps built
 /// from logs do): an `Image` of one pixel per cell, translucent where a beam of the survey
 /// passed and clear elsewhere, scaled and placed on the map by its `Transform3D`. The localizer
 /// answers with no pose outside it.

@@ -3,6 +3,9 @@
 //!
 //! The layout of a recording (entity paths, timelines) is in [`entities`]; rerun is a dependency
 //! of this crate only.
+//!
+//! One job: recordings. Depends on `messages`, `laser`, `map` and `mapserver` (to draw the map
+//! from its message), and rerun.
 
 pub mod entities;
 pub mod inspect;

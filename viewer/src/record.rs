@@ -4,8 +4,8 @@
 use crate::entities::*;
 use crate::output::{Output, OutputError};
 use laser::ScanGeometry;
+use map::{CornerIndex, MapCornerConfig, SeenFree};
 use mapserver::wire::map_from_msg;
-use mapserver::{CornerIndex, MapCornerConfig, SeenFree};
 use messages::{
     CornersMsg, Freshness, Header, HypothesisMsg, LinesMsg, MapMsg, PoseMsg, PoseMsgXyt, ScanMsg, Stage, StageSpan,
     Topic, MAX_BEAMS, MAX_CORNERS, MAX_HYPOTHESES, MAX_LINES, STATUS_AMBIGUOUS, STATUS_FAILED, STATUS_OK,

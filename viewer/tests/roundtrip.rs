@@ -90,7 +90,8 @@ fn map() -> Box<MapMsg> {
 /// cell for cell; a later version without it clears it.
 #[test]
 fn a_map_with_seen_free_space_is_drawn_with_it() {
-    use mapserver::{wire::map_to_msg, SeenFree};
+    use map::SeenFree;
+    use mapserver::wire::map_to_msg;
     use nalgebra::Point2;
     let mut walls = mapserver::wire::map_from_msg(&map()).unwrap();
     let mut seen = SeenFree::covering(Point2::new(0.0, 0.0), Point2::new(4.0, 3.0), 0.5).unwrap();

@@ -110,7 +110,7 @@ pub struct LocalizerConfig {
     /// noise, mixed pixels and map errors do, whatever the map lacks.
     pub max_through: f64,
     /// [`max_through`](Self::max_through) for a map that declares itself approximate
-    /// ([`mapserver::WallMap::is_approximate`], as maps built from scans do); 1 sets no limit,
+    /// ([`map::WallMap::is_approximate`], as maps built from scans do); 1 sets no limit,
     /// the default. Such a map's errors (doors drawn shut, things since moved, gaps between its
     /// walls) are what right poses see through: 21-38 % of the beams of 28 CARMEN scans whose
     /// best pose was failed at 20 %, 23 of them right. Seeing through walls still makes a pose
@@ -157,8 +157,8 @@ pub struct LocalizerConfig {
     /// 69.9 and 58.6 %.
     pub surface_dropouts: usize,
     /// Never answer with a pose outside a building whose walls close it off
-    /// ([`mapserver::Outside`]), or where the survey that built the map saw no free space
-    /// ([`mapserver::SeenFree`]). Beyond the outline the map predicts "no return" in every
+    /// ([`map::Outside`]), or where the survey that built the map saw no free space
+    /// ([`map::SeenFree`]). Beyond the outline the map predicts "no return" in every
     /// direction away from it, which a scan's open side matches as well as the building does:
     /// wrong poses out there beat the right one when furniture hides the walls the scan would
     /// need (39 of the furnished warehouse's 96 wrong answers, 9 of the furnished radial map's

@@ -1,7 +1,7 @@
 //! The localization stage (section 5): scan corners x similar map corners -> pose hypotheses
 //! (eqs. 5-6) -> ranked by the cost function (eq. 7).
 //!
-//! Robustness over the paper's single best corner (LESSONS.md): the `corners_tried` best scan
+//! Robustness over the paper's single best corner (docs/how-it-works.md, "Where the paper falls short"): the `corners_tried` best scan
 //! corners are all matched, so a spurious best corner (a person's legs, a box) does not sink
 //! the scan. Hypotheses then pass through stages of increasing cost and decreasing number:
 //!
@@ -35,7 +35,7 @@ use crate::model::MapModel;
 use crate::refine::{refine, RefineConfig};
 use crate::slide::{loose_slide_lines, SlideLine};
 use laser::{Pose, ScanView};
-use mapserver::RayScratch;
+use map::RayScratch;
 use nalgebra::Point2;
 use screen::{keep_distinct, screen_points, subsample, Screen, ScreenPoint};
 use segment::{ErrorModel, Segmentation};
@@ -555,13 +555,13 @@ mod tests {
     /// declares itself approximate.
     #[test]
     fn an_approximate_map_has_its_own_cap_on_short_readings() {
-        let walls = vec![mapserver::Wall::new(0.0, 0.0, 20.0, 0.0)];
+        let walls = vec![map::Wall::new(0.0, 0.0, 20.0, 0.0)];
         let config = LocalizerConfig { front_cap_approximate: 9.0, ..LocalizerConfig::default() };
-        let cap_on = |map: mapserver::WallMap| {
-            let model = Arc::new(MapModel::new(map, &mapserver::MapCornerConfig::default()));
+        let cap_on = |map: map::WallMap| {
+            let model = Arc::new(MapModel::new(map, &map::MapCornerConfig::default()));
             Localizer::new(model, config).scan_cost_config().front_cap
         };
-        assert_eq!(cap_on(mapserver::WallMap::new(walls.clone())), config.cost.front_cap);
-        assert_eq!(cap_on(mapserver::WallMap { sigma: 0.1, ..mapserver::WallMap::new(walls) }), 9.0);
+        assert_eq!(cap_on(map::WallMap::new(walls.clone())), config.cost.front_cap);
+        assert_eq!(cap_on(map::WallMap { sigma: 0.1, ..map::WallMap::new(walls) }), 9.0);
     }
 }

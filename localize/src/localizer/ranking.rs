@@ -105,8 +105,8 @@ mod tests {
     /// per-beam difference that is small but holds over hundreds of beams is not a tie.
     #[test]
     fn a_cornerless_tie_is_judged_on_the_whole_scan() {
-        let map = mapserver::WallMap::new(vec![mapserver::Wall::new(0.0, 0.0, 20.0, 0.0)]);
-        let model = Arc::new(MapModel::new(map, &mapserver::MapCornerConfig::default()));
+        let map = map::WallMap::new(vec![map::Wall::new(0.0, 0.0, 20.0, 0.0)]);
+        let model = Arc::new(MapModel::new(map, &map::MapCornerConfig::default()));
         let mut localizer = Localizer::new(model, LocalizerConfig::default());
         let slid = |x: f64, value: f64| Hypothesis {
             pose: Pose::new(nalgebra::Vector2::new(x, 1.5), 0.3),
@@ -129,8 +129,8 @@ mod tests {
     /// `max_through` it is an untrusted answer (`ambiguous`), beyond that no answer.
     #[test]
     fn beams_through_walls_grade_the_status() {
-        let map = mapserver::WallMap::new(vec![mapserver::Wall::new(0.0, 0.0, 20.0, 0.0)]);
-        let model = Arc::new(MapModel::new(map, &mapserver::MapCornerConfig::default()));
+        let map = map::WallMap::new(vec![map::Wall::new(0.0, 0.0, 20.0, 0.0)]);
+        let model = Arc::new(MapModel::new(map, &map::MapCornerConfig::default()));
         let config = LocalizerConfig::default();
         let mut localizer = Localizer::new(model, config);
         let mut status_with = |through: f64| {
@@ -150,11 +150,8 @@ mod tests {
         assert_eq!(status_with(config.max_through + 0.01), Status::Failed);
         // against a map that declares itself approximate, seeing through its walls never
         // fails a pose by default, and fails it beyond its own limit when one is set
-        let approximate = mapserver::WallMap {
-            sigma: 0.1,
-            ..mapserver::WallMap::new(vec![mapserver::Wall::new(0.0, 0.0, 20.0, 0.0)])
-        };
-        let model = Arc::new(MapModel::new(approximate, &mapserver::MapCornerConfig::default()));
+        let approximate = map::WallMap { sigma: 0.1, ..map::WallMap::new(vec![map::Wall::new(0.0, 0.0, 20.0, 0.0)]) };
+        let model = Arc::new(MapModel::new(approximate, &map::MapCornerConfig::default()));
         for (limit, status) in [(1.0, Status::Ambiguous), (0.4, Status::Failed)] {
             let mut localizer =
                 Localizer::new(Arc::clone(&model), LocalizerConfig { max_through_approximate: limit, ..config });
@@ -174,8 +171,8 @@ mod tests {
     /// `inside_only` off it is an answer like any other.
     #[test]
     fn poses_outside_a_closed_building_are_witnesses_never_answers() {
-        let map = mapserver::WallMap::new(mapserver::Wall::rectangle(0.0, 0.0, 20.0, 10.0).to_vec());
-        let model = Arc::new(MapModel::new(map, &mapserver::MapCornerConfig::default()));
+        let map = map::WallMap::new(map::Wall::rectangle(0.0, 0.0, 20.0, 10.0).to_vec());
+        let model = Arc::new(MapModel::new(map, &map::MapCornerConfig::default()));
         let at = |x: f64, y: f64, value: f64| Hypothesis {
             pose: Pose::new(nalgebra::Vector2::new(x, y), 0.3),
             cost: Cost { value, inliers: 0.8, through: 0.0, beams: 680 },
@@ -224,12 +221,12 @@ mod tests {
     /// witness, as one outside a closed building, never an answer.
     #[test]
     fn poses_where_the_survey_saw_no_free_space_are_never_answers() {
-        let mut map = mapserver::WallMap::new(vec![mapserver::Wall::new(0.0, 0.0, 20.0, 0.0)]);
-        let mut seen = mapserver::SeenFree::covering(Point2::new(-1.0, -1.0), Point2::new(21.0, 6.0), 0.2).unwrap();
+        let mut map = map::WallMap::new(vec![map::Wall::new(0.0, 0.0, 20.0, 0.0)]);
+        let mut seen = map::SeenFree::covering(Point2::new(-1.0, -1.0), Point2::new(21.0, 6.0), 0.2).unwrap();
         // the survey looked along a corridor 2 m from the wall, up to x = 10
         seen.mark_ray(Point2::new(0.0, 2.0), Point2::new(10.0, 2.0));
         map.seen_free = Some(seen);
-        let model = Arc::new(MapModel::new(map, &mapserver::MapCornerConfig::default()));
+        let model = Arc::new(MapModel::new(map, &map::MapCornerConfig::default()));
         assert!(model.outside.is_none(), "one wall closes nothing off");
         let at = |x: f64, value: f64| Hypothesis {
             pose: Pose::new(nalgebra::Vector2::new(x, 2.0), 0.3),

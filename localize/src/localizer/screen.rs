@@ -10,7 +10,7 @@ use crate::lowest::Lowest;
 use crate::model::{MapModel, WallFrame, FIELD_CAP};
 use crate::slide::SlideLine;
 use laser::{angle_diff, pose_theta, Pose};
-use mapserver::{DistanceField, OpenFloor};
+use map::{DistanceField, OpenFloor};
 use nalgebra::Point2;
 use segment::Segmentation;
 
@@ -271,10 +271,10 @@ mod tests {
     /// on a wall either way; the closed sides tell the second apart.
     #[test]
     fn the_screen_tells_a_pose_a_walls_thickness_off_from_the_truth() {
-        let mut walls = mapserver::Wall::rectangle(0.0, 0.0, 6.0, 4.0).to_vec();
-        walls.push(mapserver::Wall::new(3.0, 0.0, 3.0, 4.0));
-        let thick = mapserver::thick::thicken(&mapserver::WallMap::new(walls), 0.12);
-        let model = MapModel::new(thick, &mapserver::MapCornerConfig::default());
+        let mut walls = map::Wall::rectangle(0.0, 0.0, 6.0, 4.0).to_vec();
+        walls.push(map::Wall::new(3.0, 0.0, 3.0, 4.0));
+        let thick = map::thick::thicken(&map::WallMap::new(walls), 0.12);
+        let model = MapModel::new(thick, &map::MapCornerConfig::default());
         assert!(model.closed_sides.is_some());
         let truth = Pose::new(nalgebra::Vector2::new(1.5, 2.0), 0.0);
         // sensor-frame points on the face x = 2.94 at 0.5 m spacing, 2 cm behind it as noise has them
@@ -294,9 +294,9 @@ mod tests {
     }
     /// A 12 x 8 m room with a closed 2 x 2 m pillar, the sensor at (3, 4) facing +x.
     fn room_with_a_pillar() -> MapModel {
-        let mut walls = mapserver::Wall::rectangle(0.0, 0.0, 12.0, 8.0).to_vec();
-        walls.extend(mapserver::Wall::rectangle(8.0, 3.0, 10.0, 5.0));
-        MapModel::new(mapserver::WallMap::new(walls), &mapserver::MapCornerConfig::default())
+        let mut walls = map::Wall::rectangle(0.0, 0.0, 12.0, 8.0).to_vec();
+        walls.extend(map::Wall::rectangle(8.0, 3.0, 10.0, 5.0));
+        MapModel::new(map::WallMap::new(walls), &map::MapCornerConfig::default())
     }
 
     /// One point's screen cost at the sensor pose of [`room_with_a_pillar`].
@@ -374,7 +374,7 @@ mod tests {
             points in proptest::collection::vec((-4.0f64..4.0, -4.0f64..4.0), 1..12),
             keep in 1usize..40,
         ) {
-            let model = MapModel::new(mapserver::load_map("apartment").unwrap(), &mapserver::MapCornerConfig::default());
+            let model = MapModel::new(map::bundled("apartment").unwrap().unwrap(), &map::MapCornerConfig::default());
             // every other point on a long line, so the charges for open floor count too
             let points: Vec<ScreenPoint> = points
                 .iter()

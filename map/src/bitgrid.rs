@@ -7,7 +7,7 @@ use nalgebra::Point2;
 /// `cols` x `rows` cells of `cell` metres, the first cell's corner at `origin`, numbered row by
 /// row.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub(crate) struct Grid {
+pub struct Grid {
     pub origin: Point2<f64>,
     pub cell: f64,
     pub cols: usize,

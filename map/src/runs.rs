@@ -18,7 +18,7 @@
 //! drawn geometry: for them only pieces that continue each other to within [`JOINED`] are
 //! joined ([`crate::WallMap::joined_walls`]).
 
-use crate::map::Wall;
+use crate::wall::Wall;
 use nalgebra::Point2;
 use std::collections::HashMap;
 
@@ -381,7 +381,7 @@ mod tests {
     /// pieces that turn by 1 cm at their joints stay pieces.
     #[test]
     fn joined_walls_hold_the_drawn_geometry_in_fewer_walls() {
-        let whole = crate::procedural::apartment();
+        let whole = crate::bundled::bundled("apartment").unwrap().unwrap();
         let mut pieces = Vec::new();
         for (k, wall) in whole.walls.iter().enumerate() {
             let n = 1 + k % 4;
@@ -395,10 +395,11 @@ mod tests {
                 pieces.push(Wall { a: at(0.2), b: at(0.7) });
             }
         }
-        let drawn = crate::WallMap::new(pieces);
+        let drawn = crate::map::WallMap::new(pieces);
         let joined = drawn.joined_walls();
         assert!(joined.len() <= whole.walls.len(), "{} joined walls, {} drawn whole", joined.len(), whole.walls.len());
-        let (drawn_caster, joined_caster) = (crate::RayCaster::new(&drawn.walls), crate::RayCaster::new(&joined));
+        let (drawn_caster, joined_caster) =
+            (crate::raycast::RayCaster::new(&drawn.walls), crate::raycast::RayCaster::new(&joined));
         let (lo, hi) = drawn.bounds();
         let mut rng = laser::rng::Rng::new(3);
         for _ in 0..2000 {
@@ -411,7 +412,7 @@ mod tests {
             );
         }
         let kinked = [w(0.0, 0.0, 1.0, 0.01), w(1.0, 0.01, 2.0, 0.0)];
-        assert_eq!(crate::WallMap::new(kinked.to_vec()).joined_walls().len(), 2);
+        assert_eq!(crate::map::WallMap::new(kinked.to_vec()).joined_walls().len(), 2);
     }
 
     #[test]

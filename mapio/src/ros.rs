@@ -12,10 +12,10 @@
 //! Only PGM images (P5 binary, P2 text; 8 or 16 bits) are read: a PNG map converts with any
 //! image tool (`convert map.png map.pgm`).
 
-use crate::bitgrid::Grid;
-use crate::map::{Wall, WallMap, MIN_WALL_LENGTH};
 use crate::trace::{Raster, TraceConfig};
-use crate::SeenFree;
+use map::bitgrid::Grid;
+use map::SeenFree;
+use map::{Wall, WallMap, MIN_WALL_LENGTH};
 use nalgebra::{Point2, Vector2};
 use std::path::{Path, PathBuf};
 use thiserror::Error;
@@ -602,7 +602,7 @@ impl SurveyGrid {
 /// largest). The inside of a wall drawn as two faces, of a rack or a pillar, is too small.
 fn inside_space(occupied: &[bool], width: usize, height: usize) -> Vec<bool> {
     let free: Vec<bool> = occupied.iter().map(|&o| !o).collect();
-    let (labels, sizes) = crate::free_space::connected_regions(&free, width, height);
+    let (labels, sizes) = map::free_space::connected_regions(&free, width, height);
     let mut touches_border = vec![false; sizes.len()];
     for (i, &l) in labels.iter().enumerate() {
         let (c, r) = (i % width, i / width);
@@ -764,12 +764,12 @@ mod tests {
     #[test]
     fn a_survey_of_a_room_marks_its_walls_occupied_and_its_inside_free() {
         let mut grid = SurveyGrid::covering(Point2::new(-1.0, -1.0), Point2::new(5.0, 4.0), 0.05).unwrap();
-        let caster = crate::RayCaster::new(&Wall::rectangle(0.0, 0.0, 4.0, 3.0));
+        let caster = map::RayCaster::new(&Wall::rectangle(0.0, 0.0, 4.0, 3.0));
         let geometry = laser::ScanGeometry { angle_min: -3.1, angle_increment: 0.01, range_min: 0.02, range_max: 10.0 };
         let mut ranges = Vec::new();
         for &(x, y) in &[(1.0, 1.0), (3.0, 2.0), (2.0, 1.5)] {
             let pose = laser::pose(x, y, 0.0);
-            caster.cast(&pose, &geometry, 620, 1, &mut crate::RayScratch::default(), &mut ranges);
+            caster.cast(&pose, &geometry, 620, 1, &mut map::RayScratch::default(), &mut ranges);
             for (k, d) in ranges.iter().enumerate() {
                 let a = geometry.angle_min + k as f64 * geometry.angle_increment;
                 grid.add_beam(Point2::new(x, y), Point2::new(x + d * a.cos(), y + d * a.sin()), true);

@@ -10,7 +10,7 @@
 //! the rooms it opens onto.
 
 use crate::bitgrid::{BitGrid, Grid};
-use crate::DistanceField;
+use crate::field::DistanceField;
 use nalgebra::Point2;
 
 /// Largest number of cells before the grid is coarsened.
@@ -136,7 +136,7 @@ impl Outside {
 /// The 4-connected regions of the `passable` cells of a `cols` x `rows` raster (numbered row
 /// by row): each cell's region, numbered from 1 (0 for a cell that is not passable), and each
 /// region's cell count by number (index 0 unused).
-pub(crate) fn connected_regions(passable: &[bool], cols: usize, rows: usize) -> (Vec<u32>, Vec<usize>) {
+pub fn connected_regions(passable: &[bool], cols: usize, rows: usize) -> (Vec<u32>, Vec<usize>) {
     let mut labels = vec![0u32; rows * cols];
     let mut sizes = vec![0];
     let mut stack = Vec::new();
@@ -171,7 +171,7 @@ pub(crate) fn connected_regions(passable: &[bool], cols: usize, rows: usize) -> 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::Wall;
+    use crate::wall::Wall;
 
     fn rectangle(x0: f64, y0: f64, x1: f64, y1: f64) -> Vec<Wall> {
         Wall::rectangle(x0, y0, x1, y1).to_vec()
@@ -179,7 +179,7 @@ mod tests {
 
     fn free_space(walls: &[Wall]) -> FreeSpace {
         let field = DistanceField::new(walls, 0.05, 1.0);
-        FreeSpace::new(&field, crate::map::bounds_of(walls))
+        FreeSpace::new(&field, crate::wall::bounds_of(walls))
     }
 
     #[test]

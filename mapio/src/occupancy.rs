@@ -10,8 +10,8 @@
 //! before and after. A cell *stayed* when at least one scan hit it and no more scans passed
 //! through it than hit it.
 
-use crate::bitgrid::Grid;
-use crate::Wall;
+use map::bitgrid::Grid;
+use map::Wall;
 use nalgebra::{Point2, Vector2};
 use std::f64::consts::PI;
 
@@ -68,7 +68,7 @@ impl Occupancy {
         }
         let (width, height) = (hi.x - lo.x, hi.y - lo.y);
         // half the budget: rounding each side up adds a row and a column
-        let cell = crate::grid::coarsened(cell, width, height, (MAX_CELLS / 2) as f64);
+        let cell = map::grid::coarsened(cell, width, height, (MAX_CELLS / 2) as f64);
         let cols = (width / cell).ceil().max(1.0) as usize;
         let rows = (height / cell).ceil().max(1.0) as usize;
         let grid = Grid { origin: lo, cell, cols, rows };

@@ -11,8 +11,8 @@
 //! two walls gives both corners (beta and 2 pi - beta); hypotheses from the wrong one are
 //! rejected by the cost function.
 
-use crate::map::Wall;
 use crate::sight::SightLines;
+use crate::wall::Wall;
 use nalgebra::{Point2, Vector2};
 use std::f64::consts::{PI, TAU};
 
@@ -78,9 +78,6 @@ impl Default for MapCornerConfig {
         }
     }
 }
-
-/// A map whose `sigma` is at least this (metres) is approximate (see [`CornerIndex::of_map`]).
-pub const APPROXIMATE_MAP: f64 = 0.05;
 
 /// Junctions closer than this are one junction, metres.
 const MERGE: f64 = 0.02;
@@ -315,7 +312,7 @@ impl CornerIndex {
     }
 
     /// The corners of `map`. A map that declares itself approximate (`sigma` of
-    /// [`APPROXIMATE_MAP`] or more: typically built from scans) lists no wall ends: its walls
+    /// [`APPROXIMATE_MAP`](crate::map::APPROXIMATE_MAP) or more: typically built from scans) lists no wall ends: its walls
     /// end where the survey stopped seeing them, not where the walls do. On maps built from the
     /// CARMEN logs, wall ends there made 28 % (aces) to 53 % (freiburg-101) of `ok` poses wrong.
     ///
@@ -323,12 +320,12 @@ impl CornerIndex {
     /// drawn: a wall drawn in pieces is one wall to a scan. With
     /// [`MapCornerConfig::only_in_view`], corners no sensor can see are left out
     /// ([`crate::view`]).
-    pub fn of_map(map: &crate::WallMap, cfg: &MapCornerConfig) -> Self {
+    pub fn of_map(map: &crate::map::WallMap, cfg: &MapCornerConfig) -> Self {
         Self::of_runs(map, &map.straight_runs(), cfg)
     }
 
     /// [`of_map`](Self::of_map) with the map's straight runs already at hand.
-    pub fn of_runs(map: &crate::WallMap, runs: &[Wall], cfg: &MapCornerConfig) -> Self {
+    pub fn of_runs(map: &crate::map::WallMap, runs: &[Wall], cfg: &MapCornerConfig) -> Self {
         let cfg = MapCornerConfig { wall_ends: cfg.wall_ends && !map.is_approximate(), ..*cfg };
         let mut index = Self::build(runs, &cfg);
         if cfg.only_in_view {

@@ -1,5 +1,9 @@
-//! Procedural maps: realistic floor plans for tests, benchmarks and the bundled examples.
-//! Every generator is deterministic in its seed.
+//! Procedural worlds: realistic floor plans for the simulator, the evaluation, the benchmarks and
+//! the bundled maps (`maps/*.json` are these generators' output). Every generator is
+//! deterministic in its seed.
+//!
+//! One job: drawing plans. Depends on `map` (the wall types) and `laser` (its seeded random
+//! numbers) only.
 //!
 //! - [`office`]: bands of rooms either side of corridors, a lobby with chamfered corners, a
 //!   slanted end wall, pillars, fins and cut corners; scales from tens to thousands of walls.
@@ -7,8 +11,8 @@
 //! - [`warehouse`]: a large hall with racks, pillars, loading docks and an office block.
 //! - [`radial`]: a non-rectilinear building of irregular wedge rooms around a polygonal atrium.
 
-use crate::map::{Wall, WallMap};
 use laser::rng::Rng;
+use map::{Wall, WallMap};
 use nalgebra::Point2;
 use std::f64::consts::TAU;
 
@@ -531,7 +535,7 @@ pub fn by_name_seeded(name: &str, seed: u64) -> Option<WallMap> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::corners::{CornerIndex, MapCornerConfig};
+    use map::{bundled, CornerIndex, MapCornerConfig, BUNDLED};
 
     #[test]
     fn generators_are_deterministic_and_sized() {
@@ -577,5 +581,17 @@ mod tests {
             assert!(n * 3 > m * 2 && n * 2 < m * 3, "{name}: {n} walls against {m}");
         }
         assert!(by_name_seeded("nope", 3).is_none());
+    }
+
+    #[test]
+    fn bundled_maps_are_what_the_generators_make() {
+        for (name, _) in BUNDLED {
+            let shipped = bundled(name).unwrap().unwrap();
+            let made = by_name(name).unwrap();
+            assert_eq!(shipped.walls.len(), made.walls.len(), "{name}");
+            for (a, b) in shipped.walls.iter().zip(&made.walls) {
+                assert!((a.a - b.a).norm() < 1e-3 && (a.b - b.b).norm() < 1e-3, "{name}: regenerate maps/{name}.json");
+            }
+        }
     }
 }

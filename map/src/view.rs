@@ -18,8 +18,8 @@
 //! ambiguous (dropping them made 7 more wrong `ok` answers over 42 simulated logs).
 
 use crate::corners::MapCorner;
-use crate::map::Wall;
 use crate::sight::SightLines;
+use crate::wall::Wall;
 use nalgebra::{Point2, Vector2};
 use std::f64::consts::{FRAC_1_SQRT_2, TAU};
 
@@ -201,7 +201,7 @@ mod tests {
 
     #[test]
     fn an_office_drawn_thick_offers_about_as_many_corners_as_drawn_as_lines() {
-        let lines = crate::load_map("office").unwrap();
+        let lines = crate::bundled::bundled("office").unwrap().unwrap();
         let thick = thicken(&lines, 0.12);
         let in_view = |m: &WallMap| CornerIndex::of_map(m, &MapCornerConfig::default()).corners().len();
         let (of_lines, of_thick, all_of_thick) = (in_view(&lines), in_view(&thick), all_corners(&thick).len());

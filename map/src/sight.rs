@@ -3,7 +3,7 @@
 //! thickness (the space between a wall's two faces is closed to every beam).
 
 use crate::grid::WallGrid;
-use crate::map::Wall;
+use crate::wall::Wall;
 use nalgebra::{Point2, Vector2};
 
 /// Every wall within `reach` of a point, found through a grid, for lines of sight up to

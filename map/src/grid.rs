@@ -1,7 +1,7 @@
 //! A uniform grid over the map whose cells list the walls within a margin of them: the spatial
 //! index behind ray casting and nearest-wall queries.
 
-use crate::map::Wall;
+use crate::wall::Wall;
 use nalgebra::{Point2, Vector2};
 
 /// Most cells a [`WallGrid`] has: its cells are coarsened beyond that (a map kilometres
@@ -10,7 +10,7 @@ const MAX_CELLS: f64 = 4.0e6;
 
 /// `cell`, coarsened as needed so that a grid over `width` x `height` metres has at most about
 /// `max_cells` cells, and at most that many along either side whatever its shape.
-pub(crate) fn coarsened(cell: f64, width: f64, height: f64, max_cells: f64) -> f64 {
+pub fn coarsened(cell: f64, width: f64, height: f64, max_cells: f64) -> f64 {
     cell.max((width * height / max_cells).sqrt()).max(width.max(height) / max_cells)
 }
 
@@ -35,7 +35,7 @@ impl WallGrid {
     /// [`new`](Self::new) with a grid that covers the walls' bounding box and only `pad`
     /// beyond: lists of a long reach for points that lie among the walls.
     pub fn covering(walls: &[Wall], cell: f64, margin: f64, pad: f64) -> Self {
-        let (lo, hi) = crate::map::bounds_of(walls);
+        let (lo, hi) = crate::wall::bounds_of(walls);
         let cell = coarsened(cell, hi.x - lo.x + 2.0 * pad, hi.y - lo.y + 2.0 * pad, MAX_CELLS);
         let origin = Point2::new(lo.x - pad, lo.y - pad);
         let cols = (((hi.x - lo.x) + 2.0 * pad) / cell).ceil().max(1.0) as usize;
@@ -298,8 +298,8 @@ pub(crate) fn centre_of(origin: Point2<f64>, cell: f64, c: usize, r: usize) -> P
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::map::walls_from_seed as walls_of;
-    use crate::DistanceField;
+    use crate::field::DistanceField;
+    use crate::wall::walls_from_seed as walls_of;
     use proptest::prelude::*;
 
     proptest! {

@@ -1,13 +1,20 @@
-//! The wall map (DESIGN.md): `{"walls": [[x1, y1, x2, y2], ...]}` in metres, map frame. Other
+//! The wall map (docs/design.md, "File formats"): `{"walls": [[x1, y1, x2, y2], ...]}` in metres, map frame. Other
 //! keys are ignored. A malformed file is rejected with the file's name and the offending
 //! element.
 
-use nalgebra::{Point2, Vector2};
+use nalgebra::Point2;
 use serde_json::Value;
 use std::path::{Path, PathBuf};
 use thiserror::Error;
 
-use crate::SeenFree;
+use crate::runs::{RunChain, JOINED, STRAIGHTNESS};
+use crate::seen::SeenFree;
+pub use crate::wall::{bounds_of, Wall};
+
+/// A map whose `sigma` is at least this (metres) is approximate: built from scans, its walls
+/// drawn to within that and ending where the survey stopped seeing them
+/// ([`CornerIndex::of_map`](crate::CornerIndex::of_map) lists no wall ends for it).
+pub const APPROXIMATE_MAP: f64 = 0.05;
 
 /// Walls shorter than this are rejected as degenerate, metres.
 pub const MIN_WALL_LENGTH: f64 = 1e-3;
@@ -15,59 +22,6 @@ pub const MIN_WALL_LENGTH: f64 = 1e-3;
 /// A map file whose walls span more than this, metres, in x or y is rejected: no indoor floor
 /// does, while a plan in millimetres or a stray wall far from the rest does.
 pub const MAX_EXTENT: f64 = 10_000.0;
-
-/// A wall: a segment in the map frame.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Wall {
-    pub a: Point2<f64>,
-    pub b: Point2<f64>,
-}
-
-impl Wall {
-    pub fn new(x1: f64, y1: f64, x2: f64, y2: f64) -> Self {
-        Wall { a: Point2::new(x1, y1), b: Point2::new(x2, y2) }
-    }
-
-    /// The four walls of the axis-aligned rectangle with corners (x0, y0) and (x1, y1).
-    pub fn rectangle(x0: f64, y0: f64, x1: f64, y1: f64) -> [Wall; 4] {
-        [Wall::new(x0, y0, x1, y0), Wall::new(x1, y0, x1, y1), Wall::new(x1, y1, x0, y1), Wall::new(x0, y1, x0, y0)]
-    }
-
-    pub fn length(&self) -> f64 {
-        (self.b - self.a).norm()
-    }
-
-    /// The wall's direction, either way along it: radians in [0, pi).
-    pub fn direction(&self) -> f64 {
-        let d = self.b - self.a;
-        d.y.atan2(d.x).rem_euclid(std::f64::consts::PI)
-    }
-
-    /// Distance from `from` along `dir` at which the ray meets the wall (its ends included,
-    /// with 1e-12 of slack), if strictly ahead; `None` when it misses or runs parallel.
-    #[inline]
-    pub fn ray_hit(&self, from: Point2<f64>, dir: Vector2<f64>) -> Option<f64> {
-        let e = self.b - self.a;
-        let den = dir.perp(&e);
-        if den.abs() < 1e-15 {
-            return None;
-        }
-        let ao = self.a - from;
-        let t = ao.perp(&e) / den;
-        let s = ao.perp(&dir) / den;
-        (t > 0.0 && (-1e-12..=1.0 + 1e-12).contains(&s)).then_some(t)
-    }
-
-    /// Distance from `p` to the segment, and the closest point on it.
-    #[inline]
-    pub fn closest(&self, p: Point2<f64>) -> (f64, Point2<f64>) {
-        let e = self.b - self.a;
-        let len2 = e.norm_squared();
-        let t = if len2 > 0.0 { ((p - self.a).dot(&e) / len2).clamp(0.0, 1.0) } else { 0.0 };
-        let q = self.a + e * t;
-        ((p - q).norm(), q)
-    }
-}
 
 /// A length for a message: whole metres, or in scientific notation when absurdly large.
 fn metres(v: f64) -> String {
@@ -86,26 +40,6 @@ fn median(values: impl Iterator<Item = f64>) -> f64 {
     }
     let k = v.len() / 2;
     *v.select_nth_unstable_by(k, f64::total_cmp).1
-}
-
-/// Axis-aligned bounds (min, max) of `walls`; the origin twice when there are none.
-pub fn bounds_of(walls: &[Wall]) -> (Point2<f64>, Point2<f64>) {
-    if walls.is_empty() {
-        return (Point2::origin(), Point2::origin());
-    }
-    let mut lo = Point2::new(f64::INFINITY, f64::INFINITY);
-    let mut hi = Point2::new(f64::NEG_INFINITY, f64::NEG_INFINITY);
-    for w in walls {
-        lo = lo.inf(&w.a).inf(&w.b);
-        hi = hi.sup(&w.a).sup(&w.b);
-    }
-    (lo, hi)
-}
-
-/// Walls from `(x, y, direction, length)` tuples: how the property tests draw random maps.
-#[cfg(test)]
-pub(crate) fn walls_from_seed(seed: &[(f64, f64, f64, f64)]) -> Vec<Wall> {
-    seed.iter().map(|&(x, y, a, l)| Wall::new(x, y, x + l * a.cos(), y + l * a.sin())).collect()
 }
 
 /// A map of walls.
@@ -132,10 +66,6 @@ pub enum MapError {
     Shape { path: PathBuf, message: String },
     #[error("{path}: walls[{index}]: {message}")]
     Wall { path: PathBuf, index: usize, message: String },
-    #[error(transparent)]
-    Ros(#[from] crate::ros::RosMapError),
-    #[error("{spec:?} is neither a bundled map ({bundled}) nor a map file")]
-    Unknown { spec: String, bundled: String },
 }
 
 impl WallMap {
@@ -143,30 +73,30 @@ impl WallMap {
         WallMap { walls, sigma: 0.0, seen_free: None }
     }
 
-    /// Whether the map declares itself approximate: a `sigma` of [`crate::corners::APPROXIMATE_MAP`]
+    /// Whether the map declares itself approximate: a `sigma` of [`APPROXIMATE_MAP`]
     /// or more, as maps built from scans do.
     pub fn is_approximate(&self) -> bool {
-        self.sigma >= crate::corners::APPROXIMATE_MAP
+        self.sigma >= APPROXIMATE_MAP
     }
 
     /// The walls as the straight stretches a scan's lines can match ([`crate::runs`]), to
-    /// within the map's `sigma` or [`crate::runs::STRAIGHTNESS`], whichever is larger.
+    /// within the map's `sigma` or [`STRAIGHTNESS`], whichever is larger.
     pub fn straight_runs(&self) -> Vec<Wall> {
-        crate::runs::straight_runs(&self.walls, crate::runs::STRAIGHTNESS.max(self.sigma))
+        crate::runs::straight_runs(&self.walls, STRAIGHTNESS.max(self.sigma))
     }
 
     /// [`straight_runs`](Self::straight_runs) with the runs that continue each other (a curved
     /// or bent wall) kept together as chains, in the same order.
-    pub fn chains_of_runs(&self) -> Vec<crate::runs::RunChain> {
-        crate::runs::chains_of_runs(&self.walls, crate::runs::STRAIGHTNESS.max(self.sigma))
+    pub fn chains_of_runs(&self) -> Vec<RunChain> {
+        crate::runs::chains_of_runs(&self.walls, STRAIGHTNESS.max(self.sigma))
     }
 
     /// The walls as drawn, with pieces that continue or overlap each other along one line
-    /// joined into one wall ([`crate::runs`] to within [`crate::runs::JOINED`]): the same
+    /// joined into one wall ([`crate::runs`] to within [`JOINED`]): the same
     /// geometry in fewer walls, for ray casting and distance fields. A plan traced in pieces
     /// split wherever another wall meets them has several times the walls it draws.
     pub fn joined_walls(&self) -> Vec<Wall> {
-        crate::runs::straight_runs(&self.walls, crate::runs::JOINED)
+        crate::runs::straight_runs(&self.walls, JOINED)
     }
 
     /// Loads and validates a JSON map file.
@@ -256,7 +186,7 @@ impl WallMap {
         Ok(WallMap { walls, sigma, seen_free })
     }
 
-    /// The map as JSON (DESIGN.md's format), with a name.
+    /// The map as JSON (docs/design.md's format), with a name.
     pub fn to_json(&self, name: &str) -> String {
         let mut s = format!("{{\n  \"name\": {},\n", Value::String(name.into()));
         if self.sigma > 0.0 {

@@ -3,7 +3,7 @@
 //! hypotheses can be screened cheaply before the ray-cast cost function ranks the survivors,
 //! and refinement finds the wall each scan point lies on without searching.
 
-use crate::map::Wall;
+use crate::wall::Wall;
 use nalgebra::Point2;
 
 #[derive(Clone, Debug)]
@@ -70,7 +70,7 @@ impl DistanceField {
     /// Builds the field at `resolution` (coarsened if the map is very large), with distances
     /// capped at `cap` metres.
     pub fn new(walls: &[Wall], resolution: f64, cap: f64) -> Self {
-        let (lo, hi) = crate::map::bounds_of(walls);
+        let (lo, hi) = crate::wall::bounds_of(walls);
         let (w, h) = (hi.x - lo.x + 2.0 * cap, hi.y - lo.y + 2.0 * cap);
         let resolution = crate::grid::coarsened(resolution, w, h, MAX_CELLS);
         let origin = Point2::new(lo.x - cap, lo.y - cap);

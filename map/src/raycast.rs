@@ -6,7 +6,7 @@
 //! beam instead marches through the wall grid to its first wall; both give the same ranges.
 
 use crate::grid::WallGrid;
-use crate::map::Wall;
+use crate::wall::Wall;
 use laser::{Pose, ScanGeometry};
 use nalgebra::{Point2, Vector2};
 use std::f64::consts::TAU;
@@ -204,7 +204,7 @@ impl RayCaster {
         let lists = self.reach.get_or_init(|| {
             // the lists cover the map's bounding box (poses outside it use the plain grid); each
             // wall is listed in the cells within reach of it
-            let (lo, hi) = crate::map::bounds_of(&self.walls);
+            let (lo, hi) = crate::wall::bounds_of(&self.walls);
             let (width, height) = (hi.x - lo.x + 2.0 * CELL, hi.y - lo.y + 2.0 * CELL);
             let entries: f64 = self
                 .walls
@@ -652,7 +652,7 @@ mod tests {
     use laser::pose;
     use proptest::prelude::*;
 
-    use crate::map::walls_from_seed as random_walls;
+    use crate::wall::walls_from_seed as random_walls;
 
     /// Whether each of `out` (beams `0, stride, ...` of `g` cast from `from` at heading `theta`)
     /// is brute force's range, both counted as +inf from `reach` on. Beams grazing a wall's end

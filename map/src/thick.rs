@@ -6,7 +6,8 @@
 //! corners on both faces, door jambs 10-20 cm long. [`thicken`] turns a centre-line map into
 //! that outline so the same scenes can be measured both ways.
 
-use crate::map::{Wall, WallMap, MIN_WALL_LENGTH};
+use crate::map::{WallMap, MIN_WALL_LENGTH};
+use crate::wall::Wall;
 use nalgebra::{Point2, Vector2};
 
 /// Distance within which a point counts as on a rectangle's boundary, metres.

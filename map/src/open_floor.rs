@@ -6,7 +6,9 @@
 //! space reach it without going through a wall.
 
 use crate::bitgrid::Grid;
-use crate::{DistanceField, FreeSpace, Wall};
+use crate::field::DistanceField;
+use crate::free_space::FreeSpace;
+use crate::wall::Wall;
 use nalgebra::Point2;
 
 /// The distance's bits of a cell; the top bit marks a cell outside the main region.
@@ -68,7 +70,7 @@ impl OpenFloor {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::WallMap;
+    use crate::map::WallMap;
     use proptest::prelude::*;
 
     /// A 12 x 8 m room with a closed 2 x 2 m pillar.
