@@ -2,7 +2,8 @@
 //! pose hypotheses (eqs. 5-6), which the ray-cast cost function (eq. 7) ranks.
 //!
 //! One job: localization, as a library ([`Localizer`], [`Gema2`] for segmentation and
-//! localization together) and as the pipeline's localize stage ([`node`]).  Depends on `laser`, `segment` and `map`; on `messages` and
+//! localization together) and as the pipeline's localize stage ([`node`]). The searches it runs
+//! are one list, [`CASCADE`]. Depends on `laser`, `segment` and `map`; on `messages` and
 //! `mapserver` (the map's wire form) for the stage alone.
 
 pub mod cost;
@@ -21,7 +22,8 @@ pub use cost::{Cost, CostConfig, CostKind};
 pub use gema2::{Gema2, Gema2Config};
 pub use grid::{GridConfig, FROM_GRID};
 pub use localizer::{
-    same_pose, FirstLook, Hypothesis, Judgement, Localization, Localizer, LocalizerConfig, LocateTimes, Status,
+    same_pose, FirstLook, Hypothesis, Judgement, Localization, Localizer, LocalizerConfig, LocateTimes, Ran, Status,
+    Step, CASCADE,
 };
 pub use matching::pose_from_corners;
 pub use model::MapModel;

@@ -22,10 +22,12 @@
 //! that does not help either, the grid search ([`crate::grid`]).
 
 mod candidates;
+mod cascade;
 mod config;
 mod ranking;
 mod screen;
 
+pub use cascade::{Ran, Step, StepSpec, When, CASCADE};
 pub use config::{FirstLook, LocalizerConfig};
 pub use screen::same_pose;
 
@@ -77,6 +79,18 @@ pub struct Hypothesis {
     pub map_corner: u32,
 }
 
+impl LocateTimes {
+    /// Notes which steps of the cascade ran, and the flags that name them.
+    fn record(&mut self, ran: Ran) {
+        self.ran = ran;
+        self.full_search = ran.contains(Step::FullSearch);
+        self.slide_search = ran.contains(Step::Slide);
+        self.loose_slide = ran.contains(Step::LooseSlide);
+        self.escalated = ran.contains(Step::WiderSlide);
+        self.grid_search = ran.contains(Step::Grid);
+    }
+}
+
 /// Compute time of the localization steps of one scan.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct LocateTimes {
@@ -100,6 +114,10 @@ pub struct LocateTimes {
     /// Whether the grid search ran ([`crate::grid`]): the best pose after the wider slide still
     /// saw through walls.
     pub grid_search: bool,
+    /// The steps of the cascade that ran ([`CASCADE`]).
+    pub ran: Ran,
+    /// Each step's time, search and ranking, by [`Step::index`].
+    pub steps: [Duration; Step::COUNT],
 }
 
 #[derive(Clone, Debug)]
@@ -284,41 +302,9 @@ impl Localizer {
         let cfg = &self.config;
         screen_points(seg, &self.lines, cfg.screen_points, cfg.screen_long_line, &mut self.screen_pts);
         subsample(seg, self.config.refine_points, &mut self.refine_pts);
-        let first = self.config.first_look;
-        let mut settled = false;
-        if first.corners > 0 && first.corners < self.config.corners_tried {
-            self.search(scan, seg, Source::Corners(first.corners), first.prescreened, first.screened, first.refined);
-            self.rank();
-            settled = first.confirms(self.out.status, self.out.hypotheses.first());
-        }
-        let cfg = self.config;
-        if !settled {
-            self.out.times.full_search = true;
-            self.search(scan, seg, Source::Corners(cfg.corners_tried), cfg.prescreened, cfg.screened, cfg.refined);
-            self.rank();
-            settled = first.confirms(self.out.status, self.out.hypotheses.first());
-        }
-        if !settled && cfg.slide.lines > 0 {
-            self.out.times.slide_search = true;
-            self.search(scan, seg, Source::Slides, cfg.prescreened, cfg.slide.screened, cfg.refined);
-            self.rank();
-            if !first.confirms(self.out.status, self.out.hypotheses.first()) {
-                loose_slide_lines(&self.lines, &cfg.slide, &mut self.slide_lines);
-                if !self.slide_lines.is_empty() {
-                    self.out.times.loose_slide = true;
-                    self.search(scan, seg, Source::LooseSlides, cfg.prescreened, cfg.slide.screened, cfg.refined);
-                    self.rank();
-                }
-            }
-            if self.escalates() {
-                self.out.times.escalated = true;
-                let wide = cfg.escalated();
-                self.search_wider(scan, seg, Source::Slides, wide.prescreened, wide.slide.screened);
-                if cfg.grid.headings > 0 && self.escalates() {
-                    self.out.times.grid_search = true;
-                    self.search_wider(scan, seg, Source::Grid, cfg.grid.prescreened, cfg.grid.screened);
-                }
-            }
+        let ran = self.run_cascade(scan, seg);
+        if ran.contains(Step::Slide) {
+            let cfg = self.config;
             if self.out.status == Status::Ok
                 && self.out.hypotheses.first().is_some_and(|h| h.cost.inliers < cfg.slide.min_inliers_ok)
             {
@@ -346,6 +332,75 @@ impl Localizer {
         &self.out
     }
 
+    /// Runs the steps of [`CASCADE`] in order, each that its settings switch on, whose
+    /// predecessor ran and whose condition holds on the answer so far; returns the steps that
+    /// ran. Each step's time is added to [`LocateTimes::steps`].
+    fn run_cascade(&mut self, scan: &ScanView<'_>, seg: &Segmentation) -> Ran {
+        let mut ran = Ran::default();
+        for spec in CASCADE {
+            if spec.after.is_some_and(|before| !ran.contains(before)) || !spec.step.switched_on(&self.config) {
+                continue;
+            }
+            let due = match spec.when {
+                When::Unconfirmed => !self.config.first_look.confirms(self.out.status, self.out.hypotheses.first()),
+                When::SeesThroughWalls => self.escalates(),
+            };
+            if due {
+                let t = Instant::now();
+                if self.run_step(spec.step, scan, seg) {
+                    ran.insert(spec.step);
+                }
+                self.out.times.steps[spec.step.index()] += t.elapsed();
+            }
+        }
+        self.out.times.record(ran);
+        ran
+    }
+
+    /// One step of the cascade with its budgets, then [`rank`](Self::rank); false when it
+    /// found nothing to search (the loose slide with no loose line).
+    fn run_step(&mut self, step: Step, scan: &ScanView<'_>, seg: &Segmentation) -> bool {
+        let cfg = self.config;
+        match step {
+            Step::FirstLook => {
+                let first = cfg.first_look;
+                self.search(
+                    scan,
+                    seg,
+                    Source::Corners(first.corners),
+                    first.prescreened,
+                    first.screened,
+                    first.refined,
+                );
+                self.rank();
+            }
+            Step::FullSearch => {
+                self.search(scan, seg, Source::Corners(cfg.corners_tried), cfg.prescreened, cfg.screened, cfg.refined);
+                self.rank();
+            }
+            Step::Slide => {
+                self.search(scan, seg, Source::Slides, cfg.prescreened, cfg.slide.screened, cfg.refined);
+                self.rank();
+            }
+            Step::LooseSlide => {
+                loose_slide_lines(&self.lines, &cfg.slide, &mut self.slide_lines);
+                if self.slide_lines.is_empty() {
+                    return false;
+                }
+                self.search(scan, seg, Source::LooseSlides, cfg.prescreened, cfg.slide.screened, cfg.refined);
+                self.rank();
+            }
+            Step::WiderSlide => {
+                let wide = cfg.escalated();
+                self.search_wider(scan, seg, Source::Slides, wide.prescreened, wide.slide.screened);
+            }
+            Step::Grid => {
+                self.search_wider(scan, seg, Source::Grid, cfg.grid.prescreened, cfg.grid.screened);
+            }
+        }
+        true
+    }
+
     /// Whether the best pose after the slide searches is one the scan contradicts, so that the
     /// slide search runs again with the budgets of [`LocalizerConfig::escalated`]: it is
     /// `failed`, or more of its beams see through walls than
@@ -353,8 +408,7 @@ impl Localizer {
     /// on a map that states no error (on one that does, right poses see through its errors).
     fn escalates(&self) -> bool {
         let through = self.config.escalate_through;
-        through < 1.0
-            && self.model.map.sigma <= 0.0
+        self.model.map.sigma <= 0.0
             && (self.out.status == Status::Failed
                 || self.out.hypotheses.first().is_none_or(|h| {
                     let beams_through = (h.cost.through * h.cost.beams as f64).round() as usize;
