@@ -1,14 +1,26 @@
 //! `gema2`: the user-facing command line.
+//!
+//! One job: the commands a user types, each a thin module in `cmd` over the libraries, and the
+//! supervisor of the pipeline (`supervisor`). With no command it runs the pipeline on the
+//! embedded default. Depends on every library crate but `viewer`, whose program it starts.
 
 mod cmd;
 mod diagnose;
 mod report;
+mod results;
 mod supervisor;
 
 use clap::{Parser, Subcommand};
 
 #[derive(Parser)]
-#[command(name = "gema2", version, about = "Fast global single-scan self-localization from a 2D laser (GEMA2)")]
+#[command(
+    name = "gema2",
+    version,
+    about = "Fast global single-scan self-localization from a 2D laser (GEMA2)",
+    long_about = "Fast global single-scan self-localization from a 2D laser (GEMA2).\n\nWith no command, runs \
+                  the pipeline of processes on the embedded default (`gema2 run`): the simulator in the bundled \
+                  office, 300 scans at 10 Hz, then prints each stage's and hop's latency and the success rate."
+)]
 struct Cli {
     #[command(subcommand)]
     command: Option<Command>,
@@ -69,7 +81,10 @@ fn exit_quietly_on_a_closed_pipe() {
 
 fn main() -> anyhow::Result<()> {
     let cli = Cli::parse();
-    if !matches!(cli.command, Some(Command::Run(_) | Command::Stage(_) | Command::EmulateUrg(_) | Command::Swap(_))) {
+    if !matches!(
+        cli.command,
+        None | Some(Command::Run(_) | Command::Stage(_) | Command::EmulateUrg(_) | Command::Swap(_))
+    ) {
         exit_quietly_on_a_closed_pipe();
     }
     match cli.command {
@@ -90,7 +105,7 @@ fn main() -> anyhow::Result<()> {
             StageCommand::Localize(a) => localize::node::run(a),
             StageCommand::Mapserver(a) => mapserver::node::run(a),
         },
-        None => cmd::demo::run(cmd::demo::DemoArgs::default()),
+        None => supervisor::run(supervisor::RunArgs::default()),
     }
 }
 

@@ -8,7 +8,7 @@ pub const SUCCESS_POSITION: f64 = 0.30;
 /// ...and heading within this, degrees.
 pub const SUCCESS_HEADING_DEG: f64 = 5.0;
 
-/// The header of the pose CSV (DESIGN.md's six columns, then more).
+/// The header of the pose CSV (docs/design.md's six columns, then more).
 pub const CSV_HEADER: &str = "scan,x,y,theta,score,status,micros,hypotheses,candidates,inliers,through";
 
 /// One CSV row; `best` is (x, y, theta, cost, inliers, through) of the reported pose.
@@ -48,6 +48,8 @@ pub struct Outcome {
     pub escalated: bool,
     /// Whether the grid search ran after that.
     pub grid_search: bool,
+    /// The steps of the search cascade that ran.
+    pub ran: localize::Ran,
 }
 
 impl Outcome {
@@ -70,6 +72,7 @@ impl Outcome {
             loose_slide: false,
             escalated: false,
             grid_search: false,
+            ran: localize::Ran::default(),
         }
     }
 
@@ -90,6 +93,7 @@ impl Outcome {
         self.loose_slide = loc.loose_slide;
         self.escalated = loc.escalated;
         self.grid_search = loc.grid_search;
+        self.ran = loc.ran;
         self
     }
 
@@ -158,6 +162,12 @@ impl Summary {
 
     pub fn count(&self, s: Status) -> usize {
         self.outcomes.iter().filter(|o| o.status == s).count()
+    }
+
+    /// The fraction of scans that ran `step` of the search cascade.
+    pub fn ran_share(&self, step: localize::Step) -> f64 {
+        let ran = self.outcomes.iter().filter(|o| o.ran.contains(step)).count();
+        ran as f64 / self.scans().max(1) as f64
     }
 
     /// Of the scans marked ok, the fraction that are right; `None` when none is ok.

@@ -677,3 +677,34 @@ fn a_closed_stdout_ends_a_command_quietly() {
     let err = text(&out.stderr);
     assert!(!err.contains("panicked") && out.status.code() != Some(101), "{:?} {err}", out.status);
 }
+
+/// `docs/results.md` is written by the commands that measure it: `evaluate --markdown` and
+/// `bench --markdown` each replace their own section, name the command that made it, and keep
+/// the other's.
+#[test]
+fn evaluate_and_bench_write_their_own_sections_of_the_results_page() {
+    let dir = tempfile::tempdir().unwrap();
+    let page = dir.path().join("results.md");
+    let page_s = page.to_str().unwrap();
+    let out = gema2(&["evaluate", "--scans", "4", "--map-seeds", "--markdown", page_s]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let first = std::fs::read_to_string(&page).unwrap();
+    assert!(first.starts_with("# Measured results"), "{first}");
+    assert!(first.contains("<!-- BEGIN evaluate -->\n`gema2 evaluate --scans 4 --map-seeds --markdown"), "{first}");
+    assert!(first.contains("| apartment clean | 4 |") && first.contains("| warehouse furniture | 4 |"), "{first}");
+    assert!(first.contains("total: 12 logs, 48 scans"), "{first}");
+    // the console table says the same, with the searches each log ran
+    assert!(text(&out.stdout).contains("ok prec") && text(&out.stdout).contains("searches"));
+    let out = gema2(&["bench", "--stages-only", "--scans", "3", "--rounds", "1", "--markdown", page_s]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let both = std::fs::read_to_string(&page).unwrap();
+    assert!(both.contains("<!-- BEGIN bench -->\n`gema2 bench --stages-only"), "{both}");
+    assert!(both.contains("line inference (Codes 1-2)"), "{both}");
+    let evaluate_section =
+        |t: &str| t[t.find("<!-- BEGIN evaluate").unwrap()..t.find("<!-- END evaluate").unwrap()].to_owned();
+    assert_eq!(evaluate_section(&first), evaluate_section(&both));
+    // again: the section is replaced, not added
+    let out = gema2(&["bench", "--stages-only", "--scans", "3", "--rounds", "1", "--markdown", page_s]);
+    assert!(out.status.success());
+    assert_eq!(std::fs::read_to_string(&page).unwrap().matches("<!-- BEGIN bench -->").count(), 1);
+}

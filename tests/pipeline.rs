@@ -145,6 +145,27 @@ fn the_pipeline_publishes_exactly_what_locate_computes_offline() {
     assert!(stage_pids("segment", &p).is_empty(), "stages left running");
 }
 
+/// The README's main job: `gema2` with no arguments runs the pipeline of processes on the
+/// embedded default and reports each stage's and hop's latency, the success rate, and where to
+/// go next. The only test that uses the default prefix.
+#[test]
+fn the_main_job_runs_the_pipeline_and_reports_hops_and_success() {
+    let out = Command::new(exe()).output().expect("gema2 runs");
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "{text}\n{}", String::from_utf8_lossy(&out.stderr));
+    for want in ["hop acquire -> segment", "hop segment -> localize", "localize stage", "of 300 scans published"] {
+        assert!(text.contains(want), "no {want:?} in:\n{text}");
+    }
+    let success = text
+        .lines()
+        .find_map(|l| l.strip_prefix("success "))
+        .and_then(|l| l.split(' ').next())
+        .and_then(|v| v.parse::<f64>().ok())
+        .unwrap_or_else(|| panic!("no success rate in:\n{text}"));
+    assert!(success > 90.0, "{success} % in:\n{text}");
+    assert!(text.contains("next:") && text.contains("gema2 locate"), "{text}");
+}
+
 #[test]
 fn a_killed_stage_is_restarted_and_nothing_else_restarts() {
     let Running { _dir, csv, prefix: p, run } = start_running("kill", 240, "40", Duration::from_secs(1));

@@ -9,6 +9,7 @@ use clap::Args;
 use localize::{Gema2, LocalizerConfig, MapModel};
 use map::{MapCornerConfig, WallMap};
 use segment::SegmenterConfig;
+use std::path::PathBuf;
 use std::sync::Arc;
 use std::time::Instant;
 
@@ -41,6 +42,29 @@ pub struct BenchArgs {
     /// The source's warm-up lead at 10 Hz (acquire's --warm-up-us; 0: none), to compare.
     #[arg(long, default_value_t = acquire::node::DEFAULT_WARM_UP_US)]
     pub warm_up_us: u64,
+    /// Also write the per-stage and scaling tables into this markdown file (its `bench`
+    /// section, the rest kept): `--markdown docs/results.md`.
+    #[arg(long, value_name = "FILE", conflicts_with = "pipeline")]
+    pub markdown: Option<PathBuf>,
+}
+
+/// Prints a line and keeps it in `$out` (a `String`, or a `&mut String`).
+macro_rules! say {
+    ($out:expr, $($arg:tt)*) => {{
+        let line = format!($($arg)*);
+        println!("{line}");
+        $out.push_str(&line);
+        $out.push('\n');
+    }};
+}
+
+/// [`say!`] without the line's end.
+macro_rules! say_part {
+    ($out:expr, $($arg:tt)*) => {{
+        let part = format!($($arg)*);
+        print!("{part}");
+        $out.push_str(&part);
+    }};
 }
 
 /// Where the stages of a benchmark pipeline run.
@@ -192,7 +216,10 @@ pub fn run_bench(a: BenchArgs) -> Result<()> {
         return bench_pipeline(&a);
     }
     let office = mapio::load_map("office")?;
-    println!(
+    // what is printed, kept for --markdown
+    let mut out = String::new();
+    say!(
+        out,
         "GEMA2 per-stage time per scan: bundled office ({} walls), URG-04LX 682 beams, clean, {} scans",
         office.walls.len(),
         a.scans
@@ -205,7 +232,8 @@ pub fn run_bench(a: BenchArgs) -> Result<()> {
     let r = &rounds[quietest];
     if rounds.len() > 1 {
         let listed: Vec<String> = totals.iter().map(|t| format!("{t:.1}")).collect();
-        println!(
+        say!(
+            out,
             "  median total of each of {} rounds: {} us; below, round {} (the quietest), stage by stage",
             rounds.len(),
             listed.join(" / "),
@@ -225,41 +253,52 @@ pub fn run_bench(a: BenchArgs) -> Result<()> {
     let total = median(r, 7);
     for (k, name) in names.iter().enumerate() {
         let m = median(r, k);
-        println!("  {name:34} median {m:8.1} us  ({:4.1} %)", 100.0 * m / total);
+        say!(out, "  {name:34} median {m:8.1} us  ({:4.1} %)", 100.0 * m / total);
     }
     let mut t: Vec<f64> = r.steps.iter().map(|s| s[7]).collect();
-    println!("  {:34} p99    {:8.1} us   success {:.1} %", "total", quantile(&mut t, 0.99), 100.0 * r.success);
+    say!(out, "  {:34} p99    {:8.1} us   success {:.1} %", "total", quantile(&mut t, 0.99), 100.0 * r.success);
     let (mut first, mut full): (Vec<f64>, Vec<f64>) = (Vec::new(), Vec::new());
     for (s, &f) in r.steps.iter().zip(&r.full_search) {
         if f { &mut full } else { &mut first }.push(s[7]);
     }
-    println!(
+    say!(
+        out,
         "  the first look settled {:.1} % of scans (median total {:.1} us); the full search ran on {:.1} % ({:.1} us)",
         100.0 * first.len() as f64 / r.steps.len().max(1) as f64,
         quantile(&mut first, 0.5),
         100.0 * full.len() as f64 / r.steps.len().max(1) as f64,
         quantile(&mut full, 0.5)
     );
-    if a.stages_only {
-        return Ok(());
+    if !a.stages_only {
+        scaling(&a, &mut out);
     }
-    println!(
+    if let Some(path) = &a.markdown {
+        let command: Vec<String> = std::env::args().skip(1).collect();
+        let body = format!("```\n{}```\n", out);
+        crate::results::write_section(path, "bench", &format!("gema2 {}", command.join(" ")), &body)?;
+    }
+    Ok(())
+}
+
+/// The scaling table: how the whole locate's time grows with beams and map walls.
+fn scaling(a: &BenchArgs, out: &mut String) {
+    say!(
+        out,
         "\nScaling: median total locate time per scan (us) [success %], office maps of about W walls, {} scans each",
         a.scans
     );
     let maps: Vec<WallMap> = a.walls.iter().map(|&w| worlds::office_with_walls(3, w)).collect();
-    print!("{:>8}", "beams");
+    say_part!(out, "{:>8}", "beams");
     for m in &maps {
-        print!("  {:>16}", format!("{} walls", m.walls.len()));
+        say_part!(out, "  {:>16}", format!("{} walls", m.walls.len()));
     }
-    println!();
+    say!(out, "");
     for &b in &a.beams {
-        print!("{b:>8}");
+        say_part!(out, "{b:>8}");
         for m in &maps {
             let r = run(m, SensorModel::urg04lx_with_beams(b), a.scans);
-            print!("  {:>9.0} [{:4.1}]", median(&r, 7), 100.0 * r.success);
+            say_part!(out, "  {:>9.0} [{:4.1}]", median(&r, 7), 100.0 * r.success);
         }
-        println!();
+        say!(out, "");
     }
-    Ok(())
 }

@@ -13,7 +13,7 @@ use acquire::{write_robotlaser1, CarmenReader, FlaserLayout, Scenario, SensorMod
 use anyhow::{bail, Context, Result};
 use clap::Args;
 use laser::LaserScan;
-use localize::{Gema2, Gema2Config, MapModel, Status};
+use localize::{Gema2, Gema2Config, MapModel, Status, Step, CASCADE};
 use map::WallMap;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -45,6 +45,10 @@ pub struct EvaluateArgs {
     /// Override a localizer or segmenter parameter, KEY=VALUE (repeatable), as `gema2 locate`.
     #[arg(long = "set", value_name = "KEY=VALUE")]
     pub set: Vec<String>,
+    /// Also write the tables into this markdown file (its `evaluate` section, the rest kept):
+    /// `--markdown docs/results.md` regenerates that page's accuracy tables.
+    #[arg(long, value_name = "FILE")]
+    pub markdown: Option<PathBuf>,
 }
 
 /// One located log's figures.
@@ -54,69 +58,133 @@ struct Row {
     successes: usize,
     ok: usize,
     wrong_ok: usize,
+    ambiguous: usize,
+    failed: usize,
     median_us: f64,
     p99_us: f64,
+    /// The share of scans each step of the search cascade ran on ([`localize::CASCADE`]).
+    ran: [f64; Step::COUNT],
 }
 
 impl Row {
     fn of(name: String, summary: &Summary) -> Row {
         let (median_us, p99_us) = summary.time_quantiles();
+        let mut ran = [0.0; Step::COUNT];
+        for (share, spec) in ran.iter_mut().zip(CASCADE) {
+            *share = summary.ran_share(spec.step);
+        }
         Row {
             name,
             scans: summary.scans(),
             successes: summary.successes(),
             ok: summary.count(Status::Ok),
             wrong_ok: summary.wrong_ok(),
+            ambiguous: summary.count(Status::Ambiguous),
+            failed: summary.count(Status::Failed),
             median_us,
             p99_us,
+            ran,
         }
+    }
+
+    fn success(&self) -> f64 {
+        100.0 * self.successes as f64 / self.scans.max(1) as f64
+    }
+
+    /// Right `ok` answers of all `ok` answers, %; `None` with no `ok` answer.
+    fn ok_precision(&self) -> Option<f64> {
+        (self.ok > 0).then(|| 100.0 * (self.ok - self.wrong_ok) as f64 / self.ok as f64)
+    }
+
+    /// The share of scans that ran each step after the first look, as "full/slide/loose/wider/grid".
+    fn searches(&self) -> String {
+        let pct: Vec<String> = self.ran[1..].iter().map(|v| format!("{:.0}", 100.0 * v)).collect();
+        pct.join("/")
     }
 
     fn print(&self) {
         println!(
-            "{:<w$} {:>6} {:>7.1} % {:>6} {:>6} {:>10.0} {:>10.0}",
+            "{:<w$} {:>6} {:>7.1} % {:>6} {:>6} {:>8} {:>6} {:>6} {:>10.0} {:>10.0}  {}",
             self.name,
             self.scans,
-            100.0 * self.successes as f64 / self.scans.max(1) as f64,
+            self.success(),
             self.ok,
             self.wrong_ok,
+            self.ok_precision().map_or("-".to_owned(), |p| format!("{p:.1} %")),
+            self.ambiguous,
+            self.failed,
             self.median_us,
             self.p99_us,
+            self.searches(),
             w = NAME_WIDTH
         );
+    }
+
+    fn markdown(&self) -> String {
+        format!(
+            "| {} | {} | {:.1} % | {} | {} | {} | {} | {} | {:.0} | {:.0} | {} |\n",
+            self.name,
+            self.scans,
+            self.success(),
+            self.ok,
+            self.wrong_ok,
+            self.ok_precision().map_or("-".to_owned(), |p| format!("{p:.1} %")),
+            self.ambiguous,
+            self.failed,
+            self.median_us,
+            self.p99_us,
+            self.searches()
+        )
     }
 }
 
 /// Width of the log column: "freiburg-101-corrected even grid" fits.
 const NAME_WIDTH: usize = 32;
 
+/// What the "searches" column lists.
+const SEARCHES: &str = "% of scans that ran the full search / slide / loose slide / wider slide / grid";
+
 fn header(title: &str) {
     println!("\n{title}");
     println!(
-        "{:<w$} {:>6} {:>9} {:>6} {:>6} {:>10} {:>10}",
+        "{:<w$} {:>6} {:>9} {:>6} {:>6} {:>8} {:>6} {:>6} {:>10} {:>10}  searches ({SEARCHES})",
         "log",
         "scans",
         "success",
         "ok",
         "wrong",
+        "ok prec",
+        "ambig",
+        "failed",
         "median us",
         "p99 us",
         w = NAME_WIDTH
     );
 }
 
+/// A markdown table of `rows` under `title`, with their total.
+fn markdown_table(title: &str, rows: &[Row]) -> String {
+    let mut s = format!("### {title}\n\n");
+    s += "| log | scans | success | ok | wrong ok | ok precision | ambiguous | failed | median us | p99 us | searches |\n";
+    s += "|---|---|---|---|---|---|---|---|---|---|---|\n";
+    for r in rows {
+        s += &r.markdown();
+    }
+    s + &format!("\n{}\n\nsearches: {SEARCHES}.\n\n", total_line(rows))
+}
+
 /// The sums over `rows`; the time is the mean of the logs' medians.
-fn total(rows: &[Row]) {
+fn total_line(rows: &[Row]) -> String {
     let sum = |f: fn(&Row) -> usize| rows.iter().map(f).sum::<usize>();
     let (scans, successes) = (sum(|r| r.scans), sum(|r| r.successes));
-    println!(
+    format!(
         "total: {} logs, {scans} scans, {successes} successes ({:.1} %), ok {}, wrong ok {}, mean of the medians {:.0} us",
         rows.len(),
         100.0 * successes as f64 / scans.max(1) as f64,
         sum(|r| r.ok),
         sum(|r| r.wrong_ok),
         rows.iter().map(|r| r.median_us).sum::<f64>() / rows.len().max(1) as f64
-    );
+    )
 }
 
 pub fn run(a: EvaluateArgs) -> Result<()> {
@@ -131,8 +199,10 @@ pub fn run(a: EvaluateArgs) -> Result<()> {
     if a.scans == 0 && !a.no_sim {
         bail!("--scans must be at least 1");
     }
+    let mut page = String::new();
     if !a.no_sim {
-        header(&format!("simulated URG-04LX, {} scans a log, seed {}", a.scans, a.seed));
+        let title = format!("simulated URG-04LX, {} scans a log, seed {}", a.scans, a.seed);
+        header(&title);
         let mut rows = Vec::new();
         for (name, map) in suite_maps(&a.map_seeds)? {
             for scenario in [Scenario::Clean, Scenario::People, Scenario::Furniture] {
@@ -142,11 +212,13 @@ pub fn run(a: EvaluateArgs) -> Result<()> {
                 rows.push(row);
             }
         }
-        total(&rows);
+        println!("{}", total_line(&rows));
+        page += &markdown_table(&title, &rows);
     }
     let mut malformed = Malformed::default();
     if let Some(dir) = &a.carmen {
-        header(&format!("{}: odd scans against a map of the even ones, and the other way round", dir.display()));
+        let title = format!("{}: odd scans against a map of the even ones, and the other way round", dir.display());
+        header(&title);
         let mut rows = Vec::new();
         for log in carmen_logs(dir)? {
             // a malformed line keeps its place, so the halves stay the ones `map build` and
@@ -170,7 +242,12 @@ pub fn run(a: EvaluateArgs) -> Result<()> {
                 }
             }
         }
-        total(&rows);
+        println!("{}", total_line(&rows));
+        page += &markdown_table(&title, &rows);
+    }
+    if let Some(path) = &a.markdown {
+        let command: Vec<String> = std::env::args().skip(1).filter(|s| !s.is_empty()).collect();
+        crate::results::write_section(path, "evaluate", &format!("gema2 {}", command.join(" ")), &page)?;
     }
     malformed.into_result("skipped")?;
     Ok(())
