@@ -42,6 +42,48 @@ fn median(values: impl Iterator<Item = f64>) -> f64 {
     *v.select_nth_unstable_by(k, f64::total_cmp).1
 }
 
+/// Why a list of walls is no map.
+#[derive(Clone, Debug, PartialEq)]
+pub enum WallsProblem {
+    /// Wall `index` is not finite or shorter than [`MIN_WALL_LENGTH`].
+    Wall { index: usize, message: String },
+    /// The walls span more than [`MAX_EXTENT`].
+    Extent(String),
+}
+
+/// The one check of a map's walls, wherever they come from (a file, the wire): finite, at least
+/// [`MIN_WALL_LENGTH`] long, and within [`MAX_EXTENT`] of each other.
+pub fn check_walls(walls: &[Wall]) -> Result<(), WallsProblem> {
+    for (index, w) in walls.iter().enumerate() {
+        if !w.a.coords.iter().chain(w.b.coords.iter()).all(|v| v.is_finite()) {
+            return Err(WallsProblem::Wall { index, message: "coordinates must be finite".into() });
+        }
+        if w.length() < MIN_WALL_LENGTH {
+            return Err(WallsProblem::Wall { index, message: format!("wall is shorter than {MIN_WALL_LENGTH} m") });
+        }
+    }
+    let (lo, hi) = bounds_of(walls);
+    let span = hi - lo;
+    if span.x > MAX_EXTENT || span.y > MAX_EXTENT {
+        // the wall farthest from the middle of the others is the likeliest stray
+        let mid = Point2::new(median(walls.iter().map(|w| w.a.x)), median(walls.iter().map(|w| w.a.y)));
+        let (index, far) = walls
+            .iter()
+            .enumerate()
+            .map(|(k, w)| (k, (w.a - mid).norm().max((w.b - mid).norm())))
+            .fold((0, 0.0), |best, k| if k.1 > best.1 { k } else { best });
+        return Err(WallsProblem::Extent(format!(
+            "the walls span {} x {} m, more than the {MAX_EXTENT} m an indoor map may span: are the \
+                     coordinates in millimetres, or is a wall astray (walls[{index}] reaches {} m from the middle \
+                     of the others)?",
+            metres(span.x),
+            metres(span.y),
+            metres(far)
+        )));
+    }
+    Ok(())
+}
+
 /// A map of walls.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct WallMap {
@@ -152,36 +194,14 @@ impl WallMap {
             if nums.len() != 4 {
                 return Err(bad(format!("expected four numbers [x1, y1, x2, y2], found {item}")));
             }
-            if nums.iter().any(|v| !v.is_finite()) {
-                return Err(bad(format!("coordinates must be finite, found {item}")));
-            }
-            let wall = Wall::new(nums[0], nums[1], nums[2], nums[3]);
-            if wall.length() < MIN_WALL_LENGTH {
-                return Err(bad(format!("wall is shorter than {MIN_WALL_LENGTH} m: {item}")));
-            }
-            walls.push(wall);
+            walls.push(Wall::new(nums[0], nums[1], nums[2], nums[3]));
         }
-        let (lo, hi) = bounds_of(&walls);
-        let span = hi - lo;
-        if span.x > MAX_EXTENT || span.y > MAX_EXTENT {
-            // the wall farthest from the middle of the others is the likeliest stray
-            let mid = Point2::new(median(walls.iter().map(|w| w.a.x)), median(walls.iter().map(|w| w.a.y)));
-            let (index, far) = walls
-                .iter()
-                .enumerate()
-                .map(|(k, w)| (k, (w.a - mid).norm().max((w.b - mid).norm())))
-                .fold((0, 0.0), |best, k| if k.1 > best.1 { k } else { best });
-            return Err(MapError::Shape {
-                path,
-                message: format!(
-                    "the walls span {} x {} m, more than the {MAX_EXTENT} m an indoor map may span: are the \
-                     coordinates in millimetres, or is a wall astray (walls[{index}] reaches {} m from the middle \
-                     of the others)?",
-                    metres(span.x),
-                    metres(span.y),
-                    metres(far)
-                ),
-            });
+        match check_walls(&walls) {
+            Ok(()) => {}
+            Err(WallsProblem::Wall { index, message }) => {
+                return Err(MapError::Wall { path, index, message: format!("{message}: {}", list[index]) })
+            }
+            Err(WallsProblem::Extent(message)) => return Err(MapError::Shape { path, message }),
         }
         Ok(WallMap { walls, sigma, seen_free })
     }

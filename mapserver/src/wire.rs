@@ -1,6 +1,7 @@
 //! The map on the wire: [`MapMsg`] written from a [`WallMap`] and read back, checked, by every
 //! process that subscribes to it.
 
+use map::map::{check_walls, WallsProblem};
 use map::{SeenFree, Wall, WallMap};
 use messages::{MapMsg, MAX_SEEN_WORDS, MAX_WALLS};
 
@@ -33,19 +34,21 @@ pub fn map_to_msg(map: &WallMap, version: u32, m: &mut MapMsg) -> Result<(), Str
 }
 
 /// The walls of a map message, if it is well formed: a count within [`MAX_WALLS`], finite
-/// coordinates, no zero-length wall.
+/// coordinates, walls of at least [`map::MIN_WALL_LENGTH`] within [`map::MAX_EXTENT`] of each
+/// other (the checks of a map file, [`check_walls`]).
 pub fn map_from_msg(m: &MapMsg) -> Result<WallMap, String> {
     let n = m.count as usize;
     if n == 0 || n > MAX_WALLS {
         return Err(format!("map version {}: {n} walls", m.version));
     }
     let walls: Vec<Wall> = m.walls[..n].iter().map(|w| Wall::new(w[0], w[1], w[2], w[3])).collect();
-    match walls
-        .iter()
-        .position(|w| !(w.a.coords.iter().chain(w.b.coords.iter()).all(|v| v.is_finite()) && w.length() > 0.0))
-    {
-        Some(k) => Err(format!("map version {}: wall {k} is degenerate", m.version)),
-        None => {
+    // checked as a map file is: a map from the wire is no more trusted than one from a disk
+    match check_walls(&walls) {
+        Err(WallsProblem::Wall { index, message }) => {
+            Err(format!("map version {}: wall {index}: {message}", m.version))
+        }
+        Err(WallsProblem::Extent(message)) => Err(format!("map version {}: {message}", m.version)),
+        Ok(()) => {
             let (cols, rows) = (m.seen_cols as usize, m.seen_rows as usize);
             let cells =
                 cols.checked_mul(rows).ok_or(format!("map version {}: {cols} x {rows} seen cells", m.version))?;
@@ -87,6 +90,13 @@ mod tests {
         assert_eq!(back.walls[3].a, map.walls[3].a);
         m.walls[2][1] = f64::NAN;
         assert!(map_from_msg(&m).unwrap_err().contains("wall 2"));
+        // the checks of a map file: a wall shorter than a millimetre, walls 20 km apart
+        map_to_msg(&map, 7, &mut m).unwrap();
+        m.walls[4] = [1.0, 1.0, 1.0, 1.0005];
+        assert!(map_from_msg(&m).unwrap_err().contains("wall 4: wall is shorter than"));
+        map_to_msg(&map, 7, &mut m).unwrap();
+        m.walls[5] = [20_000.0, 0.0, 20_001.0, 0.0];
+        assert!(map_from_msg(&m).unwrap_err().contains("more than the 10000 m an indoor map may span"));
         m.count = 0;
         assert!(map_from_msg(&m).is_err());
         m.count = (MAX_WALLS + 1) as u32;
