@@ -11,7 +11,6 @@
 //! two walls gives both corners (beta and 2 pi - beta); hypotheses from the wrong one are
 //! rejected by the cost function.
 
-use crate::sight::SightLines;
 use crate::wall::Wall;
 use nalgebra::{Point2, Vector2};
 use std::f64::consts::{PI, TAU};
@@ -311,28 +310,9 @@ impl CornerIndex {
         Self::new(extract_map_corners(walls, cfg))
     }
 
-    /// The corners of `map`. A map that declares itself approximate (`sigma` of
-    /// [`APPROXIMATE_MAP`](crate::map::APPROXIMATE_MAP) or more: typically built from scans) lists no wall ends: its walls
-    /// end where the survey stopped seeing them, not where the walls do. On maps built from the
-    /// CARMEN logs, wall ends there made 28 % (aces) to 53 % (freiburg-101) of `ok` poses wrong.
-    ///
-    /// Corners come from the map's straight runs ([`crate::runs`]), not from its walls as
-    /// drawn: a wall drawn in pieces is one wall to a scan. With
-    /// [`MapCornerConfig::only_in_view`], corners no sensor can see are left out
-    /// ([`crate::view`]).
-    pub fn of_map(map: &crate::map::WallMap, cfg: &MapCornerConfig) -> Self {
-        Self::of_runs(map, &map.straight_runs(), cfg)
-    }
-
-    /// [`of_map`](Self::of_map) with the map's straight runs already at hand.
-    pub fn of_runs(map: &crate::map::WallMap, runs: &[Wall], cfg: &MapCornerConfig) -> Self {
-        let cfg = MapCornerConfig { wall_ends: cfg.wall_ends && !map.is_approximate(), ..*cfg };
-        let mut index = Self::build(runs, &cfg);
-        if cfg.only_in_view {
-            let sight = SightLines::new(runs, crate::view::LOOK);
-            index.corners.retain(|c| crate::view::in_view(c, &sight));
-        }
-        index
+    /// Keeps the corners `keep` says yes to, in order.
+    pub(crate) fn retain(&mut self, keep: impl FnMut(&MapCorner) -> bool) {
+        self.corners.retain(keep);
     }
 
     /// Every corner, sorted by inner angle.

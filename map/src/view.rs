@@ -17,7 +17,7 @@
 //! answer, but one that explains a scan as well as the answer tells the localizer the scan is
 //! ambiguous (dropping them made 7 more wrong `ok` answers over 42 simulated logs).
 
-use crate::corners::MapCorner;
+use crate::corners::{CornerIndex, MapCorner, MapCornerConfig};
 use crate::sight::SightLines;
 use crate::wall::Wall;
 use nalgebra::{Point2, Vector2};
@@ -118,6 +118,33 @@ fn faces_standing_space(on_line: Point2<f64>, along: Vector2<f64>, side: Vector2
 /// The looks' directions as (cosine, sine) of their angle from the arm's direction towards the
 /// wedge: straight across first, then turned 45 degrees either way.
 const LOOK_ANGLES: [(f64, f64); 3] = [(0.0, 1.0), (FRAC_1_SQRT_2, FRAC_1_SQRT_2), (-FRAC_1_SQRT_2, FRAC_1_SQRT_2)];
+
+/// The corners a map offers: built from its straight runs, and only those a sensor can see.
+impl CornerIndex {
+    /// The corners of `map`. A map that declares itself approximate (`sigma` of
+    /// [`APPROXIMATE_MAP`](crate::map::APPROXIMATE_MAP) or more: typically built from scans) lists no wall ends: its walls
+    /// end where the survey stopped seeing them, not where the walls do. On maps built from the
+    /// CARMEN logs, wall ends there made 28 % (aces) to 53 % (freiburg-101) of `ok` poses wrong.
+    ///
+    /// Corners come from the map's straight runs ([`crate::runs`]), not from its walls as
+    /// drawn: a wall drawn in pieces is one wall to a scan. With
+    /// [`MapCornerConfig::only_in_view`], corners no sensor can see are left out
+    /// ([`crate::view`]).
+    pub fn of_map(map: &crate::map::WallMap, cfg: &MapCornerConfig) -> Self {
+        Self::of_runs(map, &map.straight_runs(), cfg)
+    }
+
+    /// [`of_map`](Self::of_map) with the map's straight runs already at hand.
+    pub fn of_runs(map: &crate::map::WallMap, runs: &[Wall], cfg: &MapCornerConfig) -> Self {
+        let cfg = MapCornerConfig { wall_ends: cfg.wall_ends && !map.is_approximate(), ..*cfg };
+        let mut index = Self::build(runs, &cfg);
+        if cfg.only_in_view {
+            let sight = SightLines::new(runs, LOOK);
+            index.retain(|c| in_view(c, &sight));
+        }
+        index
+    }
+}
 
 #[cfg(test)]
 mod tests {
