@@ -93,12 +93,12 @@ pub fn dump(seg: &Segmentation, loc: &Localization, truth: &Pose, model: &locali
         loc.all_candidates.iter().map(|c| c.1).fold(f64::NEG_INFINITY, f64::max),
         loose,
         seg.lines.len(),
-        loc.times.full_search,
-        loc.times.slide_search,
+        loc.times.full_search(),
+        loc.times.slide_search(),
         loc.slide_step,
-        loc.times.loose_slide,
-        loc.times.escalated,
-        loc.times.grid_search
+        loc.times.loose_slide(),
+        loc.times.escalated(),
+        loc.times.grid_search()
     );
     for (k, h) in loc.hypotheses.iter().take(6).enumerate() {
         eprintln!(

@@ -1,7 +1,7 @@
 //! Accuracy and timing summaries of a run.
 
 use laser::{angle_diff, pose_theta, Pose};
-use localize::Status;
+use localize::{Status, Step};
 
 /// Success: position within this of the truth, metres...
 pub const SUCCESS_POSITION: f64 = 0.30;
@@ -39,15 +39,6 @@ pub struct Outcome {
     /// Per-step microseconds: samples, line inference, filtering + corners, matching +
     /// screening, coarse cost, refinement, cost.
     pub steps: [f64; 7],
-    /// Whether the localizer's full search ran (its first look did not settle the scan).
-    pub full_search: bool,
-    pub slide_search: bool,
-    /// Whether the loose slide ran after the slide search.
-    pub loose_slide: bool,
-    /// Whether the slide search ran again with wider budgets.
-    pub escalated: bool,
-    /// Whether the grid search ran after that.
-    pub grid_search: bool,
     /// The steps of the search cascade that ran.
     pub ran: localize::Ran,
 }
@@ -61,19 +52,7 @@ impl Outcome {
             )),
             _ => None,
         };
-        Outcome {
-            status,
-            error,
-            has_truth: truth.is_some(),
-            micros,
-            steps: [0.0; 7],
-            full_search: false,
-            slide_search: false,
-            loose_slide: false,
-            escalated: false,
-            grid_search: false,
-            ran: localize::Ran::default(),
-        }
+        Outcome { status, error, has_truth: truth.is_some(), micros, steps: [0.0; 7], ran: localize::Ran::default() }
     }
 
     /// Records the step times of a segmentation and localization.
@@ -88,11 +67,6 @@ impl Outcome {
             us(loc.refine),
             us(loc.cost),
         ];
-        self.full_search = loc.full_search;
-        self.slide_search = loc.slide_search;
-        self.loose_slide = loc.loose_slide;
-        self.escalated = loc.escalated;
-        self.grid_search = loc.grid_search;
         self.ran = loc.ran;
         self
     }
@@ -165,7 +139,7 @@ impl Summary {
     }
 
     /// The fraction of scans that ran `step` of the search cascade.
-    pub fn ran_share(&self, step: localize::Step) -> f64 {
+    pub fn ran_share(&self, step: Step) -> f64 {
         let ran = self.outcomes.iter().filter(|o| o.ran.contains(step)).count();
         ran as f64 / self.scans().max(1) as f64
     }
@@ -195,11 +169,11 @@ impl Summary {
         };
         s += &format!(
             "first look settled {:.1} % of scans (the rest ran the full search); the slide search ran on {:.1} %, the loose slide on {:.1} %, the wider slide on {:.1} %, the grid on {:.1} %\n",
-            share(|o| !o.full_search),
-            share(|o| o.slide_search),
-            share(|o| o.loose_slide),
-            share(|o| o.escalated),
-            share(|o| o.grid_search)
+            share(|o| !o.ran.contains(Step::FullSearch)),
+            share(|o| o.ran.contains(Step::Slide)),
+            share(|o| o.ran.contains(Step::LooseSlide)),
+            share(|o| o.ran.contains(Step::WiderSlide)),
+            share(|o| o.ran.contains(Step::Grid))
         );
         let names = ["samples", "inference", "filter+corners", "matching", "coarse cost", "refine", "cost"];
         s += "median us per step:";

@@ -384,12 +384,12 @@ fn tracking_restricts_the_slide_search_to_walls_near_the_last_pose() {
     let mut global = gema2(&map, keep_all);
     let checked = each_ok_scan_without_corners(&map, 9, &mut tracked, |scan, cornerless, tracked| {
         let near = tracked.localizer.locate(&scan.view(), cornerless);
-        if !near.times.slide_search || near.candidates == 0 {
+        if !near.times.slide_search() || near.candidates == 0 {
             return false;
         }
         let near = near.candidates;
         let all = global.localizer.locate(&scan.view(), cornerless);
-        assert!(all.times.slide_search);
+        assert!(all.times.slide_search());
         assert!(near < all.candidates, "tracking slid {near} poses of {}", all.candidates);
         true
     });
@@ -421,12 +421,12 @@ fn the_loose_slide_places_scans_whose_lines_are_uncertain_in_direction() {
             .map(|l| SlideLine { direction_sigma: sigma, ..turned(&SlideLine::from(l), 0.8 * sigma) })
             .collect();
         let without = strict.localizer.locate_with_lines(&scan.view(), cornerless, lines.iter().copied());
-        assert!(without.hypotheses.is_empty() && !without.times.loose_slide);
+        assert!(without.hypotheses.is_empty() && !without.times.loose_slide());
         let with = loose.localizer.locate_with_lines(&scan.view(), cornerless, lines.iter().copied());
-        if !with.times.slide_search || lines.len() < 2 {
+        if !with.times.slide_search() || lines.len() < 2 {
             return false;
         }
-        assert!(with.times.loose_slide);
+        assert!(with.times.loose_slide());
         placed += with.best().is_some() as usize;
         right += with.best().is_some_and(|h| same_pose(&h.pose, &truth, 0.3, 5f64.to_radians())) as usize;
         true
@@ -482,9 +482,9 @@ fn the_first_look_settles_clean_scans_and_defers_furnished_ones() {
         for _ in 0..n {
             let scan = sim.next_scan();
             let (_, loc) = both.process(&scan.view());
-            let (status, pose, searched) = (loc.status, loc.best().map(|h| h.pose), loc.times.full_search);
+            let (status, pose, searched) = (loc.status, loc.best().map(|h| h.pose), loc.times.full_search());
             let (_, reference) = full.process(&scan.view());
-            assert!(reference.times.full_search, "with the first look off every scan runs the full search");
+            assert!(reference.times.full_search(), "with the first look off every scan runs the full search");
             if !searched {
                 settled += 1;
                 assert_ne!(status, Status::Failed, "a settled scan has a pose");
@@ -547,14 +547,14 @@ fn a_best_pose_seeing_through_walls_sends_the_slide_search_round_wider() {
         let truth = scan.truth.expect("a simulated scan has its truth");
         let right = |pose: Option<laser::Pose>| pose.is_some_and(|p| same_pose(&p, &truth, 0.3, 5f64.to_radians()));
         let (_, before) = narrow.process(&scan.view());
-        assert!(!before.times.escalated);
+        assert!(!before.times.escalated());
         let (before_status, before_pose) = (before.status, before.best().map(|h| h.pose));
         let before_through = before.hypotheses.first().map_or(1.0, |h| h.cost.through);
         let (_, after) = wide.process(&scan.view());
         let after_pose = after.best().map(|h| h.pose);
-        assert!(after.times.escalated || !after.times.grid_search, "the grid search follows the wider slide");
-        grids += after.times.grid_search as usize;
-        if after.times.escalated {
+        assert!(after.times.escalated() || !after.times.grid_search(), "the grid search follows the wider slide");
+        grids += after.times.grid_search() as usize;
+        if after.times.escalated() {
             escalated += 1;
             assert!(before_status == Status::Failed || before_through > 0.01, "{before_status:?} {before_through}");
             gained += (right(after_pose) && !right(before_pose)) as usize;
@@ -563,7 +563,7 @@ fn a_best_pose_seeing_through_walls_sends_the_slide_search_round_wider() {
             assert_eq!(after_pose, before_pose);
         }
         let (_, rough) = stated.process(&scan.view());
-        assert!(!rough.times.escalated);
+        assert!(!rough.times.escalated());
     }
     assert!(escalated > 0 && grids > 0, "{escalated} escalated, {grids} to the grid");
     assert!(gained > lost, "{escalated} escalated: {gained} right that were wrong, {lost} wrong");
@@ -588,9 +588,9 @@ fn a_sparse_scan_is_not_sent_round_for_a_beam_or_two_through_walls() {
         let beams_through = through.map_or(0.0, |(t, n)| t * n as f64);
         if status != Status::Failed && through.is_some_and(|(t, _)| t > 0.01) && beams_through < 6.5 {
             few += 1;
-            assert!(!a.times.escalated, "{beams_through} beams through walls");
+            assert!(!a.times.escalated(), "{beams_through} beams through walls");
         }
-        escalated += a.times.escalated as usize;
+        escalated += a.times.escalated() as usize;
     }
     assert!(few > 0, "no scan had a beam or two through walls");
     assert!(escalated * 10 <= 60, "{escalated} of 60 sent round");
@@ -658,7 +658,7 @@ fn a_slid_pose_needs_half_its_beams_to_be_ok() {
         let poses = |l: &localize::Localization| l.hypotheses.iter().map(|h| h.pose).collect::<Vec<_>>();
         assert_eq!(poses(a), poses(b), "the rule changes a status, never a pose");
         let low = a.best().is_some_and(|h| h.cost.inliers < strict_cfg.slide.min_inliers_ok);
-        if a.times.slide_search && low && b.status == Status::Ok {
+        if a.times.slide_search() && low && b.status == Status::Ok {
             assert_eq!(a.status, Status::Ambiguous, "a slid pose with {:?} inliers", a.best().map(|h| h.cost.inliers));
             demoted += 1;
         } else {

@@ -197,7 +197,7 @@ fn run(map: &WallMap, sensor: SensorModel, scans: usize) -> Run {
             us(l.cost),
             us(total),
         ]);
-        full_search.push(l.full_search);
+        full_search.push(l.full_search());
         let truth = scan.truth.expect("simulated scans carry truth");
         if loc.best().is_some_and(|h| localize::same_pose(&h.pose, &truth, 0.3, 5f64.to_radians())) {
             right += 1;

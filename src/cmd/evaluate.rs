@@ -102,40 +102,57 @@ impl Row {
         pct.join("/")
     }
 
-    fn print(&self) {
-        println!(
-            "{:<w$} {:>6} {:>7.1} % {:>6} {:>6} {:>8} {:>6} {:>6} {:>10.0} {:>10.0}  {}",
-            self.name,
-            self.scans,
-            self.success(),
-            self.ok,
-            self.wrong_ok,
+    /// The row's cells after its name, in [`COLUMNS`]' order, as both tables show them.
+    fn cells(&self) -> [String; 10] {
+        [
+            self.scans.to_string(),
+            format!("{:.1} %", self.success()),
+            self.ok.to_string(),
+            self.wrong_ok.to_string(),
             self.ok_precision().map_or("-".to_owned(), |p| format!("{p:.1} %")),
-            self.ambiguous,
-            self.failed,
-            self.median_us,
-            self.p99_us,
+            self.ambiguous.to_string(),
+            self.failed.to_string(),
+            format!("{:.0}", self.median_us),
+            format!("{:.0}", self.p99_us),
             self.searches(),
-            w = NAME_WIDTH
-        );
+        ]
+    }
+
+    fn print(&self) {
+        print_row(&self.name, &self.cells());
     }
 
     fn markdown(&self) -> String {
-        format!(
-            "| {} | {} | {:.1} % | {} | {} | {} | {} | {} | {:.0} | {:.0} | {} |\n",
-            self.name,
-            self.scans,
-            self.success(),
-            self.ok,
-            self.wrong_ok,
-            self.ok_precision().map_or("-".to_owned(), |p| format!("{p:.1} %")),
-            self.ambiguous,
-            self.failed,
-            self.median_us,
-            self.p99_us,
-            self.searches()
-        )
+        format!("| {} | {} |\n", self.name, self.cells().join(" | "))
     }
+}
+
+/// The console table's and the markdown table's columns after the log's name, with their
+/// console widths (the last, the searches, is left unpadded).
+const COLUMNS: [(&str, &str, usize); 10] = [
+    ("scans", "scans", 6),
+    ("success", "success", 9),
+    ("ok", "ok", 6),
+    ("wrong", "wrong ok", 6),
+    ("ok prec", "ok precision", 8),
+    ("ambig", "ambiguous", 6),
+    ("failed", "failed", 6),
+    ("median us", "median us", 10),
+    ("p99 us", "p99 us", 10),
+    ("searches", "searches", 0),
+];
+
+/// One line of the console table: the name, then each cell right-aligned to its column.
+fn print_row(name: &str, cells: &[String]) {
+    let mut line = format!("{name:<NAME_WIDTH$}");
+    for (cell, (_, _, width)) in cells.iter().zip(COLUMNS) {
+        if width == 0 {
+            line += &format!("  {cell}");
+        } else {
+            line += &format!(" {cell:>width$}");
+        }
+    }
+    println!("{line}");
 }
 
 /// Width of the log column: "freiburg-101-corrected even grid" fits.
@@ -146,27 +163,18 @@ const SEARCHES: &str = "% of scans that ran the full search / slide / loose slid
 
 fn header(title: &str) {
     println!("\n{title}");
-    println!(
-        "{:<w$} {:>6} {:>9} {:>6} {:>6} {:>8} {:>6} {:>6} {:>10} {:>10}  searches ({SEARCHES})",
-        "log",
-        "scans",
-        "success",
-        "ok",
-        "wrong",
-        "ok prec",
-        "ambig",
-        "failed",
-        "median us",
-        "p99 us",
-        w = NAME_WIDTH
-    );
+    let mut names: Vec<String> = COLUMNS.iter().map(|(console, _, _)| console.to_string()).collect();
+    if let Some(last) = names.last_mut() {
+        *last = format!("searches ({SEARCHES})");
+    }
+    print_row("log", &names);
 }
 
 /// A markdown table of `rows` under `title`, with their total.
 fn markdown_table(title: &str, rows: &[Row]) -> String {
     let mut s = format!("### {title}\n\n");
-    s += "| log | scans | success | ok | wrong ok | ok precision | ambiguous | failed | median us | p99 us | searches |\n";
-    s += "|---|---|---|---|---|---|---|---|---|---|---|\n";
+    let names: Vec<&str> = COLUMNS.iter().map(|(_, markdown, _)| *markdown).collect();
+    s += &format!("| log | {} |\n|---|{}\n", names.join(" | "), "---|".repeat(COLUMNS.len()));
     for r in rows {
         s += &r.markdown();
     }

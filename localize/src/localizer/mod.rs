@@ -80,14 +80,31 @@ pub struct Hypothesis {
 }
 
 impl LocateTimes {
-    /// Notes which steps of the cascade ran, and the flags that name them.
-    fn record(&mut self, ran: Ran) {
-        self.ran = ran;
-        self.full_search = ran.contains(Step::FullSearch);
-        self.slide_search = ran.contains(Step::Slide);
-        self.loose_slide = ran.contains(Step::LooseSlide);
-        self.escalated = ran.contains(Step::WiderSlide);
-        self.grid_search = ran.contains(Step::Grid);
+    /// Whether the full search ran: the [`FirstLook`] did not settle the scan.
+    pub fn full_search(&self) -> bool {
+        self.ran.contains(Step::FullSearch)
+    }
+
+    /// Whether the slide search ran: the full search's best pose was not confirmed either.
+    pub fn slide_search(&self) -> bool {
+        self.ran.contains(Step::Slide)
+    }
+
+    /// Whether the loose slide ran: the slide search's best pose was not confirmed either.
+    pub fn loose_slide(&self) -> bool {
+        self.ran.contains(Step::LooseSlide)
+    }
+
+    /// Whether the slide search ran again with wider budgets: the best pose after the slide
+    /// searches saw through walls ([`LocalizerConfig::escalate_through`]).
+    pub fn escalated(&self) -> bool {
+        self.ran.contains(Step::WiderSlide)
+    }
+
+    /// Whether the grid search ran ([`crate::grid`]): the best pose after the wider slide still
+    /// saw through walls.
+    pub fn grid_search(&self) -> bool {
+        self.ran.contains(Step::Grid)
     }
 }
 
@@ -101,20 +118,8 @@ pub struct LocateTimes {
     pub refine: Duration,
     /// Full eq. 7 over the refined hypotheses.
     pub cost: Duration,
-    /// Whether the full search ran: the [`FirstLook`] did not settle the scan. Each step's
-    /// time above is the sum over all searches.
-    pub full_search: bool,
-    /// Whether the slide search ran: the full search's best pose was not confirmed either.
-    pub slide_search: bool,
-    /// Whether the loose slide ran: the slide search's best pose was not confirmed either.
-    pub loose_slide: bool,
-    /// Whether the slide search ran again with wider budgets: the best pose after the slide
-    /// searches saw through walls ([`LocalizerConfig::escalate_through`]).
-    pub escalated: bool,
-    /// Whether the grid search ran ([`crate::grid`]): the best pose after the wider slide still
-    /// saw through walls.
-    pub grid_search: bool,
-    /// The steps of the cascade that ran ([`CASCADE`]).
+    /// The steps of the cascade that ran ([`CASCADE`]). Each step's time above is the sum
+    /// over all the steps that ran.
     pub ran: Ran,
     /// Each step's time, search and ranking, by [`Step::index`].
     pub steps: [Duration; Step::COUNT],
@@ -353,7 +358,7 @@ impl Localizer {
                 self.out.times.steps[spec.step.index()] += t.elapsed();
             }
         }
-        self.out.times.record(ran);
+        self.out.times.ran = ran;
         ran
     }
 
