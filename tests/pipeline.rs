@@ -173,7 +173,7 @@ fn a_killed_stage_is_restarted_and_nothing_else_restarts() {
         (stage_pids("segment", &p), stage_pids("localize", &p), stage_pids("mapserver", &p));
     assert_eq!((segment.len(), localize.len(), mapserver.len()), (1, 1, 1));
     // SAFETY: kill(2) on a process this test started (through the supervisor).
-    unsafe { libc_kill(segment[0] as i32, 9) };
+    unsafe { libc::kill(segment[0] as i32, libc::SIGKILL) };
     wait_for("a new segment", Duration::from_secs(10), || stage_pids("segment", &p).iter().any(|&q| q != segment[0]));
     assert_eq!(stage_pids("localize", &p), localize, "localize was restarted");
     assert_eq!(stage_pids("mapserver", &p), mapserver, "mapserver was restarted");
@@ -204,7 +204,7 @@ fn a_stage_that_dies_unrestarted_fails_the_run() {
     let segment = stage_pids("segment", &p);
     assert_eq!(segment.len(), 1);
     // SAFETY: kill(2) on a process this test started (through the supervisor).
-    unsafe { libc_kill(segment[0] as i32, 9) };
+    unsafe { libc::kill(segment[0] as i32, libc::SIGKILL) };
     let out = run.wait_with_output().unwrap();
     let (report, err) = (String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr));
     assert!(!out.status.success(), "{err}");
@@ -225,9 +225,9 @@ fn stages_paused_and_resumed_carry_on() {
     pids.push(run.id());
     for &pid in &pids {
         // SAFETY: kill(2) on processes this test started (directly or through the supervisor).
-        unsafe { libc_kill(pid as i32, 19) }; // SIGSTOP
+        unsafe { libc::kill(pid as i32, libc::SIGSTOP) };
         std::thread::sleep(Duration::from_millis(100));
-        unsafe { libc_kill(pid as i32, 18) }; // SIGCONT
+        unsafe { libc::kill(pid as i32, libc::SIGCONT) };
         std::thread::sleep(Duration::from_millis(100));
     }
     for k in ["acquire", "segment", "localize", "mapserver"] {
@@ -373,14 +373,14 @@ fn a_source_waiting_for_its_serial_port_stops_on_sigterm() {
         .unwrap();
     // let it fail to open the port a few times
     std::thread::sleep(Duration::from_millis(1500));
-    unsafe { libc_kill(child.id() as i32, 15) };
+    unsafe { libc::kill(child.id() as i32, libc::SIGTERM) };
     let asked = Instant::now();
     let status = loop {
         if let Some(status) = child.try_wait().unwrap() {
             break Some(status);
         }
         if asked.elapsed() > Duration::from_secs(3) {
-            unsafe { libc_kill(child.id() as i32, 9) };
+            unsafe { libc::kill(child.id() as i32, libc::SIGKILL) };
             let _ = child.wait();
             break None;
         }
@@ -467,16 +467,63 @@ fn sighup_reloads_the_map_and_the_map_server_carries_on() {
     assert!(lines.next().and_then(Result::ok).unwrap_or_default().contains("as version 1"));
     for version in [2, 3] {
         // SAFETY: kill(2) on a child of this test.
-        unsafe { libc_kill(server.child().id() as i32, 1) };
+        unsafe { libc::kill(server.child().id() as i32, libc::SIGHUP) };
         let got = lines.next().and_then(Result::ok).unwrap_or_default();
         assert!(got.contains(&format!("as version {version}")), "{got}");
     }
     server.stop();
 }
 
-extern "C" {
-    #[link_name = "kill"]
-    fn libc_kill(pid: i32, sig: i32) -> i32;
+/// A reader that dies (kill -9, so nothing of its own cleans up) must not take its publisher with
+/// it: a dead localize once made segment exit with "send: InternalError", and a publisher that
+/// waits for room waited on the dead reader's full buffer for ever. The stages run here without
+/// a supervisor, so nobody else removes the dead nodes. The source publishes as fast as the
+/// chain takes scans (it waits for room), so its log growing shows the whole chain upstream of
+/// the dead stage still moving.
+#[test]
+fn a_killed_reader_leaves_every_stage_upstream_running() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = prefix("deadreader");
+    let stage = |kind: &str, args: &[&str]| {
+        StageChild::spawn(
+            Command::new(exe())
+                .args(["stage", kind, "--prefix", &p])
+                .args(args)
+                .stdout(Stdio::null())
+                .stderr(Stdio::piped()),
+        )
+    };
+    let mut mapserver = stage("mapserver", &["--map", "office"]);
+    let first = BufReader::new(mapserver.child().stderr.take().unwrap()).lines().next();
+    assert!(first.and_then(Result::ok).unwrap_or_default().contains("as version 1"));
+    let mut localize = stage("localize", &[]);
+    let mut segment = stage("segment", &[]);
+    std::thread::sleep(Duration::from_secs(1));
+    let log = dir.path().join("published.log");
+    let mut acquire = stage("acquire", &["--rate", "max", "--carmen-out", log.to_str().unwrap()]);
+    let lines = || std::fs::read_to_string(&log).map(|t| t.lines().count()).unwrap_or(0);
+    let still_publishing = |what: &str| {
+        let before = lines();
+        wait_for(&format!("the source to publish after {what}"), Duration::from_secs(20), || lines() > before + 200);
+    };
+    still_publishing("its start");
+    let kill = |victim: &mut StageChild| {
+        // SAFETY: kill(2) on a child of this test.
+        unsafe { libc::kill(victim.child().id() as i32, libc::SIGKILL) };
+        let _ = victim.child().wait();
+        // long enough for the dead reader's 64-message buffer to fill many times over
+        std::thread::sleep(Duration::from_secs(1));
+    };
+    kill(&mut localize);
+    still_publishing("localize died");
+    assert!(segment.child().try_wait().unwrap().is_none(), "segment exited when localize died");
+    kill(&mut segment);
+    still_publishing("segment died");
+    assert!(acquire.child().try_wait().unwrap().is_none(), "acquire exited when segment died");
+    let out = acquire.stop();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("published"), "{err}");
+    mapserver.stop();
 }
 
 /// A stage process this test started, killed if the test fails before stopping it: an orphan
@@ -496,7 +543,7 @@ impl StageChild {
     fn stop(mut self) -> Output {
         let child = self.0.take().unwrap();
         // SAFETY: kill(2) on a child of this test.
-        unsafe { libc_kill(child.id() as i32, 15) };
+        unsafe { libc::kill(child.id() as i32, libc::SIGTERM) };
         let out = child.wait_with_output().unwrap();
         assert!(out.status.success(), "a stage did not stop cleanly on SIGTERM: {}", out.status);
         out
@@ -574,7 +621,7 @@ fn ctrl_c_stops_every_stage_and_leaves_no_dead_resources() {
         ["acquire", "segment", "localize", "mapserver"].iter().flat_map(|k| stage_pids(k, &p)).collect();
     ours.push(run.id());
     // SAFETY: kill(2) on a child of this test.
-    unsafe { libc_kill(run.id() as i32, 2) };
+    unsafe { libc::kill(run.id() as i32, libc::SIGINT) };
     let start = Instant::now();
     let out = run.wait_with_output().unwrap();
     assert!(start.elapsed() < Duration::from_secs(10));
@@ -609,7 +656,7 @@ fn the_whole_pipeline_runs_on_an_emulated_urg04lx() {
     let out =
         gema2(&["run", "--pipeline", pipeline.to_str().unwrap(), "--prefix", &p, "--scans", "20", "--timeout", "60"]);
     // SAFETY: kill(2) on a child of this test.
-    unsafe { libc_kill(emu.id() as i32, 15) };
+    unsafe { libc::kill(emu.id() as i32, libc::SIGTERM) };
     let _ = emu.wait();
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let report = String::from_utf8_lossy(&out.stdout);
@@ -704,6 +751,14 @@ fn scheduling_of(pid: u32) -> (i32, i32, Vec<usize>) {
     }
 }
 
+/// Says, past the harness's capture, that a test could not run its checks here: libtest has no
+/// "skipped", and a test that returns early would otherwise read as passed. `.ci/run` lists
+/// these lines at the end of its log.
+fn skipped(test: &str, why: &str) {
+    use std::io::Write;
+    let _ = writeln!(std::io::stderr(), "SKIPPED {test}: {why}");
+}
+
 #[test]
 fn a_realtime_pipeline_runs_each_stage_where_and_how_its_file_says() {
     let dir = tempfile::tempdir().unwrap();
@@ -727,6 +782,11 @@ fn a_realtime_pipeline_runs_each_stage_where_and_how_its_file_says() {
             let err = String::from_utf8_lossy(&out.stderr);
             assert!(!out.status.success(), "ended before its stages started: {err}");
             assert!(err.contains("CAP_SYS_NICE") || err.contains("/dev/cpu_dma_latency"), "{err}");
+            skipped(
+                "a_realtime_pipeline_runs_each_stage_where_and_how_its_file_says",
+                "the system refuses \
+                     real-time scheduling (no CAP_SYS_NICE or RLIMIT_RTPRIO): only the refusal's message was checked",
+            );
             return;
         }
         assert!(started.elapsed() < Duration::from_secs(30), "timed out waiting for the stages");

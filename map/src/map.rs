@@ -43,11 +43,13 @@ fn median(values: impl Iterator<Item = f64>) -> f64 {
 }
 
 /// Why a list of walls is no map.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum WallsProblem {
     /// Wall `index` is not finite or shorter than [`MIN_WALL_LENGTH`].
+    #[error("wall {index}: {message}")]
     Wall { index: usize, message: String },
     /// The walls span more than [`MAX_EXTENT`].
+    #[error("{0}")]
     Extent(String),
 }
 

@@ -3,7 +3,7 @@
 //! (inner angle and tolerance, optionally within a region), and reloads the map when its file
 //! (or a ROS map's image) changes or on SIGHUP, publishing a new version.
 
-use anyhow::{anyhow, bail, Result};
+use anyhow::{anyhow, bail, Context, Result};
 use clap::Args;
 use map::{CornerIndex, MapCornerConfig, WallMap};
 use mapio::load_map;
@@ -96,9 +96,11 @@ pub fn run(a: MapServerArgs) -> Result<()> {
     let mut version = 1u32;
     let send_map = |map: &WallMap, version: u32| {
         let mut written = Ok(());
-        publish(&publisher, &notifier, |m: &mut MapMsg| written = crate::wire::map_to_msg(map, version, m))
-            .and(written)
-            .map_err(|e| anyhow!("{}: {e}", topic.name))
+        let sent = publish(&publisher, &notifier, |m: &mut MapMsg| written = crate::wire::map_to_msg(map, version, m));
+        written
+            .map_err(anyhow::Error::from)
+            .and(sent.map(|_| ()).map_err(anyhow::Error::from))
+            .with_context(|| topic.name.clone())
     };
     send_map(&map, version)?;
     messages::announce_ready(&node, &a.stage.prefix)?;

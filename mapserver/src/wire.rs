@@ -4,12 +4,26 @@
 use map::map::{check_walls, WallsProblem};
 use map::{SeenFree, Wall, WallMap};
 use messages::{MapMsg, MAX_SEEN_WORDS, MAX_WALLS};
+use thiserror::Error;
+
+/// Why a map does not go onto the wire, or a map message is not a map.
+#[derive(Debug, Error, PartialEq)]
+pub enum WireError {
+    #[error("{0} walls, a map message holds at most {MAX_WALLS}")]
+    TooManyWalls(usize),
+    #[error("map version {version}: {count} walls")]
+    WallCount { version: u32, count: usize },
+    #[error("map version {version}: {problem}")]
+    Walls { version: u32, problem: WallsProblem },
+    #[error("map version {version}: {cols} x {rows} seen cells {why}")]
+    Seen { version: u32, cols: usize, rows: usize, why: &'static str },
+}
 
 /// Writes `map` into a (zeroed) map message as `version`. Walls beyond [`MAX_WALLS`] are an
 /// error, never cut silently.
-pub fn map_to_msg(map: &WallMap, version: u32, m: &mut MapMsg) -> Result<(), String> {
+pub fn map_to_msg(map: &WallMap, version: u32, m: &mut MapMsg) -> Result<(), WireError> {
     if map.walls.len() > MAX_WALLS {
-        return Err(format!("{} walls, a map message holds at most {MAX_WALLS}", map.walls.len()));
+        return Err(WireError::TooManyWalls(map.walls.len()));
     }
     m.version = version;
     m.count = map.walls.len() as u32;
@@ -36,35 +50,26 @@ pub fn map_to_msg(map: &WallMap, version: u32, m: &mut MapMsg) -> Result<(), Str
 /// The walls of a map message, if it is well formed: a count within [`MAX_WALLS`], finite
 /// coordinates, walls of at least [`map::MIN_WALL_LENGTH`] within [`map::MAX_EXTENT`] of each
 /// other (the checks of a map file, [`check_walls`]).
-pub fn map_from_msg(m: &MapMsg) -> Result<WallMap, String> {
-    let n = m.count as usize;
+pub fn map_from_msg(m: &MapMsg) -> Result<WallMap, WireError> {
+    let (n, version) = (m.count as usize, m.version);
     if n == 0 || n > MAX_WALLS {
-        return Err(format!("map version {}: {n} walls", m.version));
+        return Err(WireError::WallCount { version, count: n });
     }
     let walls: Vec<Wall> = m.walls[..n].iter().map(|w| Wall::new(w[0], w[1], w[2], w[3])).collect();
     // checked as a map file is: a map from the wire is no more trusted than one from a disk
     match check_walls(&walls) {
-        Err(WallsProblem::Wall { index, message }) => {
-            Err(format!("map version {}: wall {index}: {message}", m.version))
-        }
-        Err(WallsProblem::Extent(message)) => Err(format!("map version {}: {message}", m.version)),
+        Err(problem) => Err(WireError::Walls { version, problem }),
         Ok(()) => {
             let (cols, rows) = (m.seen_cols as usize, m.seen_rows as usize);
-            let cells =
-                cols.checked_mul(rows).ok_or(format!("map version {}: {cols} x {rows} seen cells", m.version))?;
+            let seen = |why| WireError::Seen { version, cols, rows, why };
+            let cells = cols.checked_mul(rows).ok_or(seen("are too many"))?;
             let seen_free = if cells == 0 {
                 None
             } else {
                 let words = cells.div_ceil(64);
-                let bits = m
-                    .seen_bits
-                    .get(..words)
-                    .ok_or(format!("map version {}: {cols} x {rows} seen cells do not fit", m.version))?;
+                let bits = m.seen_bits.get(..words).ok_or(seen("do not fit"))?;
                 let origin = nalgebra::Point2::new(m.seen_origin[0], m.seen_origin[1]);
-                Some(
-                    SeenFree::from_bits(origin, m.seen_cell, cols, rows, bits)
-                        .ok_or(format!("map version {}: the seen free space is malformed", m.version))?,
-                )
+                Some(SeenFree::from_bits(origin, m.seen_cell, cols, rows, bits).ok_or(seen("are malformed"))?)
             };
             Ok(WallMap { walls, sigma: if m.sigma.is_finite() { m.sigma.max(0.0) } else { 0.0 }, seen_free })
         }
@@ -89,14 +94,14 @@ mod tests {
         assert_eq!(back.walls.len(), map.walls.len());
         assert_eq!(back.walls[3].a, map.walls[3].a);
         m.walls[2][1] = f64::NAN;
-        assert!(map_from_msg(&m).unwrap_err().contains("wall 2"));
+        assert!(map_from_msg(&m).unwrap_err().to_string().contains("wall 2"));
         // the checks of a map file: a wall shorter than a millimetre, walls 20 km apart
         map_to_msg(&map, 7, &mut m).unwrap();
         m.walls[4] = [1.0, 1.0, 1.0, 1.0005];
-        assert!(map_from_msg(&m).unwrap_err().contains("wall 4: wall is shorter than"));
+        assert!(map_from_msg(&m).unwrap_err().to_string().contains("wall 4: wall is shorter than"));
         map_to_msg(&map, 7, &mut m).unwrap();
         m.walls[5] = [20_000.0, 0.0, 20_001.0, 0.0];
-        assert!(map_from_msg(&m).unwrap_err().contains("more than the 10000 m an indoor map may span"));
+        assert!(map_from_msg(&m).unwrap_err().to_string().contains("more than the 10000 m an indoor map may span"));
         m.count = 0;
         assert!(map_from_msg(&m).is_err());
         m.count = (MAX_WALLS + 1) as u32;
@@ -125,9 +130,9 @@ mod tests {
         assert_eq!(back.cell(), 0.4);
         assert!(back.contains(q) && !back.contains(lo));
         m.seen_cols = u32::MAX;
-        assert!(map_from_msg(&m).unwrap_err().contains("seen"));
+        assert!(map_from_msg(&m).unwrap_err().to_string().contains("seen"));
         m.seen_cols = 10;
         m.seen_cell = f64::NAN;
-        assert!(map_from_msg(&m).unwrap_err().contains("seen free space is malformed"));
+        assert!(map_from_msg(&m).unwrap_err().to_string().contains("seen cells are malformed"));
     }
 }

@@ -19,10 +19,10 @@ mod runtime;
 mod topic;
 mod waiting;
 
-pub use outlet::{Freshness, Outlet, CONNECT_PATIENCE, WARM_UP};
+pub use outlet::{Freshness, Outlet, SendError, CONNECT_PATIENCE, WARM_UP};
 pub use payload::*;
 pub use placement::pin_to_cpu;
-pub use publish::{publish, Zeroable};
+pub use publish::{publish, PublishError, Zeroable};
 pub use runtime::{
     announce_ready, cleanup_dead_nodes, create_node, dead_node_pids, instance, monotonic_ns, ready_listener,
     RuntimeError, StageArgs, MAX_INSTANCE, MISSED_WAKEUP_POLL,

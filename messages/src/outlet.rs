@@ -9,16 +9,60 @@
 //! [`Outlet::send`] notices (fewer recipients than subscribers) and sends the message again
 //! until every subscriber has it; subscribers skip the copies they already had
 //! ([`Freshness`]).
+//!
+//! A reader that dies (kill -9, a crash) leaves its side of the link in shared memory, still
+//! "connected", its buffer full. A publisher that waits for room would wait for it forever, and
+//! iceoryx2 ends such a wait with an error: a dead localize once took its segment stage down
+//! with it. An outlet that waits for room therefore asks, while it waits, whether the reader's
+//! process is alive, and gives up on a dead one's copy of the message; a send that still fails
+//! removes the dead nodes' resources and is tried once more. The reader is served again when it
+//! is back (a restart subscribes afresh).
 
-use crate::publish::{publish, Zeroable};
+use crate::publish::{publish, PublishError, Zeroable};
 use crate::topic::{open_topic, OpenError, Topic};
 use crate::Header;
 use iceoryx2::port::notifier::Notifier;
 use iceoryx2::port::publisher::Publisher;
+use iceoryx2::port::{BackpressureAction, BackpressureInfo};
 use iceoryx2::prelude::*;
 use iceoryx2::service::port_factory::publish_subscribe;
+use std::collections::HashMap;
 use std::fmt::Debug;
+use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
+use thiserror::Error;
+
+/// Why an outlet could not send a message.
+#[derive(Debug, Error)]
+#[error("{topic}: {source}")]
+pub struct SendError {
+    pub topic: String,
+    #[source]
+    pub source: PublishError,
+}
+
+/// The process of each subscriber, by the subscriber's port id: what the backpressure handler
+/// asks about while it waits for room.
+type Readers = Arc<Mutex<HashMap<u128, i32>>>;
+
+/// Whether process `pid` is alive (or a zombie not yet reaped).
+fn alive(pid: i32) -> bool {
+    // SAFETY: kill with signal 0 sends nothing; it only checks that the process exists.
+    unsafe { libc::kill(pid, 0) == 0 || std::io::Error::last_os_error().raw_os_error() != Some(libc::ESRCH) }
+}
+
+/// While a subscriber's buffer is full: wait while its process lives, give up on its copy once
+/// it is dead. A subscriber not yet listed is waited for, as iceoryx2 would.
+fn wait_for_live_readers(readers: &Readers) -> impl Fn(&BackpressureInfo) -> BackpressureAction + Send {
+    let readers = readers.clone();
+    move |info: &BackpressureInfo| {
+        let pid = readers.lock().ok().and_then(|r| r.get(&info.receiver_port_id).copied());
+        match pid {
+            Some(pid) if !alive(pid) => BackpressureAction::DiscardData,
+            _ => BackpressureAction::Retry,
+        }
+    }
+}
 
 /// How long, in all, an outlet waits for late subscribers to connect over its lifetime. A
 /// subscriber connects within one of its polls ([`crate::MISSED_WAKEUP_POLL`]); one that
@@ -51,6 +95,9 @@ pub struct Outlet<T: Debug + ZeroCopySend + Zeroable + 'static> {
     /// Messages that some subscriber never got (patience ran out, or the outlet drops by
     /// design when a buffer is full).
     pub missed: u64,
+    readers: Readers,
+    /// The subscriber count when `readers` was last listed.
+    listed: Option<usize>,
 }
 
 impl<T: Debug + ZeroCopySend + Zeroable + 'static> Outlet<T> {
@@ -65,11 +112,18 @@ impl<T: Debug + ZeroCopySend + Zeroable + 'static> Outlet<T> {
     ) -> Result<Self, OpenError> {
         let ports = open_topic::<T>(node, prefix, topic)?;
         let port = |e: &dyn Debug| OpenError::Port { service: ports.name.clone(), message: format!("{e:?}") };
-        let publisher =
-            ports.data.publisher_builder().backpressure_strategy(strategy).create().map_err(|e| port(&e))?;
+        let readers = Readers::default();
+        let waits_for_room = matches!(strategy, BackpressureStrategy::RetryUntilDelivered);
+        let mut builder = ports.data.publisher_builder().backpressure_strategy(strategy);
+        if waits_for_room {
+            builder = builder.set_backpressure_handler(wait_for_live_readers(&readers));
+        }
+        let publisher = builder.create().map_err(|e| port(&e))?;
         let notifier = ports.event.notifier_builder().create().map_err(|e| port(&e))?;
         Ok(Outlet {
-            waits_for_room: matches!(strategy, BackpressureStrategy::RetryUntilDelivered),
+            waits_for_room,
+            readers,
+            listed: None,
             name: ports.name,
             data: ports.data,
             publisher,
@@ -87,13 +141,13 @@ impl<T: Debug + ZeroCopySend + Zeroable + 'static> Outlet<T> {
 
     /// Loans a message, lets `fill` write it (again, for each resend), sends it and wakes the
     /// subscribers. Returns how many subscribers received it.
-    pub fn send(&mut self, mut fill: impl FnMut(&mut T)) -> Result<usize, String> {
-        let mut delivered = publish(&self.publisher, &self.notifier, &mut fill)?;
+    pub fn send(&mut self, mut fill: impl FnMut(&mut T)) -> Result<usize, SendError> {
+        let mut delivered = self.publish_once(&mut fill)?;
         let mut subscribers = self.subscribers();
         while self.waits_for_room && delivered < subscribers && !self.patience.is_zero() {
             let start = Instant::now();
             std::thread::sleep(RESEND_PAUSE);
-            delivered = publish(&self.publisher, &self.notifier, &mut fill)?;
+            delivered = self.publish_once(&mut fill)?;
             subscribers = self.subscribers();
             self.resent += 1;
             self.patience = self.patience.saturating_sub(start.elapsed());
@@ -104,12 +158,49 @@ impl<T: Debug + ZeroCopySend + Zeroable + 'static> Outlet<T> {
         Ok(delivered)
     }
 
+    /// One publication. A delivery that fails (a dead reader's link) clears the dead nodes'
+    /// resources and is tried once more; the second failure is the caller's.
+    fn publish_once(&mut self, fill: &mut impl FnMut(&mut T)) -> Result<usize, SendError> {
+        self.list_readers();
+        match publish(&self.publisher, &self.notifier, &mut *fill) {
+            Err(PublishError::Send(_)) => {
+                crate::cleanup_dead_nodes();
+                self.listed = None;
+                self.list_readers();
+                self.missed += 1;
+                publish(&self.publisher, &self.notifier, fill)
+            }
+            other => other,
+        }
+        .map_err(|source| SendError { topic: self.name.clone(), source })
+    }
+
+    /// Lists the subscribers' processes for the backpressure handler, when their number changed.
+    fn list_readers(&mut self) {
+        let config = self.data.dynamic_config();
+        let n = config.number_of_subscribers();
+        if !self.waits_for_room || self.listed == Some(n) {
+            return;
+        }
+        let mut found = HashMap::new();
+        config.list_subscribers(|s| {
+            if let Ok(pid) = s.node_id.pid::<ipc::Service>() {
+                found.insert(s.subscriber_id.value(), pid.value());
+            }
+            CallbackProgression::Continue
+        });
+        if let Ok(mut r) = self.readers.lock() {
+            *r = found;
+        }
+        self.listed = Some(n);
+    }
+
     /// Wakes the subscribers without a message ([`WARM_UP`]).
-    pub fn warm_up(&self) -> Result<(), String> {
+    pub fn warm_up(&self) -> Result<(), SendError> {
         self.notifier
             .notify_with_custom_event_id(WARM_UP)
             .map(|_| ())
-            .map_err(|e| format!("{}: notify: {e:?}", self.name))
+            .map_err(|e| SendError { topic: self.name.clone(), source: PublishError::Notify(e) })
     }
 
     fn subscribers(&self) -> usize {

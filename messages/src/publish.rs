@@ -6,6 +6,22 @@ use iceoryx2::port::notifier::Notifier;
 use iceoryx2::port::publisher::Publisher;
 use iceoryx2::prelude::*;
 use std::fmt::Debug;
+use thiserror::Error;
+
+/// Why a message was not published.
+#[derive(Debug, Error)]
+pub enum PublishError {
+    /// No shared memory for the payload: every sample is held by slow or dead readers.
+    #[error("loan: {0}")]
+    Loan(#[from] iceoryx2::port::LoanError),
+    /// The message reached only some subscribers (an interrupted wait, a corrupted
+    /// connection).
+    #[error("send: {0}")]
+    Send(#[from] iceoryx2::port::SendError),
+    /// The message was sent but its wake-up was not.
+    #[error("notify: {0:?}")]
+    Notify(iceoryx2::port::notifier::NotifierNotifyError),
+}
 
 /// Payloads for which all-zero bytes are a valid value (numbers and arrays of numbers only).
 ///
@@ -29,8 +45,8 @@ pub fn publish<T: Debug + ZeroCopySend + Zeroable>(
     publisher: &Publisher<ipc::Service, T, ()>,
     notifier: &Notifier<ipc::Service>,
     fill: impl FnOnce(&mut T),
-) -> Result<usize, String> {
-    let mut sample = publisher.loan_uninit().map_err(|e| format!("loan: {e:?}"))?;
+) -> Result<usize, PublishError> {
+    let mut sample = publisher.loan_uninit()?;
     // SAFETY: all-zero bytes are a valid T (Zeroable), so after write_bytes the payload is
     // initialised.
     let mut sample = unsafe {
@@ -38,7 +54,7 @@ pub fn publish<T: Debug + ZeroCopySend + Zeroable>(
         sample.assume_init()
     };
     fill(sample.payload_mut());
-    let delivered = sample.send().map_err(|e| format!("send: {e:?}"))?;
-    notifier.notify().map_err(|e| format!("notify: {e:?}"))?;
+    let delivered = sample.send()?;
+    notifier.notify().map_err(PublishError::Notify)?;
     Ok(delivered)
 }
