@@ -21,7 +21,12 @@ pub struct UrgLogReader {
 
 impl UrgLogReader {
     pub fn open(path: &Path) -> Result<Self, LogError> {
-        Ok(UrgLogReader { reader: open_log(path)?, path: path.to_owned(), line: 0, buf: LineBuf::default() })
+        Ok(Self::from_reader(open_log(path)?, path))
+    }
+
+    /// Reads lines from `reader`; `path` names it in errors.
+    pub fn from_reader(reader: Box<dyn BufRead + Send>, path: &Path) -> Self {
+        UrgLogReader { reader, path: path.to_owned(), line: 0, buf: LineBuf::default() }
     }
 
     fn parse(&self) -> Result<LaserScan, String> {

@@ -1,0 +1,315 @@
+//! Mutation fuzzing of every parser that reads what a user or a device hands gema2: CARMEN logs,
+//! URG logs, wall-map JSON, ROS map YAML and PGM images (through to the traced wall map), and
+//! the SCIP 2.0 byte stream of a serial laser.
+//!
+//! Each parser starts from valid seeds and is fed mutants of them (bit flips, cut and repeated
+//! spans, spliced seeds, and the numbers that break arithmetic: `u64::MAX`, `-1`, `nan`,
+//! `1e308`). It may refuse an input with an error; it must never panic. Each parser gets a time
+//! budget, `GEMA2_FUZZ_SECONDS` (default 4 s), so CI runs a bounded fuzz on every build and a
+//! longer one is `GEMA2_FUZZ_SECONDS=600 cargo test --release --test fuzz`. The random stream
+//! is seeded from `GEMA2_FUZZ_SEED` (default: the clock, printed on a failure), and an input
+//! that panics is written to `target/fuzz-failures/` to be replayed.
+
+use std::io::Cursor;
+use std::panic::{catch_unwind, AssertUnwindSafe};
+use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
+
+/// xorshift64*: a small, seedable random stream.
+struct Rng(u64);
+
+impl Rng {
+    fn next(&mut self) -> u64 {
+        self.0 ^= self.0 >> 12;
+        self.0 ^= self.0 << 25;
+        self.0 ^= self.0 >> 27;
+        self.0.wrapping_mul(0x2545_F491_4F6C_DD1D)
+    }
+
+    fn below(&mut self, n: usize) -> usize {
+        (self.next() % n.max(1) as u64) as usize
+    }
+}
+
+/// Tokens that break arithmetic and parsing where a number or a separator is expected.
+const NASTY: &[&[u8]] = &[
+    b"18446744073709551615",
+    b"9223372036854775807",
+    b"4294967296",
+    b"-1",
+    b"0",
+    b"nan",
+    b"-inf",
+    b"1e308",
+    b"-0",
+    b"99999999",
+    b" ",
+    b"\n",
+    b"\r\n",
+    b"#",
+    b":",
+    b"\xff\xfe",
+    b"\0",
+];
+
+/// One to eight mutations of `seed`, with `others` to splice from.
+fn mutate(rng: &mut Rng, seed: &[u8], others: &[Vec<u8>]) -> Vec<u8> {
+    let mut v = seed.to_vec();
+    for _ in 0..1 + rng.below(8) {
+        let at = rng.below(v.len() + 1);
+        match rng.below(7) {
+            0 if !v.is_empty() => {
+                let k = rng.below(v.len());
+                v[k] ^= 1 << rng.below(8);
+            }
+            1 if !v.is_empty() => {
+                let k = rng.below(v.len());
+                v[k] = b"0123456789-.e \n"[rng.below(15)];
+            }
+            2 => {
+                let end = (at + rng.below(64)).min(v.len());
+                v.drain(at..end);
+            }
+            3 => {
+                let end = (at + rng.below(64)).min(v.len());
+                let span = v[at..end].to_vec();
+                v.splice(at..at, span.iter().copied().cycle().take(span.len() * (1 + rng.below(4))));
+            }
+            4 => {
+                let token = NASTY[rng.below(NASTY.len())];
+                // replace the number or word under `at` with the token
+                let is_word = |b: &u8| !b.is_ascii_whitespace();
+                let start = v[..at].iter().rposition(|b| !is_word(b)).map_or(0, |p| p + 1);
+                let end = v[at..].iter().position(|b| !is_word(b)).map_or(v.len(), |p| at + p);
+                v.splice(start..end, token.iter().copied());
+            }
+            5 if !others.is_empty() => {
+                let other = &others[rng.below(others.len())];
+                let from = rng.below(other.len() + 1);
+                let end = (from + rng.below(256)).min(other.len());
+                v.splice(at..at, other[from..end].iter().copied());
+            }
+            _ => v.truncate(at),
+        }
+    }
+    v
+}
+
+fn budget() -> Duration {
+    let seconds = std::env::var("GEMA2_FUZZ_SECONDS").ok().and_then(|s| s.parse::<f64>().ok()).unwrap_or(4.0);
+    Duration::from_secs_f64(seconds.max(0.0))
+}
+
+fn seed_of_run() -> u64 {
+    std::env::var("GEMA2_FUZZ_SEED").ok().and_then(|s| s.parse().ok()).unwrap_or_else(|| {
+        std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map_or(1, |d| d.as_nanos() as u64) | 1
+    })
+}
+
+/// Where a panicking input is kept.
+fn failures() -> PathBuf {
+    Path::new(env!("CARGO_TARGET_TMPDIR")).join("fuzz-failures")
+}
+
+/// Feeds `parse` the seeds, then mutants of them until the budget is spent; panics naming the
+/// input file of the first input that made `parse` panic. Returns how many inputs it ran.
+fn fuzz(name: &str, seeds: &[Vec<u8>], parse: impl Fn(&[u8])) -> usize {
+    let seed = seed_of_run();
+    let mut rng = Rng(seed);
+    let started = Instant::now();
+    let mut runs = 0;
+    let mut failed = None;
+    while failed.is_none() && (runs < seeds.len() || started.elapsed() < budget()) {
+        let input = match seeds.get(runs) {
+            Some(s) => s.clone(),
+            None => {
+                let parent = rng.below(seeds.len());
+                mutate(&mut rng, &seeds[parent], seeds)
+            }
+        };
+        runs += 1;
+        if let Err(panic) = catch_unwind(AssertUnwindSafe(|| parse(&input))) {
+            let why = panic
+                .downcast_ref::<String>()
+                .cloned()
+                .or_else(|| panic.downcast_ref::<&str>().map(|s| s.to_string()))
+                .unwrap_or_default();
+            failed = Some((input, why));
+        }
+    }
+    if let Some((input, why)) = failed {
+        let _ = std::fs::create_dir_all(failures());
+        let file = failures().join(format!("{name}-{seed}.bin"));
+        let _ = std::fs::write(&file, &input);
+        panic!(
+            "{name}: an input panicked the parser ({why}); kept as {} (GEMA2_FUZZ_SEED={seed}): {:?}",
+            file.display(),
+            String::from_utf8_lossy(&input[..input.len().min(400)])
+        );
+    }
+    assert!(runs > seeds.len() || budget().is_zero(), "{name}: no mutant ran");
+    // straight to the terminal, past the harness's capture: how much fuzzing CI did
+    use std::io::Write;
+    let _ = writeln!(std::io::stderr(), "fuzz {name}: {runs} inputs in {:.1} s", started.elapsed().as_secs_f64());
+    runs
+}
+
+fn carmen_seeds() -> Vec<Vec<u8>> {
+    let ranges = |n: usize| (0..n).map(|k| format!("{:.3}", 1.0 + k as f64 * 0.01)).collect::<Vec<_>>().join(" ");
+    vec![
+        format!(
+            "# a log\nODOM 1 2 0.5 0 0 0 1.0 host 1.0\nROBOTLASER1 0 -1.5708 3.1416 0.0175 81.9 0.01 0 181 {} 0 \
+             1.0 2.0 0.5 1.0 2.0 0.5 0 0 0 0 0 1.5 host 1.5\n",
+            ranges(181)
+        ),
+        format!("FLASER 180 {} 1.0 2.0 0.5 1.1 2.1 0.6 2.0 host 2.0\n", ranges(180)),
+        format!(
+            "# gema2: poses are not ground truth\nROBOTLASER1 -1.5708 3.1416 0 81.9 0.01 0 4 1 2 3 4 2 7 8 1 1 0 1 \
+             1 0 0 0 0 0 0 3 h 3\nFLASER 3 1 2 3 0 0 0 0 0 0 4 h 4\n"
+        ),
+    ]
+    .into_iter()
+    .map(String::into_bytes)
+    .collect()
+}
+
+#[test]
+fn carmen_logs_never_panic_the_reader() {
+    let layouts = [
+        acquire::carmen::FlaserLayout::default(),
+        acquire::carmen::FlaserLayout { field_of_view: Some(4.0), start_angle: -2.0, ..Default::default() },
+    ];
+    fuzz("carmen", &carmen_seeds(), |bytes| {
+        for layout in layouts {
+            let reader = Box::new(Cursor::new(bytes.to_vec()));
+            for scan in
+                acquire::carmen::CarmenReader::from_reader(reader, Path::new("fuzz.log"), layout).take(64).flatten()
+            {
+                assert!(scan.scan.geometry.is_well_formed(), "an unusable layout was accepted");
+            }
+        }
+    });
+}
+
+#[test]
+fn urg_logs_never_panic_the_reader() {
+    let mut line = vec!["1500000".to_owned()];
+    line.extend((1..acquire::urg_log::FIRST_READING).map(|k| k.to_string()));
+    line.extend((0..acquire::urg_log::READINGS).map(|k| ((k * 37) % 4000).to_string()));
+    let line = line.join(" ");
+    let seeds = vec![format!("{line}\n{line}\n").into_bytes(), format!("\n{line}").into_bytes()];
+    fuzz("urg", &seeds, |bytes| {
+        let reader = Box::new(Cursor::new(bytes.to_vec()));
+        for scan in acquire::urg_log::UrgLogReader::from_reader(reader, Path::new("fuzz.dat")).take(8).flatten() {
+            assert!(scan.ranges.iter().all(|r| r.is_finite()), "a non-finite range was accepted");
+        }
+    });
+}
+
+#[test]
+fn wall_maps_never_panic_the_parser() {
+    let seeds: Vec<Vec<u8>> = map::bundled::BUNDLED.iter().map(|(_, text)| text.as_bytes().to_vec()).collect();
+    fuzz("map-json", &seeds, |bytes| {
+        let text = String::from_utf8_lossy(bytes);
+        if let Ok(m) = map::WallMap::parse(&text, Path::new("fuzz.json")) {
+            // what the parser accepts, the wire accepts too
+            assert!(map::map::check_walls(&m.walls).is_ok(), "a map the wall check refuses was accepted");
+        }
+    });
+}
+
+#[test]
+fn ros_maps_never_panic_the_parser_or_the_tracer() {
+    use mapio::ros::{MapMeta, OccupancyGrid, Pgm};
+    let yaml = b"image: map.pgm\nresolution: 0.05\norigin: [-1.0, -2.0, 0.0]\nnegate: 0\noccupied_thresh: 0.65\n\
+                 free_thresh: 0.196\nmode: trinary\n"
+        .to_vec();
+    // a room: a wall ring round free floor, 24 x 16 cells, as P5 and as P2
+    let (w, h) = (24usize, 16usize);
+    let shade = |x: usize, y: usize| if x == 0 || y == 0 || x == w - 1 || y == h - 1 { 0u8 } else { 254 };
+    let mut p5 = format!("P5\n# room\n{w} {h}\n255\n").into_bytes();
+    p5.extend((0..h).flat_map(|y| (0..w).map(move |x| shade(x, y))));
+    let p2 = format!(
+        "P2\n{w} {h}\n255\n{}\n",
+        (0..h)
+            .map(|y| (0..w).map(|x| shade(x, y).to_string()).collect::<Vec<_>>().join(" "))
+            .collect::<Vec<_>>()
+            .join("\n")
+    )
+    .into_bytes();
+    // one input holds both files: the YAML, a NUL, the image
+    let seeds: Vec<Vec<u8>> = [&p5, &p2].iter().map(|img| [yaml.as_slice(), b"\0", img.as_slice()].concat()).collect();
+    let trace = mapio::trace::TraceConfig::default();
+    fuzz("ros-map", &seeds, |bytes| {
+        let (text, image) = match bytes.iter().position(|&b| b == 0) {
+            Some(k) => (&bytes[..k], &bytes[k + 1..]),
+            None => (bytes, &[][..]),
+        };
+        let meta = MapMeta::parse(&String::from_utf8_lossy(text), Path::new("fuzz.yaml"));
+        let pgm = Pgm::parse(image, Path::new("fuzz.pgm"));
+        if let (Ok(meta), Ok(pgm)) = (meta, pgm) {
+            // traced only while small, as a fuzz input must stay cheap to run
+            if pgm.width * pgm.height <= 4096 {
+                if let Some(grid) = OccupancyGrid::from_image(&meta, &pgm) {
+                    let _ = grid.to_wall_map(&trace, None);
+                }
+            }
+        }
+    });
+}
+
+/// Reads canned bytes; writes vanish.
+struct Canned(Cursor<Vec<u8>>);
+
+impl std::io::Read for Canned {
+    fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+        self.0.read(buf)
+    }
+}
+
+impl std::io::Write for Canned {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        Ok(buf.len())
+    }
+    fn flush(&mut self) -> std::io::Result<()> {
+        Ok(())
+    }
+}
+
+#[test]
+fn scip_streams_never_panic_the_driver() {
+    use acquire::scip::codec::{checksum, data_lines, encode};
+    let status = |s: &[u8]| {
+        let mut l = s.to_vec();
+        l.push(checksum(s));
+        l.push(b'\n');
+        l
+    };
+    // the reply to MD, then two scans of 682 readings
+    let mut stream = b"MD0044072501000\n".to_vec();
+    stream.extend(status(b"00"));
+    stream.push(b'\n');
+    for scan in 0..2u32 {
+        stream.extend_from_slice(b"MD0044072501000\n");
+        stream.extend(status(b"99"));
+        let mut time = Vec::new();
+        encode(1000 + scan * 100, 4, &mut time);
+        stream.extend(status(&time));
+        let mut data = Vec::new();
+        for k in 0..682u32 {
+            encode(20 + (k * 13 + scan) % 4000, 3, &mut data);
+        }
+        data_lines(&data, &mut stream);
+        stream.push(b'\n');
+    }
+    fuzz("scip", &[stream], |bytes| {
+        let mut urg = acquire::scip::Urg::new(Canned(Cursor::new(bytes.to_vec())), Duration::from_millis(1));
+        if urg.start(acquire::scip::Encoding::Three, 44, 725, 1, 0).is_ok() {
+            for _ in 0..4 {
+                if urg.next_scan().is_err() {
+                    break;
+                }
+            }
+        }
+    });
+}
