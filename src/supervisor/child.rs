@@ -90,9 +90,10 @@ fn stop_with_supervisor(cmd: &mut Command) {
             if libc::prctl(libc::PR_SET_PDEATHSIG, libc::SIGTERM) != 0 {
                 return Err(std::io::Error::last_os_error());
             }
-            // the supervisor died before the prctl took effect
+            // the supervisor died before the prctl took effect. The error is an errno, not a
+            // message: building one allocates, which a forked child of a threaded process must not
             if libc::getppid() != supervisor {
-                return Err(std::io::Error::other("the supervisor is gone"));
+                return Err(std::io::Error::from_raw_os_error(libc::ESRCH));
             }
             Ok(())
         });

@@ -33,15 +33,29 @@ struct InspectArgs {
     per_scan: bool,
 }
 
+/// Prints `text` and a newline on stdout. A reader that stops early (`viewer inspect R.rrd |
+/// head -8`) ends the printing quietly, as it ends `ls`, instead of the panic `println!` gives
+/// on a broken pipe.
+fn print_until_the_reader_leaves(text: &str) -> Result<()> {
+    use std::io::Write;
+    let mut out = std::io::stdout().lock();
+    match out.write_all(text.as_bytes()).and_then(|_| out.write_all(b"\n")).and_then(|_| out.flush()) {
+        Err(e) if e.kind() != std::io::ErrorKind::BrokenPipe => Err(e.into()),
+        _ => Ok(()),
+    }
+}
+
 fn main() -> Result<()> {
     let cli = Cli::parse();
     match cli.command {
         Some(Command::Inspect(a)) => {
             let inspection = Inspection::read(&a.files)?;
-            println!("{}", inspection.render());
+            let mut text = inspection.render();
             if a.per_scan {
-                println!("{}", inspection.render_per_scan());
+                text.push('\n');
+                text.push_str(&inspection.render_per_scan());
             }
+            print_until_the_reader_leaves(&text)?;
             match inspection.damage.len() {
                 0 => Ok(()),
                 n => anyhow::bail!("{n} of {} parts damaged (see above)", a.files.len()),
