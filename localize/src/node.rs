@@ -11,8 +11,8 @@ use laser::{pose_theta, ScanView};
 use mapserver::wire::map_from_msg;
 use messages::iceoryx2::prelude::*;
 use messages::{
-    monotonic_ns, open_topic, CornersMsg, Freshness, HypothesisMsg, Look, MapMsg, Outlet, PoseMsg, PoseMsgXyt, Stage,
-    Topic, MAX_HYPOTHESES, STATUS_AMBIGUOUS, STATUS_FAILED, STATUS_OK,
+    monotonic_ns, CornersMsg, Freshness, HypothesisMsg, Inlet, Look, MapMsg, Outlet, PoseMsg, PoseMsgXyt, Stage, Topic,
+    MAX_HYPOTHESES, STATUS_AMBIGUOUS, STATUS_FAILED, STATUS_OK,
 };
 use segment::noise::usable_scale;
 use segment::sample::build_samples;
@@ -52,29 +52,19 @@ pub fn run(a: LocalizeArgs) -> Result<()> {
     config.apply(&a.set).context("localize: --set")?;
     a.stage.place()?;
     let node = messages::create_node("localize")?;
-    let corners = open_topic::<CornersMsg>(&node, &a.stage.prefix, Topic::Corners)?;
-    let map = open_topic::<MapMsg>(&node, &a.stage.prefix, Topic::Map)?;
-    let err = |what: &str, e: &dyn std::fmt::Debug| anyhow!("localize: {what}: {e:?}");
-    let corners_in = corners.data.subscriber_builder().create().map_err(|e| err(&corners.name, &e))?;
-    let corners_wake = corners.event.listener_builder().create().map_err(|e| err(&corners.name, &e))?;
-    let map_in = map.data.subscriber_builder().create().map_err(|e| err(&map.name, &e))?;
-    let map_wake = map.event.listener_builder().create().map_err(|e| err(&map.name, &e))?;
+    let corners = Inlet::<CornersMsg>::open(&node, &a.stage.prefix, Topic::Corners)?;
+    let map = Inlet::<MapMsg>::open(&node, &a.stage.prefix, Topic::Map)?;
     let mut pose_out =
         Outlet::<PoseMsg>::open(&node, &a.stage.prefix, Topic::Pose, BackpressureStrategy::RetryUntilDelivered)?;
-    let waitset = WaitSetBuilder::new().create::<ipc::Service>().map_err(|e| err("waitset", &e))?;
-    let woken_by_corners = waitset.attach_notification(&corners_wake).map_err(|e| err("waitset", &e))?;
-    let _woken_by_map = waitset.attach_notification(&map_wake).map_err(|e| err("waitset", &e))?;
-    // the map may already be waiting in history; a wake-up may be lost (MISSED_WAKEUP_POLL)
-    let _poll = waitset.attach_interval(messages::MISSED_WAKEUP_POLL).map_err(|e| err("waitset", &e))?;
 
     let mut state = Located::new(config);
     let mut failure: Option<anyhow::Error> = None;
-    let on_event = |id: WaitSetAttachmentId<ipc::Service>| {
+    let on_event = |woken: &[bool]| {
         // both queues in each pass (messages::Look)
-        let mut look = Look::new([&map_wake, &corners_wake], id.has_event_from(&woken_by_corners));
+        let mut look = Look::new([&map.listener, &corners.listener], woken[0]);
         while look.next_pass() {
             // the map: newest version wins
-            while let Ok(Some(m)) = map_in.receive() {
+            while let Ok(Some(m)) = map.subscriber.receive() {
                 // ready once there is a map to localize against
                 if state.take_map(&m) {
                     if let Err(e) = messages::announce_ready(&node, &a.stage.prefix) {
@@ -83,10 +73,10 @@ pub fn run(a: LocalizeArgs) -> Result<()> {
                 }
             }
             loop {
-                let taken = match look.receive(&corners_in) {
+                let taken = match look.receive(&corners.subscriber) {
                     Ok(Some((sample, enter))) => state.take(&sample, enter, &mut look, &mut pose_out),
                     Ok(None) => break,
-                    Err(e) => Err(anyhow!("{}: receive: {e:?}", corners.name)),
+                    Err(e) => Err(anyhow!("{}: receive: {e}", corners.name)),
                 };
                 if let Err(e) = taken {
                     failure = Some(e);
@@ -102,7 +92,9 @@ pub fn run(a: LocalizeArgs) -> Result<()> {
         }
         CallbackProgression::Continue
     };
-    messages::run_waitset(&node, &waitset, on_event).map_err(|e| err("waitset", &e))?;
+    // the map may already be waiting in history; a wake-up may be lost (MISSED_WAKEUP_POLL)
+    let listeners = [(corners.name.as_str(), &corners.listener), (map.name.as_str(), &map.listener)];
+    messages::run_stage(&node, &listeners, messages::MISSED_WAKEUP_POLL, on_event).context("localize")?;
     state.report(&pose_out);
     match failure {
         Some(e) => Err(e),

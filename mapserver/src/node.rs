@@ -3,7 +3,7 @@
 //! (inner angle and tolerance, optionally within a region), and reloads the map when its file
 //! (or a ROS map's image) changes or on SIGHUP, publishing a new version.
 
-use anyhow::{anyhow, bail, Context, Result};
+use anyhow::{bail, Context, Result};
 use clap::Args;
 use map::{CornerIndex, MapCornerConfig, WallMap};
 use mapio::load_map;
@@ -89,10 +89,10 @@ pub fn run(a: MapServerArgs) -> Result<()> {
     let mut stamp = modified(&a.map);
     let node = messages::create_node("mapserver")?;
     let topic = open_topic::<MapMsg>(&node, &a.stage.prefix, Topic::Map)?;
-    let publisher = topic.data.publisher_builder().create().map_err(|e| anyhow!("{}: publisher: {e:?}", topic.name))?;
-    let notifier = topic.event.notifier_builder().create().map_err(|e| anyhow!("{}: notifier: {e:?}", topic.name))?;
+    let publisher = topic.data.publisher_builder().create().with_context(|| format!("{}: publisher", topic.name))?;
+    let notifier = topic.event.notifier_builder().create().with_context(|| format!("{}: notifier", topic.name))?;
     let queries = open_corner_queries(&node, &a.stage.prefix)?;
-    let server = queries.server_builder().create().map_err(|e| anyhow!("corner queries: server: {e:?}"))?;
+    let server = queries.server_builder().create().context("corner queries: server")?;
     let mut version = 1u32;
     let send_map = |map: &WallMap, version: u32| {
         let mut written = Ok(());
@@ -112,12 +112,12 @@ pub fn run(a: MapServerArgs) -> Result<()> {
     );
     // queries and late joiners are served every few milliseconds; the data path never waits here
     while messages::sleep(&node, Duration::from_millis(5)) {
-        publisher.update_connections().map_err(|e| anyhow!("{}: {e:?}", topic.name))?;
-        while let Some(request) = server.receive().map_err(|e| anyhow!("corner queries: {e:?}"))? {
+        publisher.update_connections().with_context(|| topic.name.clone())?;
+        while let Some(request) = server.receive().context("corner queries")? {
             let q = *request.payload();
-            let response = request.loan_uninit().map_err(|e| anyhow!("corner queries: loan: {e:?}"))?;
+            let response = request.loan_uninit().context("corner queries: loan")?;
             let reply = corner_reply(&index, version, &q);
-            response.write_payload(reply).send().map_err(|e| anyhow!("corner queries: send: {e:?}"))?;
+            response.write_payload(reply).send().context("corner queries: send")?;
         }
         let changed = modified(&a.map);
         if RELOAD.swap(false, Ordering::Relaxed) || changed != stamp {

@@ -22,7 +22,7 @@
 //! that long before each measured wake-up, as the pipeline's warm-up does (`acquire
 //! --warm-up-us`): `$E raw 1 0 100` against `$E raw 1 0 100 200`.
 
-use anyhow::{anyhow, bail, Result};
+use anyhow::{anyhow, bail, Context, Result};
 use iceoryx2::prelude::*;
 use messages::*;
 use std::time::Duration;
@@ -149,8 +149,8 @@ fn send(node: &Node<ipc::Service>) -> Result<()> {
 
 fn listen(node: &Node<ipc::Service>, how: &str) -> Result<()> {
     let topic = open_topic::<ScanMsg>(node, PREFIX, Topic::Scan)?;
-    let sub = topic.data.subscriber_builder().create().map_err(|e| anyhow!("subscriber: {e:?}"))?;
-    let listener = topic.event.listener_builder().create().map_err(|e| anyhow!("listener: {e:?}"))?;
+    let sub = topic.data.subscriber_builder().create().context("subscriber")?;
+    let listener = topic.event.listener_builder().create().context("listener")?;
     let mut micros = Vec::with_capacity(SCANS);
     let take = |micros: &mut Vec<f64>| {
         while let Ok(Some(s)) = sub.receive() {
@@ -161,14 +161,14 @@ fn listen(node: &Node<ipc::Service>, how: &str) -> Result<()> {
     match how {
         "block" => {
             while micros.len() < SCANS {
-                listener.blocking_wait(|_| {}).map_err(|e| anyhow!("wait: {e:?}"))?;
+                listener.blocking_wait(|_| {}).context("wait")?;
                 take(&mut micros);
             }
         }
         "waitset" => {
-            let waitset = WaitSetBuilder::new().create::<ipc::Service>().map_err(|e| anyhow!("waitset: {e:?}"))?;
-            let _woken = waitset.attach_notification(&listener).map_err(|e| anyhow!("waitset: {e:?}"))?;
-            let _poll = waitset.attach_interval(MISSED_WAKEUP_POLL).map_err(|e| anyhow!("waitset: {e:?}"))?;
+            let waitset = WaitSetBuilder::new().create::<ipc::Service>().context("waitset")?;
+            let _woken = waitset.attach_notification(&listener).context("waitset")?;
+            let _poll = waitset.attach_interval(MISSED_WAKEUP_POLL).context("waitset")?;
             waitset
                 .wait_and_process(|_| {
                     let _ = listener.try_wait(|_| {});
@@ -179,7 +179,7 @@ fn listen(node: &Node<ipc::Service>, how: &str) -> Result<()> {
                         CallbackProgression::Continue
                     }
                 })
-                .map_err(|e| anyhow!("waitset: {e:?}"))?;
+                .context("waitset")?;
         }
         other => bail!("listen {other:?}: block or waitset"),
     }

@@ -11,6 +11,7 @@
 //! One job: the wire contract. Depends on iceoryx2, serde and nothing of the algorithm; every
 //! process depends on it, and no library algorithm does.
 
+mod inlet;
 mod outlet;
 mod payload;
 pub mod placement;
@@ -19,6 +20,7 @@ mod runtime;
 mod topic;
 mod waiting;
 
+pub use inlet::{run_stage, Inlet, WaitError, MAX_LISTENERS};
 pub use outlet::{Freshness, Outlet, SendError, CONNECT_PATIENCE, WARM_UP};
 pub use payload::*;
 pub use placement::pin_to_cpu;

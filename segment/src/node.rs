@@ -11,8 +11,8 @@ use anyhow::{anyhow, Context, Result};
 use clap::Args;
 use messages::iceoryx2::prelude::*;
 use messages::{
-    monotonic_ns, open_topic, CornersMsg, Freshness, Header, LinesMsg, Look, Outlet, ScanMsg, Stage, Topic,
-    MAX_CORNERS, MAX_LINES,
+    monotonic_ns, CornersMsg, Freshness, Header, Inlet, LinesMsg, Look, Outlet, ScanMsg, Stage, Topic, MAX_CORNERS,
+    MAX_LINES,
 };
 
 /// What the stage is, for its `--help` (its own program's and `gema2 stage segment`'s).
@@ -38,10 +38,7 @@ pub fn run(a: SegmentArgs) -> Result<()> {
     let segmenter = segmenter_by_name(&a.implementation, config)
         .ok_or_else(|| anyhow!("unknown segment implementation {:?}: one of {SEGMENTERS:?}", a.implementation))?;
     let node = messages::create_node(&format!("segment-{}", a.implementation))?;
-    let scans = open_topic::<ScanMsg>(&node, &a.stage.prefix, Topic::Scan)?;
-    let subscriber =
-        scans.data.subscriber_builder().create().map_err(|e| anyhow!("{}: subscriber: {e:?}", scans.name))?;
-    let listener = scans.event.listener_builder().create().map_err(|e| anyhow!("{}: listener: {e:?}", scans.name))?;
+    let scans = Inlet::<ScanMsg>::open(&node, &a.stage.prefix, Topic::Scan)?;
     // inner links wait for room rather than drop: a slow pipeline sheds load at its source
     let mut stage = Segmenting {
         segmenter,
@@ -51,19 +48,16 @@ pub fn run(a: SegmentArgs) -> Result<()> {
         lines_out: Outlet::open(&node, &a.stage.prefix, Topic::Lines, BackpressureStrategy::RetryUntilDelivered)?,
         corners_out: Outlet::open(&node, &a.stage.prefix, Topic::Corners, BackpressureStrategy::RetryUntilDelivered)?,
     };
-    let waitset = WaitSetBuilder::new().create::<ipc::Service>().map_err(|e| anyhow!("waitset: {e:?}"))?;
-    let woken_by_scans = waitset.attach_notification(&listener).map_err(|e| anyhow!("waitset: {e:?}"))?;
-    let _poll = waitset.attach_interval(messages::MISSED_WAKEUP_POLL).map_err(|e| anyhow!("waitset: {e:?}"))?;
     messages::announce_ready(&node, &a.stage.prefix)?;
     let mut failure: Option<anyhow::Error> = None;
-    let on_event = |id: WaitSetAttachmentId<ipc::Service>| {
-        let mut look = Look::new([&listener], id.has_event_from(&woken_by_scans));
+    let on_event = |woken: &[bool]| {
+        let mut look = Look::new([&scans.listener], woken[0]);
         while look.next_pass() {
             loop {
-                let taken = match look.receive(&subscriber) {
+                let taken = match look.receive(&scans.subscriber) {
                     Ok(Some((sample, enter))) => stage.take(&sample, enter, &mut look),
                     Ok(None) => break,
-                    Err(e) => Err(anyhow!("{}: receive: {e:?}", scans.name)),
+                    Err(e) => Err(anyhow!("{}: receive: {e}", scans.name)),
                 };
                 if let Err(e) = taken {
                     failure = Some(e);
@@ -79,7 +73,7 @@ pub fn run(a: SegmentArgs) -> Result<()> {
         }
         CallbackProgression::Continue
     };
-    messages::run_waitset(&node, &waitset, on_event).map_err(|e| anyhow!("waitset: {e:?}"))?;
+    messages::run_stage(&node, &[(&scans.name, &scans.listener)], messages::MISSED_WAKEUP_POLL, on_event)?;
     stage.report();
     match failure {
         Some(e) => Err(e),

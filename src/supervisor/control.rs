@@ -24,6 +24,6 @@ pub fn claim_prefix(control: &ControlService, prefix: &str) -> Result<ControlSer
         ServerCreateError::ExceedsMaxSupportedServers => {
             anyhow!("prefix {prefix:?} is in use by another `gema2 run`: give this one its own --prefix")
         }
-        e => anyhow!("control: {e:?}"),
+        e => anyhow::Error::from(e).context("control: server"),
     })
 }

@@ -5,10 +5,10 @@ use super::control::{claim_prefix, ControlServer};
 use super::monitor::Monitor;
 use super::pipeline::{set_arg, Kind, Pipeline, Restart, StageSpec, SupervisorSpec, EMBEDDED};
 use super::swap::{Swap, SwapOutcome};
-use anyhow::{anyhow, bail, Context, Result};
+use anyhow::{bail, Context, Result};
 use clap::Args;
 use messages::iceoryx2::prelude::*;
-use messages::{open_control, open_topic, ready_listener, Look, PoseMsg, Topic, MAX_INSTANCE};
+use messages::{open_control, ready_listener, Inlet, Look, PoseMsg, Topic, MAX_INSTANCE};
 use std::collections::HashSet;
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -115,9 +115,7 @@ pub fn run(a: RunArgs) -> Result<()> {
     let node = messages::create_node("supervisor")?;
     let control = open_control(&node, &a.prefix)?;
     let server = claim_prefix(&control, &a.prefix)?;
-    let poses = open_topic::<PoseMsg>(&node, &a.prefix, Topic::Pose)?;
-    let pose_in = poses.data.subscriber_builder().create().map_err(|e| anyhow!("{}: {e:?}", poses.name))?;
-    let pose_wake = poses.event.listener_builder().create().map_err(|e| anyhow!("{}: {e:?}", poses.name))?;
+    let poses = Inlet::<PoseMsg>::open(&node, &a.prefix, Topic::Pose)?;
     let ready = ready_listener(&node, &a.prefix)?;
 
     let mut instances = Instances(0);
@@ -127,20 +125,16 @@ pub fn run(a: RunArgs) -> Result<()> {
     let started = Instant::now();
     eprintln!("supervisor: {} stages running under prefix {}", stages.len(), a.prefix);
 
-    let waitset = WaitSetBuilder::new().create::<ipc::Service>().map_err(|e| anyhow!("waitset: {e:?}"))?;
-    let _pose_guard = waitset.attach_notification(&pose_wake).map_err(|e| anyhow!("waitset: {e:?}"))?;
-    let _ready_guard = waitset.attach_notification(&ready).map_err(|e| anyhow!("waitset: {e:?}"))?;
-    let _tick = waitset.attach_interval(Duration::from_millis(20)).map_err(|e| anyhow!("waitset: {e:?}"))?;
     let mut monitor = Monitor::default();
     let mut swap: Option<Swap> = None;
     let mut failure: Option<anyhow::Error> = None;
     let mut last_pose = Instant::now();
-    let on_event = |_: WaitSetAttachmentId<ipc::Service>| {
+    let on_event = |_: &[bool]| {
         // looked at on every wake, the tick too: a wake-up can be lost (MISSED_WAKEUP_POLL);
         // two passes, the listener drained in between (messages::Look)
-        let mut look = Look::new([&pose_wake], true);
+        let mut look = Look::new([&poses.listener], true);
         while look.next_pass() {
-            while let Ok(Some((p, taken))) = look.receive(&pose_in) {
+            while let Ok(Some((p, taken))) = look.receive(&poses.subscriber) {
                 monitor.record(&p, taken);
                 last_pose = Instant::now();
             }
@@ -166,11 +160,12 @@ pub fn run(a: RunArgs) -> Result<()> {
         }
         CallbackProgression::Continue
     };
-    let waited = messages::run_waitset(&node, &waitset, on_event);
+    let listeners = [(poses.name.as_str(), &poses.listener), ("the stages' readiness", &ready)];
+    let waited = messages::run_stage(&node, &listeners, Duration::from_millis(20), on_event);
     stop_all(&mut stages);
     drop(swap);
     messages::cleanup_dead_nodes();
-    waited.map_err(|e| anyhow!("waitset: {e:?}"))?;
+    waited?;
     if let Some(e) = failure {
         return Err(e);
     }

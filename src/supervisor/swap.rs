@@ -6,7 +6,7 @@
 use super::child::{spawn, stop, StageProcess};
 use super::control::ControlServer;
 use super::pipeline::Kind;
-use anyhow::{anyhow, Result};
+use anyhow::{anyhow, Context, Result};
 use clap::Args;
 use messages::iceoryx2::active_request::ActiveRequest;
 use messages::iceoryx2::prelude::*;
@@ -52,7 +52,7 @@ impl Swap {
         prefix: &str,
         instance: impl FnOnce() -> usize,
     ) -> Result<Option<Swap>> {
-        let Some(request) = server.receive().map_err(|e| anyhow!("control: {e:?}"))? else { return Ok(None) };
+        let Some(request) = server.receive().context("control")? else { return Ok(None) };
         let (name, implementation) =
             (name_str(&request.stage).to_owned(), name_str(&request.implementation).to_owned());
         let refuse = |why: String| -> Result<Option<Swap>> {
@@ -147,15 +147,15 @@ pub struct SwapArgs {
 pub fn request(a: SwapArgs) -> Result<()> {
     let node = messages::create_node("swap")?;
     let control = open_control(&node, &a.prefix)?;
-    let client = control.client_builder().create().map_err(|e| anyhow!("control: {e:?}"))?;
+    let client = control.client_builder().create().context("control")?;
     let req = ControlRequest { stage: name_bytes(&a.stage), implementation: name_bytes(&a.implementation) };
-    let pending = client.send_copy(req).map_err(|e| anyhow!("control: send: {e:?}"))?;
+    let pending = client.send_copy(req).context("control: send")?;
     if pending.number_of_server_connections() == 0 {
         anyhow::bail!("no gema2 run is serving {}/control", a.prefix);
     }
     let deadline = Instant::now() + Duration::from_secs(30);
     loop {
-        if let Some(r) = pending.receive().map_err(|e| anyhow!("control: {e:?}"))? {
+        if let Some(r) = pending.receive().context("control")? {
             let message = String::from_utf8_lossy(r.message.split(|&b| b == 0).next().unwrap_or(&[])).into_owned();
             if r.ok == 1 {
                 println!("{message}");

@@ -9,7 +9,7 @@ use clap::Args;
 use messages::iceoryx2::port::listener::Listener;
 use messages::iceoryx2::port::subscriber::Subscriber;
 use messages::iceoryx2::prelude::*;
-use messages::{open_topic, CornersMsg, LinesMsg, MapMsg, PoseMsg, ScanMsg, Topic};
+use messages::{CornersMsg, LinesMsg, MapMsg, PoseMsg, ScanMsg, Topic};
 use rerun::components::TextLogLevel;
 use std::fmt::Debug;
 use std::path::PathBuf;
@@ -63,10 +63,8 @@ fn subscribe<T: Debug + ZeroCopySend + 'static>(
     prefix: &str,
     topic: Topic,
 ) -> Result<TopicSubscription<T>> {
-    let ports = open_topic::<T>(node, prefix, topic)?;
-    let data = ports.data.subscriber_builder().create().map_err(|e| anyhow!("{}: subscriber: {e:?}", ports.name))?;
-    let wake = ports.event.listener_builder().create().map_err(|e| anyhow!("{}: listener: {e:?}", ports.name))?;
-    Ok(TopicSubscription { name: ports.name, data, wake })
+    let inlet = messages::Inlet::<T>::open(node, prefix, topic)?;
+    Ok(TopicSubscription { name: inlet.name, data: inlet.subscriber, wake: inlet.listener })
 }
 
 /// A subscription to every topic. Built by matching on each [`Topic`], so a new topic does not
@@ -113,8 +111,14 @@ impl Subscriptions {
             .collect()
     }
 
-    fn listeners(&self) -> [&Listener<ipc::Service>; 5] {
-        [&self.scan.wake, &self.lines.wake, &self.corners.wake, &self.pose.wake, &self.map.wake]
+    fn listeners(&self) -> [(&str, &Listener<ipc::Service>); 5] {
+        [
+            (&self.scan.name, &self.scan.wake),
+            (&self.lines.name, &self.lines.wake),
+            (&self.corners.name, &self.corners.wake),
+            (&self.pose.name, &self.pose.wake),
+            (&self.map.name, &self.map.wake),
+        ]
     }
 
     /// Records everything queued, in pipeline order (map, scans, lines, corners, poses), so a
@@ -123,7 +127,7 @@ impl Subscriptions {
     /// the earlier topics are drained again (cheap when empty). Errors of the recording itself
     /// end the run.
     pub fn drain(&self, recorder: &mut Recorder) -> Result<()> {
-        for l in self.listeners() {
+        for (_, l) in self.listeners() {
             let _ = l.try_wait(|_| {});
         }
         fn each<T: Debug + ZeroCopySend>(
@@ -134,7 +138,7 @@ impl Subscriptions {
                 match s.data.receive() {
                     Ok(Some(sample)) => f(&sample).with_context(|| format!("recording {}", s.name))?,
                     Ok(None) => return Ok(()),
-                    Err(e) => return Err(anyhow!("{}: receive: {e:?}", s.name)),
+                    Err(e) => return Err(anyhow!("{}: receive: {e}", s.name)),
                 }
             }
         }
@@ -152,7 +156,7 @@ impl Subscriptions {
                     recorder.pose(&pose).with_context(|| format!("recording {}", self.pose.name))?;
                 }
                 Ok(None) => return Ok(()),
-                Err(e) => return Err(anyhow!("{}: receive: {e:?}", self.pose.name)),
+                Err(e) => return Err(anyhow!("{}: receive: {e}", self.pose.name)),
             }
         }
     }
@@ -174,13 +178,6 @@ pub fn run(a: RecordArgs) -> Result<Counts> {
     let mut recorder = Recorder::new(output);
     let node = messages::create_node("viewer")?;
     let subs = Subscriptions::open(&node, &a.stage.prefix)?;
-    let waitset = WaitSetBuilder::new().create::<ipc::Service>().map_err(|e| anyhow!("waitset: {e:?}"))?;
-    let mut guards = Vec::new();
-    for l in subs.listeners() {
-        guards.push(waitset.attach_notification(l).map_err(|e| anyhow!("waitset: {e:?}"))?);
-    }
-    // the map waits in history without an event; late samples are picked up on the tick too
-    let _tick = waitset.attach_interval(Duration::from_millis(200)).map_err(|e| anyhow!("waitset: {e:?}"))?;
     messages::announce_ready(&node, &a.stage.prefix)?;
     eprintln!("viewer: recording {} to {}", a.stage.prefix, describe(&a));
     if let Some(c) = a.connect.as_deref() {
@@ -192,17 +189,20 @@ pub fn run(a: RecordArgs) -> Result<Counts> {
         }
     }
     let mut failure = None;
-    let waited = messages::run_waitset(&node, &waitset, |_| match subs.drain(&mut recorder) {
-        Ok(()) => CallbackProgression::Continue,
-        Err(e) => {
-            failure = Some(e);
-            CallbackProgression::Stop
+    // the map waits in history without an event; late samples are picked up on the tick too
+    let waited = messages::run_stage(&node, &subs.listeners(), Duration::from_millis(200), |_| {
+        match subs.drain(&mut recorder) {
+            Ok(()) => CallbackProgression::Continue,
+            Err(e) => {
+                failure = Some(e);
+                CallbackProgression::Stop
+            }
         }
     });
     // stopped (signal or error): keep what is still queued, then close the file
     let last = subs.drain(&mut recorder);
     if let Err(e) = &waited {
-        let _ = recorder.note(TextLogLevel::ERROR, format!("viewer: waitset: {e:?}"));
+        let _ = recorder.note(TextLogLevel::ERROR, format!("viewer: {e}"));
     }
     let (counts, parts, closed) = recorder.finish_keeping();
     eprintln!("viewer: stopped\n{}", counts.render());
@@ -210,7 +210,7 @@ pub fn run(a: RecordArgs) -> Result<Counts> {
         eprintln!("viewer: wrote {}", p.display());
     }
     closed?;
-    waited.map_err(|e| anyhow!("waitset: {e:?}"))?;
+    waited?;
     if let Some(e) = failure {
         return Err(e);
     }
