@@ -52,6 +52,8 @@ enum Command {
     Demo(cmd::demo::DemoArgs),
     /// Time each stage per scan and print how locate scales with beams and map walls.
     Bench(cmd::bench::BenchArgs),
+    /// Every key `--set` takes, with its default, range and meaning, grouped by stage.
+    Settings(cmd::settings::SettingsArgs),
     /// Success over a suite of simulated logs (bundled and generated maps, every scenario) and
     /// optionally real logs: the README's accuracy figures from one command.
     Evaluate(cmd::evaluate::EvaluateArgs),
@@ -94,6 +96,7 @@ fn main() -> anyhow::Result<()> {
         Some(Command::Bench(a)) => cmd::bench::run_bench(a),
         Some(Command::Demo(a)) => cmd::demo::run(a),
         Some(Command::Evaluate(a)) => cmd::evaluate::run(a),
+        Some(Command::Settings(a)) => cmd::settings::run(a),
         Some(Command::Run(a)) => supervisor::run(a),
         Some(Command::EmulateUrg(a)) => cmd::emulate::run(a),
         Some(Command::Lines(a)) => cmd::lines::run(a),

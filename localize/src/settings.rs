@@ -4,178 +4,507 @@
 use crate::gema2::Gema2Config;
 use crate::localizer::LocalizerConfig;
 use crate::CostKind;
+use map::MapCornerConfig;
+use segment::setting;
+use segment::settings::{set_by_table, Range, SettingSpec};
 use segment::{SegmenterConfig, Setting, SettingError};
 
+/// One settable key as `gema2 settings` lists it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SettingRow {
+    /// The stage whose parameter it is: `segment`, `localize`, or `segment, localize` for a
+    /// key both take (they must agree on it).
+    pub stage: &'static str,
+    pub key: &'static str,
+    pub default: String,
+    pub range: &'static str,
+    pub meaning: &'static str,
+}
+
 impl LocalizerConfig {
-    /// The keys [`set`](Self::set) knows.
-    pub const SETTINGS: &'static [&'static str] = &[
-        "thorough (1: widen every search budget, for when time is no object)",
-        "corners",
-        "screen_points",
-        "prescreen_step",
-        "prescreened",
-        "screen_cap",
-        "screen_behind (1: off)",
-        "screen_open (1: off)",
-        "screen_long_line",
-        "screened",
-        "refined",
-        "refine_points",
-        "refine_iterations",
-        "polish_points (0: no polish)",
-        "polish_margin",
-        "polish_iterations",
-        "first_corners (0: no first look)",
-        "first_prescreened",
-        "first_screened",
-        "first_refined",
-        "first_inliers",
-        "first_through",
-        "coarse_beams",
-        "coarse_sigma",
-        "sparse_beams",
-        "sparse_kept",
-        "arm_slack",
-        "map_sigma (a floor on the map's accuracy)",
-        "cost_stride",
-        "front_cap",
-        "through_cap",
-        "grazing_cap (1: off)",
-        "clutter_share (1: off)",
-        "clutter_min",
-        "clutter_reach",
-        "paper_cost (1: eq. 7 as printed)",
-        "surface_dropouts (0: never skip missing returns)",
-        "inside_only (0: also make hypotheses outside a closed outline)",
-        "ambiguity",
-        "cornerless_tie",
-        "min_inliers",
-        "max_through",
-        "max_through_approximate (for maps with a sigma of 5 cm or more)",
-        "front_cap_approximate (for maps with a sigma of 5 cm or more)",
-        "clutter_share_approximate (for maps with a sigma of 5 cm or more; 1: off)",
-        "max_through_ok",
-        "track (metres; 0: always global)",
-        "slide_lines",
-        "slide_min_length",
-        "slide_min_wall",
-        "slide_step",
-        "slide_slack",
-        "slide_shorter (a fraction of the line's length; above 1: off)",
-        "slide_screened",
-        "slide_max_poses",
-        "slide_sigma_deg",
-        "slide_loose_sigma_deg (at most slide_sigma_deg: no loose slide)",
-        "slide_loose_lines (0: no loose slide)",
-        "slide_min_inliers_ok",
-        "escalate_through (a fraction of the beams; 1: never search wider)",
-        "escalate_min_beams",
-        "grid_headings (0: no grid search)",
-        "grid_step",
-        "grid_max_poses",
-        "grid_prescreened",
-        "grid_screened",
-        "error_constant",
-        "error_proportional",
+    /// Every localization parameter settable by name.
+    pub const SETTINGS: &'static [SettingSpec<LocalizerConfig>] = &[
+        SettingSpec {
+            key: "thorough",
+            range: Range::Switch,
+            meaning: "widen every search budget, for when time is no object",
+            get: |_| 0.0,
+            put: |c, v| {
+                if v != 0.0 {
+                    *c = c.thorough();
+                }
+            },
+        },
+        setting!(
+            LocalizerConfig,
+            "corners",
+            Range::Count,
+            "scan corners matched per scan, best first (eq. 4 order)",
+            corners_tried
+        ),
+        setting!(
+            LocalizerConfig,
+            "screen_points",
+            Range::Count,
+            "scan points that screen each hypothesis against the distance field",
+            screen_points
+        ),
+        setting!(
+            LocalizerConfig,
+            "prescreen_step",
+            Range::Step,
+            "the first screening pass reads one point in this many",
+            prescreen_step
+        ),
+        setting!(
+            LocalizerConfig,
+            "prescreened",
+            Range::Count,
+            "candidates kept by the first screening pass",
+            prescreened
+        ),
+        setting!(
+            LocalizerConfig,
+            "screen_cap",
+            Range::Positive,
+            "distance from the walls beyond which a screened point is unexplained, metres",
+            screen_cap
+        ),
+        setting!(
+            LocalizerConfig,
+            "screen_behind",
+            Range::Within(1.0, f64::INFINITY, "at least 1 (1: off)"),
+            "cost of a screened point behind a closed outline, in caps squared (1: off)",
+            screen_behind
+        ),
+        setting!(
+            LocalizerConfig,
+            "screen_open",
+            Range::Within(1.0, f64::INFINITY, "at least 1 (1: off)"),
+            "cost of a long line's point out in open floor, in caps squared (1: off)",
+            screen_open
+        ),
+        setting!(
+            LocalizerConfig,
+            "screen_long_line",
+            Range::NonNegative,
+            "a scan line at least this long counts for screen_open, metres",
+            screen_long_line
+        ),
+        setting!(
+            LocalizerConfig,
+            "screened",
+            Range::Count,
+            "hypotheses kept by the screen and costed coarsely",
+            screened
+        ),
+        setting!(
+            LocalizerConfig,
+            "refined",
+            Range::Count,
+            "hypotheses kept by the coarse cost, refined and costed in full (eq. 7)",
+            refined
+        ),
+        setting!(LocalizerConfig, "refine_points", Range::Count, "scan points used by refinement", refine_points),
+        setting!(LocalizerConfig, "refine_iterations", Range::Count, "iterations of refinement", refine.iterations),
+        setting!(
+            LocalizerConfig,
+            "polish_points",
+            Range::Count,
+            "scan points of the polish of close rivals (0: no polish)",
+            polish_points
+        ),
+        setting!(
+            LocalizerConfig,
+            "polish_margin",
+            Range::NonNegative,
+            "rivals within this cost per beam of the best are polished",
+            polish_margin
+        ),
+        setting!(LocalizerConfig, "polish_iterations", Range::Count, "iterations of the polish", polish_iterations),
+        setting!(
+            LocalizerConfig,
+            "first_corners",
+            Range::Count,
+            "scan corners of the cheap first look (0: no first look)",
+            first_look.corners
+        ),
+        setting!(
+            LocalizerConfig,
+            "first_prescreened",
+            Range::Count,
+            "first look: candidates kept by the first screening pass",
+            first_look.prescreened
+        ),
+        setting!(
+            LocalizerConfig,
+            "first_screened",
+            Range::Count,
+            "first look: hypotheses kept by the screen",
+            first_look.screened
+        ),
+        setting!(LocalizerConfig, "first_refined", Range::Count, "first look: hypotheses refined", first_look.refined),
+        setting!(
+            LocalizerConfig,
+            "first_inliers",
+            Range::Fraction,
+            "first look: fewest beams agreeing with the map to confirm its pose",
+            first_look.min_inliers
+        ),
+        setting!(
+            LocalizerConfig,
+            "first_through",
+            Range::Fraction,
+            "first look: most beams through walls to confirm its pose",
+            first_look.max_through
+        ),
+        setting!(LocalizerConfig, "coarse_beams", Range::Count, "beams of the coarse cost", coarse_beams),
+        setting!(
+            LocalizerConfig,
+            "coarse_sigma",
+            Range::Positive,
+            "noise floor of the coarse cost, metres",
+            coarse_sigma
+        ),
+        setting!(
+            LocalizerConfig,
+            "sparse_beams",
+            Range::Count,
+            "beams of the sparse cost that thins many screened hypotheses",
+            sparse_beams
+        ),
+        setting!(LocalizerConfig, "sparse_kept", Range::Count, "hypotheses the sparse cost keeps", sparse_kept),
+        setting!(LocalizerConfig, "arm_slack", Range::NonNegative, "slack of the arm fit test, metres", arm_slack),
+        setting!(
+            LocalizerConfig,
+            "map_sigma",
+            Range::NonNegative,
+            "a floor on the map's accuracy, metres",
+            cost.sigma_floor
+        ),
+        setting!(LocalizerConfig, "cost_stride", Range::Step, "eq. 7 reads every this many beams", cost.stride),
+        setting!(
+            LocalizerConfig,
+            "front_cap",
+            Range::NonNegative,
+            "cap of a residual in front of a wall, squared standard deviations",
+            cost.front_cap
+        ),
+        setting!(
+            LocalizerConfig,
+            "through_cap",
+            Range::NonNegative,
+            "cap of a residual behind a wall or a missing return",
+            cost.through_cap
+        ),
+        setting!(
+            LocalizerConfig,
+            "grazing_cap",
+            Range::Within(1.0, f64::INFINITY, "at least 1 (1: off)"),
+            "cap of a residual across a wall seen at a grazing angle (1: off)",
+            cost.grazing_cap
+        ),
+        setting!(
+            LocalizerConfig,
+            "clutter_share",
+            Range::Within(0.0, 1.0, "from 0 to 1 (1: off)"),
+            "cap of a reading short of the wall by furniture's depth, share of front_cap (1: off)",
+            cost.clutter_share
+        ),
+        setting!(
+            LocalizerConfig,
+            "clutter_min",
+            Range::NonNegative,
+            "less than this short of a wall is misalignment, not furniture, metres",
+            cost.clutter_min
+        ),
+        setting!(
+            LocalizerConfig,
+            "clutter_reach",
+            Range::Within(0.0, 1.3, "from 0 to 1.3 metres"),
+            "how far from a wall furniture reaches, metres",
+            cost.clutter_reach
+        ),
+        SettingSpec {
+            key: "paper_cost",
+            range: Range::Switch,
+            meaning: "eq. 7 as printed, two-sided (1), or the one-sided cost (0)",
+            get: |c| f64::from(u8::from(c.cost.kind == CostKind::Paper)),
+            put: |c, v| c.cost.kind = if v != 0.0 { CostKind::Paper } else { CostKind::OneSided },
+        },
+        setting!(
+            LocalizerConfig,
+            "surface_dropouts",
+            Range::Count,
+            "missing returns on surfaces that make a sensor read no return as unknown (0: never)",
+            surface_dropouts
+        ),
+        setting!(
+            LocalizerConfig,
+            "inside_only",
+            Range::Switch,
+            "never answer with a pose outside a closed building or the surveyed free space",
+            inside_only
+        ),
+        setting!(
+            LocalizerConfig,
+            "ambiguity",
+            Range::NonNegative,
+            "the best pose is ambiguous when a distinct rival costs less than this much more per beam",
+            ambiguity_margin
+        ),
+        setting!(
+            LocalizerConfig,
+            "cornerless_tie",
+            Range::NonNegative,
+            "in a scan with no corner, a pose slid along the wall ties within this cost",
+            cornerless_tie
+        ),
+        setting!(
+            LocalizerConfig,
+            "min_inliers",
+            Range::Fraction,
+            "the best pose fails with fewer beams than this agreeing with the map",
+            min_inliers
+        ),
+        setting!(
+            LocalizerConfig,
+            "max_through",
+            Range::Fraction,
+            "the best pose fails with more beams than this through walls",
+            max_through
+        ),
+        setting!(
+            LocalizerConfig,
+            "max_through_approximate",
+            Range::Fraction,
+            "max_through for maps with a sigma of 5 cm or more",
+            max_through_approximate
+        ),
+        setting!(
+            LocalizerConfig,
+            "front_cap_approximate",
+            Range::NonNegative,
+            "front_cap for maps with a sigma of 5 cm or more",
+            front_cap_approximate
+        ),
+        setting!(
+            LocalizerConfig,
+            "clutter_share_approximate",
+            Range::Within(0.0, 1.0, "from 0 to 1 (1: off)"),
+            "clutter_share for maps with a sigma of 5 cm or more (1: off)",
+            clutter_share_approximate
+        ),
+        setting!(
+            LocalizerConfig,
+            "max_through_ok",
+            Range::Fraction,
+            "a pose with more beams than this through walls is at best ambiguous",
+            max_through_ok
+        ),
+        SettingSpec {
+            key: "track",
+            range: Range::NonNegative,
+            meaning: "search only within this distance of the last pose, metres (0: always global)",
+            get: |c| c.track_radius.unwrap_or(0.0),
+            put: |c, v| c.track_radius = Some(v).filter(|&r| r > 0.0),
+        },
+        setting!(
+            LocalizerConfig,
+            "slide_lines",
+            Range::Count,
+            "slide: the scan's longest lines laid along map walls",
+            slide.lines
+        ),
+        setting!(
+            LocalizerConfig,
+            "slide_min_length",
+            Range::NonNegative,
+            "slide: shortest line used, metres",
+            slide.min_length
+        ),
+        setting!(
+            LocalizerConfig,
+            "slide_min_wall",
+            Range::NonNegative,
+            "slide: shortest wall a longer line is laid over, metres",
+            slide.min_wall
+        ),
+        setting!(
+            LocalizerConfig,
+            "slide_step",
+            Range::Positive,
+            "slide: distance between positions along a wall, metres",
+            slide.step
+        ),
+        setting!(
+            LocalizerConfig,
+            "slide_slack",
+            Range::NonNegative,
+            "slide: how far a line may reach past a wall's ends, metres",
+            slide.slack
+        ),
+        setting!(
+            LocalizerConfig,
+            "slide_shorter",
+            Range::NonNegative,
+            "slide: a shorter wall is used when at least this share of the line (above 1: off)",
+            slide.shorter_walls
+        ),
+        setting!(
+            LocalizerConfig,
+            "slide_screened",
+            Range::Count,
+            "slide: candidates kept by the screen",
+            slide.screened
+        ),
+        setting!(LocalizerConfig, "slide_max_poses", Range::Count, "slide: most poses made per scan", slide.max_poses),
+        setting!(
+            LocalizerConfig,
+            "slide_sigma_deg",
+            Range::Degrees,
+            "slide: largest direction uncertainty of a line used",
+            slide.max_direction_sigma
+        ),
+        setting!(
+            LocalizerConfig,
+            "slide_loose_sigma_deg",
+            Range::Degrees,
+            "loose slide: largest direction uncertainty (at most slide_sigma_deg: no loose slide)",
+            slide.loose_direction_sigma
+        ),
+        setting!(
+            LocalizerConfig,
+            "slide_loose_lines",
+            Range::Count,
+            "loose slide: lines used (0: no loose slide)",
+            slide.loose_lines
+        ),
+        setting!(
+            LocalizerConfig,
+            "slide_min_inliers_ok",
+            Range::Fraction,
+            "slide: fewest beams agreeing with the map for an ok pose",
+            slide.min_inliers_ok
+        ),
+        setting!(
+            LocalizerConfig,
+            "escalate_through",
+            Range::Fraction,
+            "search wider when the best pose sees through walls with more than this share of beams (1: never)",
+            escalate_through
+        ),
+        setting!(
+            LocalizerConfig,
+            "escalate_min_beams",
+            Range::Count,
+            "...and with at least this many beams",
+            escalate_min_beams
+        ),
+        setting!(
+            LocalizerConfig,
+            "grid_headings",
+            Range::Count,
+            "grid search: most headings tried (0: no grid search)",
+            grid.headings
+        ),
+        setting!(
+            LocalizerConfig,
+            "grid_step",
+            Range::Positive,
+            "grid search: distance between positions, metres",
+            grid.step
+        ),
+        setting!(LocalizerConfig, "grid_max_poses", Range::Count, "grid search: most poses made", grid.max_poses),
+        setting!(
+            LocalizerConfig,
+            "grid_prescreened",
+            Range::Count,
+            "grid search: candidates kept by the first screening pass",
+            grid.prescreened
+        ),
+        setting!(
+            LocalizerConfig,
+            "grid_screened",
+            Range::Count,
+            "grid search: hypotheses kept by the screen",
+            grid.screened
+        ),
+        setting!(
+            LocalizerConfig,
+            "error_constant",
+            Range::Positive,
+            "e(d): the sensor's constant error, metres (eqs. 1-2)",
+            error.constant
+        ),
+        setting!(
+            LocalizerConfig,
+            "error_proportional",
+            Range::NonNegative,
+            "e(d): the sensor's error per metre of range (0.01 = 1 %)",
+            error.proportional
+        ),
     ];
 
     /// Applies `s` when it names a localization parameter: `Ok(true)`; `Ok(false)` when it
     /// names none.
     pub fn set(&mut self, s: &Setting<'_>) -> Result<bool, SettingError> {
-        match s.key {
-            "thorough" => {
-                if s.switch() {
-                    *self = self.thorough();
-                }
-            }
-            "corners" => self.corners_tried = s.count()?,
-            "screen_points" => self.screen_points = s.count()?,
-            "prescreen_step" => self.prescreen_step = s.step()?,
-            "prescreened" => self.prescreened = s.count()?,
-            "screen_cap" => self.screen_cap = s.positive()?,
-            "screen_behind" => self.screen_behind = s.within(1.0, f64::INFINITY, "at least 1 (1: off)")?,
-            "screen_open" => self.screen_open = s.within(1.0, f64::INFINITY, "at least 1 (1: off)")?,
-            "screen_long_line" => self.screen_long_line = s.non_negative()?,
-            "screened" => self.screened = s.count()?,
-            "refined" => self.refined = s.count()?,
-            "refine_points" => self.refine_points = s.count()?,
-            "refine_iterations" => self.refine.iterations = s.count()?,
-            "polish_points" => self.polish_points = s.count()?,
-            "polish_margin" => self.polish_margin = s.non_negative()?,
-            "polish_iterations" => self.polish_iterations = s.count()?,
-            "first_corners" => self.first_look.corners = s.count()?,
-            "first_prescreened" => self.first_look.prescreened = s.count()?,
-            "first_screened" => self.first_look.screened = s.count()?,
-            "first_refined" => self.first_look.refined = s.count()?,
-            "first_inliers" => self.first_look.min_inliers = s.fraction()?,
-            "first_through" => self.first_look.max_through = s.fraction()?,
-            "coarse_beams" => self.coarse_beams = s.count()?,
-            "coarse_sigma" => self.coarse_sigma = s.positive()?,
-            "sparse_beams" => self.sparse_beams = s.count()?,
-            "sparse_kept" => self.sparse_kept = s.count()?,
-            "arm_slack" => self.arm_slack = s.non_negative()?,
-            "map_sigma" => self.cost.sigma_floor = s.non_negative()?,
-            "cost_stride" => self.cost.stride = s.step()?,
-            "front_cap" => self.cost.front_cap = s.non_negative()?,
-            "through_cap" => self.cost.through_cap = s.non_negative()?,
-            "grazing_cap" => self.cost.grazing_cap = s.within(1.0, f64::INFINITY, "at least 1 (1: off)")?,
-            "clutter_share" => self.cost.clutter_share = s.within(0.0, 1.0, "from 0 to 1 (1: off)")?,
-            "clutter_min" => self.cost.clutter_min = s.non_negative()?,
-            "clutter_reach" => self.cost.clutter_reach = s.within(0.0, 1.3, "from 0 to 1.3 metres")?,
-            "paper_cost" => self.cost.kind = if s.switch() { CostKind::Paper } else { CostKind::OneSided },
-            "surface_dropouts" => self.surface_dropouts = s.count()?,
-            "inside_only" => self.inside_only = s.switch(),
-            "ambiguity" => self.ambiguity_margin = s.non_negative()?,
-            "cornerless_tie" => self.cornerless_tie = s.non_negative()?,
-            "min_inliers" => self.min_inliers = s.fraction()?,
-            "max_through" => self.max_through = s.fraction()?,
-            "max_through_approximate" => self.max_through_approximate = s.fraction()?,
-            "front_cap_approximate" => self.front_cap_approximate = s.non_negative()?,
-            "clutter_share_approximate" => {
-                self.clutter_share_approximate = s.within(0.0, 1.0, "from 0 to 1 (1: off)")?
-            }
-            "max_through_ok" => self.max_through_ok = s.fraction()?,
-            "track" => self.track_radius = Some(s.non_negative()?).filter(|&r| r > 0.0),
-            "slide_lines" => self.slide.lines = s.count()?,
-            "slide_min_length" => self.slide.min_length = s.non_negative()?,
-            "slide_min_wall" => self.slide.min_wall = s.non_negative()?,
-            "slide_step" => self.slide.step = s.positive()?,
-            "slide_slack" => self.slide.slack = s.non_negative()?,
-            "slide_shorter" => self.slide.shorter_walls = s.non_negative()?,
-            "slide_screened" => self.slide.screened = s.count()?,
-            "slide_max_poses" => self.slide.max_poses = s.count()?,
-            "slide_sigma_deg" => self.slide.max_direction_sigma = s.degrees()?,
-            "slide_loose_sigma_deg" => self.slide.loose_direction_sigma = s.degrees()?,
-            "slide_loose_lines" => self.slide.loose_lines = s.count()?,
-            "slide_min_inliers_ok" => self.slide.min_inliers_ok = s.fraction()?,
-            "escalate_through" => self.escalate_through = s.fraction()?,
-            "escalate_min_beams" => self.escalate_min_beams = s.count()?,
-            "grid_headings" => self.grid.headings = s.count()?,
-            "grid_step" => self.grid.step = s.positive()?,
-            "grid_max_poses" => self.grid.max_poses = s.count()?,
-            "grid_prescreened" => self.grid.prescreened = s.count()?,
-            "grid_screened" => self.grid.screened = s.count()?,
-            "error_constant" => self.error.constant = s.positive()?,
-            "error_proportional" => self.error.proportional = s.non_negative()?,
-            _ => return Ok(false),
-        }
-        Ok(true)
+        set_by_table(Self::SETTINGS, self, s)
     }
 }
 
 impl Gema2Config {
-    /// The map-corner keys [`set`](Self::set) knows besides the segmenter's and localizer's.
-    pub const MAP_SETTINGS: &'static [&'static str] = &["map_reach", "wall_ends (0 or 1)"];
+    /// The map-corner parameters settable by name (the corners the localizer matches).
+    pub const MAP_SETTINGS: &'static [SettingSpec<MapCornerConfig>] = &[
+        setting!(
+            MapCornerConfig,
+            "map_reach",
+            Range::NonNegative,
+            "how far a map corner's junction may lie beyond a wall's end, metres",
+            reach
+        ),
+        setting!(
+            MapCornerConfig,
+            "wall_ends",
+            Range::Switch,
+            "also match wall ends, ranked with the corners",
+            wall_ends
+        ),
+    ];
 
-    /// Every key [`set`](Self::set) knows, with what a value means where that is not plain.
-    pub fn settings() -> Vec<&'static str> {
-        let mut all: Vec<&str> = Vec::new();
-        for &k in SegmenterConfig::SETTINGS.iter().chain(LocalizerConfig::SETTINGS).chain(Self::MAP_SETTINGS) {
-            if !all.contains(&k) {
-                all.push(k);
+    /// Every key [`set`](Self::set) knows.
+    pub fn keys() -> impl Iterator<Item = &'static str> + Clone {
+        let segment = SegmenterConfig::SETTINGS.iter().map(|s| s.key);
+        let localize = LocalizerConfig::SETTINGS.iter().map(|s| s.key);
+        segment.chain(localize).chain(Self::MAP_SETTINGS.iter().map(|s| s.key))
+    }
+
+    /// Every key with its value in `self`, its range and meaning, grouped by stage; a key
+    /// several configurations take is listed once.
+    pub fn rows(&self) -> Vec<SettingRow> {
+        let in_localize = |key: &str| {
+            LocalizerConfig::SETTINGS.iter().any(|s| s.key == key) || Self::MAP_SETTINGS.iter().any(|s| s.key == key)
+        };
+        let mut rows: Vec<SettingRow> = SegmenterConfig::SETTINGS
+            .iter()
+            .map(|s| SettingRow {
+                stage: if in_localize(s.key) { "segment, localize" } else { "segment" },
+                key: s.key,
+                default: s.shown(&self.segmenter),
+                range: s.range.describe(),
+                meaning: s.meaning,
+            })
+            .collect();
+        let localize = LocalizerConfig::SETTINGS.iter().map(|s| (s.key, s.shown(&self.localizer), s.range, s.meaning));
+        let map = Self::MAP_SETTINGS.iter().map(|s| (s.key, s.shown(&self.map_corners), s.range, s.meaning));
+        for (key, default, range, meaning) in localize.chain(map) {
+            if !rows.iter().any(|r| r.key == key) {
+                rows.push(SettingRow { stage: "localize", key, default, range: range.describe(), meaning });
             }
         }
-        all
+        // one group per stage: a shared key between the two stages' own
+        rows.sort_by_key(|r| ["segment", "segment, localize", "localize"].iter().position(|&s| s == r.stage));
+        rows
     }
 
     /// Applies `s` to every configuration it concerns: a key shared by segmentation and
@@ -183,13 +512,11 @@ impl Gema2Config {
     pub fn set(&mut self, s: &Setting<'_>) -> Result<(), SettingError> {
         let mut known = self.segmenter.set(s)?;
         known |= self.localizer.set(s)?;
-        match s.key {
-            "map_reach" => self.map_corners.reach = s.non_negative()?,
-            "wall_ends" => self.map_corners.wall_ends = s.switch(),
-            _ if known => {}
-            _ => return Err(SettingError::Unknown { key: s.key.to_string(), known: Self::settings() }),
+        known |= set_by_table(Self::MAP_SETTINGS, &mut self.map_corners, s)?;
+        match known {
+            true => Ok(()),
+            false => Err(SettingError::unknown(s.key, Self::keys())),
         }
-        Ok(())
     }
 
     /// Applies every `KEY=VALUE` of `settings`, or none of them when one is malformed or
@@ -225,8 +552,8 @@ mod tests {
         let mut c = Gema2Config::default();
         let before = format!("{c:?}");
         let err = c.apply(&["screened=100", "screend=5"]).unwrap_err();
-        assert!(err.to_string().contains("\"screend\""), "{err}");
-        assert!(err.to_string().contains("screened") && err.to_string().contains("merge_angle"), "{err}");
+        assert!(err.to_string().contains("\"screend\" (did you mean \"screened\"?)"), "{err}");
+        assert!(err.to_string().contains("gema2 settings"), "{err}");
         assert!(c.apply(&["screened=100", "refined=-1"]).is_err());
         assert!(c.apply(&["screened=100", "front_cap=NaN"]).is_err());
         assert_eq!(format!("{c:?}"), before);
@@ -276,12 +603,40 @@ mod tests {
         assert_eq!(format!("{off:?}"), format!("{plain:?}"));
     }
 
+    /// The tables are the only list of keys, so what is listed is what is accepted; checked
+    /// both ways all the same, against a value inside every key's range.
     #[test]
-    fn every_listed_key_is_accepted() {
-        for listed in Gema2Config::settings() {
-            let key = listed.split(' ').next().unwrap_or(listed);
+    fn every_listed_key_is_accepted_and_every_accepted_key_is_listed() {
+        let rows = Gema2Config::default().rows();
+        for key in Gema2Config::keys() {
+            assert!(rows.iter().any(|r| r.key == key), "{key} is accepted but not listed");
             let mut c = Gema2Config::default();
             assert!(c.apply(&[format!("{key}=1")]).is_ok(), "{key}");
         }
+        for r in &rows {
+            assert!(Gema2Config::keys().any(|k| k == r.key), "{} is listed but not accepted", r.key);
+            assert!(!r.meaning.is_empty() && !r.range.is_empty(), "{} is listed without a meaning", r.key);
+        }
+        let mut keys: Vec<&str> = rows.iter().map(|r| r.key).collect();
+        keys.sort_unstable();
+        keys.dedup();
+        assert_eq!(keys.len(), rows.len(), "a key listed twice");
+    }
+
+    /// A default read back through its key sets the same parameter: the table reads and writes
+    /// one field, in the units the user writes (degrees for angles).
+    #[test]
+    fn every_default_set_by_its_key_changes_nothing() {
+        let plain = Gema2Config::default();
+        for r in plain.rows() {
+            let mut c = Gema2Config::default();
+            c.apply(&[format!("{}={}", r.key, r.default)]).unwrap();
+            assert_eq!(format!("{c:?}"), format!("{plain:?}"), "{}={}", r.key, r.default);
+        }
+        let merge = plain.rows().into_iter().find(|r| r.key == "merge_angle").unwrap();
+        assert_eq!(merge.default.parse::<f64>().unwrap(), plain.segmenter.filter.merge_angle.to_degrees());
+        assert_eq!(merge.stage, "segment");
+        let error = plain.rows().into_iter().find(|r| r.key == "error_constant").unwrap();
+        assert_eq!(error.stage, "segment, localize");
     }
 }

@@ -47,8 +47,8 @@ pub struct LocateArgs {
     /// With truth in the log: print at which stage each scan's right pose was lost.
     #[arg(long)]
     pub diagnose: bool,
-    /// Override a parameter, KEY=VALUE (repeatable); an unknown KEY is refused with the list of
-    /// known ones. The pipeline's `segment` and `localize` stages take the same settings.
+    /// Override a parameter, KEY=VALUE (repeatable); `gema2 settings` lists every key with its
+    /// default, range and meaning. The pipeline's `segment` and `localize` stages take the same.
     #[arg(long = "set", value_name = "KEY=VALUE")]
     pub set: Vec<String>,
     /// Write scan N's samples, lines, corners and (true-pose) map as JSON to this folder

@@ -9,6 +9,7 @@ pub mod inspect;
 pub mod lines;
 pub mod locate;
 pub mod map;
+pub mod settings;
 pub mod sim;
 
 /// Parses a count that must be at least 1: `--every` (every 0th scan selects nothing),
