@@ -186,7 +186,7 @@ impl Summary {
             let error = self.mean_error().map_or("- (no success)".into(), |e| format!("{:.2} cm", 100.0 * e));
             let precision = self.ok_precision().map_or("- (no scan ok)".into(), |p| format!("{:.1} %", 100.0 * p));
             s += &format!(
-                "success {:.1} % (within {SUCCESS_POSITION} m and {SUCCESS_HEADING_DEG} deg)  mean error of successes {error}  ok precision {precision}\n",
+                "success {:.1} % (within {SUCCESS_POSITION} m and {SUCCESS_HEADING_DEG} deg of the log's poses, taken as ground truth)  mean error of successes {error}  ok precision {precision}\n",
                 100.0 * self.success_rate(),
             );
         }

@@ -146,6 +146,9 @@ pub struct LogScan {
     /// 1-based line number in the file.
     pub line: usize,
     pub scan: LaserScan,
+    /// The odometry pose a FLASER line carries beside its laser pose. (A SLAM-corrected log
+    /// often overwrites both, so the two being equal does not tell raw odometry.)
+    pub odometry: Option<Pose>,
 }
 
 /// Streams the laser lines of a CARMEN log.
@@ -188,16 +191,16 @@ impl Iterator for CarmenReader {
             }
             let mut tokens = self.buf.text.split_ascii_whitespace();
             let parsed = match tokens.next() {
-                Some("ROBOTLASER1") => parse_robotlaser1(&tokens.collect::<Vec<_>>()),
+                Some("ROBOTLASER1") => parse_robotlaser1(&tokens.collect::<Vec<_>>()).map(|s| (s, None)),
                 Some("FLASER") => parse_flaser(&tokens.collect::<Vec<_>>(), &self.layout),
                 _ => continue,
             };
             return Some(match parsed {
-                Ok(mut scan) => {
+                Ok((mut scan, odometry)) => {
                     if self.no_truth {
                         scan.truth = None;
                     }
-                    Ok(LogScan { line: self.line, scan })
+                    Ok(LogScan { line: self.line, scan, odometry })
                 }
                 Err(message) => Err(self.error(message)),
             });
@@ -292,7 +295,8 @@ fn layout_fits(t: &[&str], k: usize) -> bool {
     [2, n, m, 6].into_iter().try_fold(k, usize::checked_add).is_some_and(|need| t.len() >= need)
 }
 
-fn parse_flaser(t: &[&str], layout: &FlaserLayout) -> Result<LaserScan, String> {
+/// A FLASER line's scan and the odometry pose beside its laser pose (when the line has one).
+fn parse_flaser(t: &[&str], layout: &FlaserLayout) -> Result<(LaserScan, Option<Pose>), String> {
     let n = count(t, 0, "FLASER reading count")?;
     if n < 2 {
         return Err("FLASER: fewer than two readings".into());
@@ -312,7 +316,8 @@ fn parse_flaser(t: &[&str], layout: &FlaserLayout) -> Result<LaserScan, String> 
         range_max: layout.range_max,
     };
     let stamp = t.get(n + 7).and_then(|s| s.parse::<f64>().ok()).unwrap_or(f64::NAN);
-    Ok(LaserScan { geometry, ranges: r, stamp, truth: Some(truth) })
+    let odometry = (|| finite_pose(num(t, n + 4, "x")?, num(t, n + 5, "y")?, num(t, n + 6, "theta")?))().ok();
+    Ok((LaserScan { geometry, ranges: r, stamp, truth: Some(truth) }, odometry))
 }
 
 /// Writes a scan as a `ROBOTLASER1` line (laser pose = truth, or zeros when unknown).

@@ -115,6 +115,12 @@ pub fn run(a: BuildArgs) -> Result<()> {
     let Built { map, scans, lines } = build(&a, &mut malformed)?;
     std::fs::write(&a.out, map.to_json("built")).with_context(|| format!("writing {}", a.out.display()))?;
     eprintln!("{}: {} walls from {lines} lines of {scans} scans", a.out.display(), map.walls.len());
+    // nothing in a CARMEN log tells corrected poses from raw odometry (corrected logs overwrite
+    // the odometry too), so the user is told what the map rests on
+    eprintln!(
+        "  built on the log's poses, taken as ground truth: the map is only as good as they are (raw \
+         odometry drifts, and bends and doubles the walls; build from a SLAM-corrected log)"
+    );
     match &map.seen_free {
         Some(s) => eprintln!("  free space seen on {} cells of {} m", s.seen_cells(), s.cell()),
         None if a.seen_cell > 0.0 => {
@@ -140,7 +146,7 @@ pub fn build(a: &BuildArgs, malformed: &mut Malformed) -> Result<Built> {
     let mut scans = 0;
     for item in survey(a)? {
         let (scan, truth) = match item? {
-            Surveyed::Scan(scan, truth) => (scan, truth),
+            Surveyed::Scan(item, truth) => (item.scan, truth),
             Surveyed::Malformed(e) => {
                 malformed.add(e);
                 continue;
@@ -219,7 +225,7 @@ pub(crate) fn survey_grid(a: &BuildArgs) -> Result<mapio::OccupancyGrid> {
 /// A laser line of the survey: a scan with its true pose, or a line that could not be read
 /// as one, which the map is built without.
 enum Surveyed {
-    Scan(LaserScan, Pose),
+    Scan(acquire::LogScan, Pose),
     Malformed(acquire::LogError),
 }
 
@@ -229,22 +235,23 @@ enum Surveyed {
 fn survey(a: &BuildArgs) -> Result<impl Iterator<Item = Result<Surveyed>> + '_> {
     let reader = CarmenReader::open(&a.log, a.flaser.layout().map_err(anyhow::Error::msg)?)?;
     Ok(reader.enumerate().filter(move |(k, _)| super::selected(*k, a.every, a.offset)).map(move |(k, item)| {
-        let scan = match item {
-            Ok(item) => item.scan,
+        let item = match item {
+            Ok(item) => item,
             Err(e @ acquire::LogError::Line { .. }) => return Ok(Surveyed::Malformed(e)),
             Err(e) => return Err(e.into()),
         };
-        let truth = scan
+        let truth = item
+            .scan
             .truth
             .with_context(|| format!("{}: scan {k} has no pose: a map needs a corrected log", a.log.display()))?;
-        Ok(Surveyed::Scan(scan, truth))
+        Ok(Surveyed::Scan(item, truth))
     }))
 }
 
 /// The scan of a surveyed line, `None` for a malformed one (passed over).
 fn scan_of(item: Result<Surveyed>) -> Result<Option<(LaserScan, Pose)>> {
     Ok(match item? {
-        Surveyed::Scan(scan, truth) => Some((scan, truth)),
+        Surveyed::Scan(item, truth) => Some((item.scan, truth)),
         Surveyed::Malformed(_) => None,
     })
 }

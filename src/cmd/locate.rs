@@ -47,6 +47,10 @@ pub struct LocateArgs {
     /// With truth in the log: print at which stage each scan's right pose was lost.
     #[arg(long)]
     pub diagnose: bool,
+    /// The log's poses are not ground truth (raw odometry, another frame): report no success.
+    /// A log can say so itself with the line `# gema2: poses are not ground truth`.
+    #[arg(long)]
+    pub no_truth: bool,
     /// Override a parameter, KEY=VALUE (repeatable); `gema2 settings` lists every key with its
     /// default, range and meaning. The pipeline's `segment` and `localize` stages take the same.
     #[arg(long = "set", value_name = "KEY=VALUE")]
@@ -129,6 +133,10 @@ pub fn run(a: LocateArgs) -> Result<()> {
         };
         if !super::selected(index, a.every, a.offset) {
             continue;
+        }
+        let mut item = item;
+        if a.no_truth {
+            item.scan.truth = None;
         }
         let scan = &item.scan;
         let start = Instant::now();
@@ -228,10 +236,10 @@ impl Run {
         let located = self.summary.outcomes.len();
         // with no scan there is nothing to sum up: the error below says why
         if located > 0 {
-            eprint!("{}", self.summary.render());
+            print!("{}", self.summary.render());
         }
         if a.diagnose {
-            eprint!("{}", self.diagnosis.render());
+            print!("{}", self.diagnosis.render());
         }
         if let Some(e) = self.unreadable {
             anyhow::bail!("{e}; stopped there, after {located} scans");
