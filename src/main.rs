@@ -139,6 +139,12 @@ mod tests {
                 }
                 for arg in sub.get_arguments() {
                     let help = arg.get_help().map(|h| h.to_string()).unwrap_or_default();
+                    if help.trim().is_empty()
+                        && !arg.is_hide_set()
+                        && !["help", "version"].contains(&arg.get_id().as_str())
+                    {
+                        problems.push(format!("{here} --{}: no help line", arg.get_id()));
+                    }
                     if help.contains("[`") {
                         problems.push(format!("{here} --{}: rustdoc link in its help: {help:?}", arg.get_id()));
                     }

@@ -135,9 +135,17 @@ fn unknown_maps_and_missing_logs_are_clear_errors() {
     let out = gema2(&["locate", "--map", "no-such-map", "--log", "/dev/null"]);
     assert!(!out.status.success());
     assert!(text(&out.stderr).contains("no-such-map"));
-    let out = gema2(&["locate", "--map", "office", "--log", "/no/such.log"]);
-    assert!(!out.status.success());
-    assert!(text(&out.stderr).contains("/no/such.log"));
+    // a missing file is said once, not again under "Caused by"
+    for (args, file) in [
+        (&["locate", "--map", "office", "--log", "/no/such.log"][..], "/no/such.log"),
+        (&["locate", "--map", "/no/map.json", "--log", "/dev/null"], "/no/map.json"),
+        (&["locate", "--map", "/no/map.yaml", "--log", "/dev/null"], "/no/map.yaml"),
+    ] {
+        let out = Command::new(env!("CARGO_BIN_EXE_gema2")).args(args).env("RUST_BACKTRACE", "0").output().unwrap();
+        let err = text(&out.stderr);
+        assert!(!out.status.success() && err.contains(file), "{err}");
+        assert_eq!(err.matches("No such file").count(), 1, "{err}");
+    }
 }
 
 /// `map info` takes what `locate` takes: a bundled map's name or a file.

@@ -21,8 +21,9 @@ use thiserror::Error;
 
 #[derive(Debug, Error)]
 pub enum LogError {
-    #[error("{path}: cannot read the log: {source}")]
-    Io { path: PathBuf, source: std::io::Error },
+    // the cause is in the message, not chained too: it would print twice ("Caused by")
+    #[error("{path}: cannot read the log: {cause}")]
+    Io { path: PathBuf, cause: std::io::Error },
     #[error("{path}:{line}: {message}")]
     Line { path: PathBuf, line: usize, message: String },
 }
@@ -101,7 +102,7 @@ impl FlaserArgs {
 
 /// Opens a text log for reading lines, decompressing it if its name ends in `.gz`.
 pub fn open_log(path: &Path) -> Result<Box<dyn BufRead + Send>, LogError> {
-    let file = std::fs::File::open(path).map_err(|source| LogError::Io { path: path.to_owned(), source })?;
+    let file = std::fs::File::open(path).map_err(|cause| LogError::Io { path: path.to_owned(), cause })?;
     let inner: Box<dyn Read + Send> = if path.extension().is_some_and(|e| e == "gz") {
         Box::new(flate2::read::MultiGzDecoder::new(file))
     } else {
@@ -136,7 +137,7 @@ pub(crate) fn next_line(
             buf.text.push_str(&String::from_utf8_lossy(&buf.bytes));
             Some(Ok(()))
         }
-        Err(source) => Some(Err(LogError::Io { path: path.to_owned(), source })),
+        Err(cause) => Some(Err(LogError::Io { path: path.to_owned(), cause })),
     }
 }
 

@@ -38,12 +38,13 @@ pub struct AcquireArgs {
     /// Also write every scan as a ROBOTLASER1 line to this file.
     #[arg(long)]
     pub carmen_out: Option<PathBuf>,
-    /// Simulator: a bundled map's name or a JSON map file.
+    /// Simulator: a bundled map's name, a JSON wall map or a ROS map_server .yaml.
     #[arg(long, default_value = "office")]
     pub map: String,
     /// Simulator: clean, people or furniture.
     #[arg(long, default_value = "clean")]
     pub scenario: Scenario,
+    /// Simulator: seed of the path, the noise and the people.
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
     /// Scans to publish (0: until the source ends or forever).

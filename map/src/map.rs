@@ -102,8 +102,9 @@ pub struct WallMap {
 /// Why a map was rejected.
 #[derive(Debug, Error)]
 pub enum MapError {
-    #[error("{path}: cannot read the map: {source}")]
-    Io { path: PathBuf, source: std::io::Error },
+    // the cause is in the message, not chained too: it would print twice ("Caused by")
+    #[error("{path}: cannot read the map: {cause}")]
+    Io { path: PathBuf, cause: std::io::Error },
     #[error("{path}: not valid JSON at line {line}, column {column}: {message}")]
     Json { path: PathBuf, line: usize, column: usize, message: String },
     #[error("{path}: {message}")]
@@ -145,7 +146,7 @@ impl WallMap {
 
     /// Loads and validates a JSON map file.
     pub fn load(path: &Path) -> Result<Self, MapError> {
-        let text = std::fs::read_to_string(path).map_err(|source| MapError::Io { path: path.to_owned(), source })?;
+        let text = std::fs::read_to_string(path).map_err(|cause| MapError::Io { path: path.to_owned(), cause })?;
         Self::parse(&text, path)
     }
 

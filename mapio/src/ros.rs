@@ -26,8 +26,9 @@ pub const MAX_CELLS: usize = 1 << 27;
 /// Why a ROS map was rejected.
 #[derive(Debug, Error)]
 pub enum RosMapError {
-    #[error("{path}: cannot read: {source}")]
-    Io { path: PathBuf, source: std::io::Error },
+    // the cause is in the message, not chained too: it would print twice ("Caused by")
+    #[error("{path}: cannot read: {cause}")]
+    Io { path: PathBuf, cause: std::io::Error },
     #[error("{path}: line {line}: {message}")]
     Yaml { path: PathBuf, line: usize, message: String },
     #[error("{path}: {message}")]
@@ -357,10 +358,10 @@ const UNKNOWN_SHADE: u16 = 205;
 impl OccupancyGrid {
     /// Reads a map_server YAML file and the image it names.
     pub fn load(yaml: &Path) -> Result<Self, RosMapError> {
-        let text = std::fs::read_to_string(yaml).map_err(|source| RosMapError::Io { path: yaml.to_owned(), source })?;
+        let text = std::fs::read_to_string(yaml).map_err(|cause| RosMapError::Io { path: yaml.to_owned(), cause })?;
         let meta = MapMeta::parse(&text, yaml)?;
         let image = meta.image_beside(yaml);
-        let bytes = std::fs::read(&image).map_err(|source| RosMapError::Io { path: image.clone(), source })?;
+        let bytes = std::fs::read(&image).map_err(|cause| RosMapError::Io { path: image.clone(), cause })?;
         let pgm = Pgm::parse(&bytes, &image)?;
         Self::from_image(&meta, &pgm).ok_or_else(|| RosMapError::Image {
             path: image,
@@ -515,12 +516,12 @@ impl OccupancyGrid {
         let image = yaml.with_extension("pgm");
         let name = image.file_name().map_or("map.pgm".into(), |n| n.to_string_lossy().into_owned());
         std::fs::write(&image, self.to_pgm().to_bytes())
-            .map_err(|source| RosMapError::Io { path: image.clone(), source })?;
+            .map_err(|cause| RosMapError::Io { path: image.clone(), cause })?;
         let text = format!(
             "image: {name}\nresolution: {}\norigin: [{}, {}, {}]\nnegate: 0\noccupied_thresh: 0.65\nfree_thresh: 0.196\nmode: trinary\n",
             self.resolution, self.origin[0], self.origin[1], self.origin[2]
         );
-        std::fs::write(yaml, text).map_err(|source| RosMapError::Io { path: yaml.to_owned(), source })
+        std::fs::write(yaml, text).map_err(|cause| RosMapError::Io { path: yaml.to_owned(), cause })
     }
 }
 

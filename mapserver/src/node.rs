@@ -24,7 +24,7 @@ pub const ABOUT: &str = "GEMA2 map server: the map with history, corner queries,
 pub struct MapServerArgs {
     #[command(flatten)]
     pub stage: messages::StageArgs,
-    /// A bundled map's name or a JSON map file (watched for changes).
+    /// A bundled map's name, a JSON wall map or a ROS map_server .yaml (watched for changes).
     #[arg(long, default_value = "office")]
     pub map: String,
 }

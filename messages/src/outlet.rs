@@ -34,11 +34,11 @@ use thiserror::Error;
 
 /// Why an outlet could not send a message.
 #[derive(Debug, Error)]
-#[error("{topic}: {source}")]
+#[error("{topic}: {reason}")]
 pub struct SendError {
     pub topic: String,
-    #[source]
-    pub source: PublishError,
+    /// In the message, not chained as a source too: it would print twice ("Caused by").
+    pub reason: PublishError,
 }
 
 /// The process of each subscriber, by the subscriber's port id: what the backpressure handler
@@ -172,7 +172,7 @@ impl<T: Debug + ZeroCopySend + Zeroable + 'static> Outlet<T> {
             }
             other => other,
         }
-        .map_err(|source| SendError { topic: self.name.clone(), source })
+        .map_err(|reason| SendError { topic: self.name.clone(), reason })
     }
 
     /// Lists the subscribers' processes for the backpressure handler, when their number changed.
@@ -200,7 +200,7 @@ impl<T: Debug + ZeroCopySend + Zeroable + 'static> Outlet<T> {
         self.notifier
             .notify_with_custom_event_id(WARM_UP)
             .map(|_| ())
-            .map_err(|e| SendError { topic: self.name.clone(), source: PublishError::Notify(e) })
+            .map_err(|e| SendError { topic: self.name.clone(), reason: PublishError::Notify(e) })
     }
 
     fn subscribers(&self) -> usize {

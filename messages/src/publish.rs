@@ -8,16 +8,17 @@ use iceoryx2::prelude::*;
 use std::fmt::Debug;
 use thiserror::Error;
 
-/// Why a message was not published.
+/// Why a message was not published. Each cause is in the message, not chained as a source
+/// too, where it would print twice.
 #[derive(Debug, Error)]
 pub enum PublishError {
     /// No shared memory for the payload: every sample is held by slow or dead readers.
     #[error("loan: {0}")]
-    Loan(#[from] iceoryx2::port::LoanError),
+    Loan(iceoryx2::port::LoanError),
     /// The message reached only some subscribers (an interrupted wait, a corrupted
     /// connection).
     #[error("send: {0}")]
-    Send(#[from] iceoryx2::port::SendError),
+    Send(iceoryx2::port::SendError),
     /// The message was sent but its wake-up was not.
     #[error("notify: {0:?}")]
     Notify(iceoryx2::port::notifier::NotifierNotifyError),
@@ -46,7 +47,7 @@ pub fn publish<T: Debug + ZeroCopySend + Zeroable>(
     notifier: &Notifier<ipc::Service>,
     fill: impl FnOnce(&mut T),
 ) -> Result<usize, PublishError> {
-    let mut sample = publisher.loan_uninit()?;
+    let mut sample = publisher.loan_uninit().map_err(PublishError::Loan)?;
     // SAFETY: all-zero bytes are a valid T (Zeroable), so after write_bytes the payload is
     // initialised.
     let mut sample = unsafe {
@@ -54,7 +55,7 @@ pub fn publish<T: Debug + ZeroCopySend + Zeroable>(
         sample.assume_init()
     };
     fill(sample.payload_mut());
-    let delivered = sample.send()?;
+    let delivered = sample.send().map_err(PublishError::Send)?;
     notifier.notify().map_err(PublishError::Notify)?;
     Ok(delivered)
 }

@@ -52,6 +52,7 @@ pub struct BuildArgs {
     /// writes none. The localizer answers with no pose where no beam has been.
     #[arg(long, default_value_t = 0.2)]
     pub seen_cell: f64,
+    /// Where to write the map, as a JSON wall map (what `--map` of locate and the map server take).
     #[arg(long)]
     pub out: PathBuf,
     /// Also write the survey as a ROS map_server occupancy grid (this YAML and a PGM beside

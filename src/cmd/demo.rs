@@ -12,12 +12,14 @@ use std::sync::Arc;
 
 #[derive(Args)]
 pub struct DemoArgs {
-    /// A bundled map's name or a JSON map file.
+    /// The map: a bundled one's name (office, apartment, warehouse, radial), a JSON wall map, or a
+    /// ROS map_server map's .yaml (the PGM beside it is read and traced into walls).
     #[arg(long, default_value = "office")]
     pub map: String,
     /// Scans per scenario.
     #[arg(long, default_value_t = 300, value_parser = super::positive_count)]
     pub scans: usize,
+    /// Seed of the paths, the noise and the people.
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
 }

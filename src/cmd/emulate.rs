@@ -12,10 +12,13 @@ use std::time::Duration;
 
 #[derive(Args)]
 pub struct EmulateArgs {
+    /// The map the emulated sensor scans: a bundled map's name, a JSON wall map or a ROS .yaml.
     #[arg(long, default_value = "office")]
     pub map: String,
+    /// clean, people or furniture.
     #[arg(long, default_value = "clean")]
     pub scenario: Scenario,
+    /// Seed of the path, the noise and the people.
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
     /// Milliseconds between scans (the URG-04LX turns at 600 rpm: 100).

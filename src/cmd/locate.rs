@@ -14,7 +14,8 @@ use std::time::Instant;
 
 #[derive(Args)]
 pub struct LocateArgs {
-    /// A bundled map's name or a JSON map file.
+    /// The map: a bundled one's name (office, apartment, warehouse, radial), a JSON wall map, or a
+    /// ROS map_server map's .yaml (the PGM beside it is read and traced into walls).
     #[arg(long, default_value = "office")]
     pub map: String,
     /// CARMEN log (ROBOTLASER1 or FLASER; .gz is fine).

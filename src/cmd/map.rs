@@ -10,11 +10,13 @@ pub enum MapCommand {
     /// Write a generated map as JSON: office, apartment, warehouse, radial, or office-N
     /// (an office of about N walls). Without --seed, the bundled map of that name.
     Generate {
+        /// office, apartment, warehouse, radial, or office-N.
         kind: String,
         /// Draw another layout of the same kind (for the apartment, whose bundled plan is
         /// fixed, a flat of another layout)
         #[arg(long)]
         seed: Option<u64>,
+        /// The JSON wall map to write.
         #[arg(long)]
         out: PathBuf,
     },
@@ -44,6 +46,7 @@ pub enum MapCommand {
         /// The map's accuracy, metres (default: half a cell).
         #[arg(long)]
         sigma: Option<f64>,
+        /// The JSON wall map to write (with the free space the grid shows).
         #[arg(long)]
         out: PathBuf,
     },
@@ -71,6 +74,7 @@ pub enum MapCommand {
         /// Wall thickness, metres.
         #[arg(long, default_value_t = 0.12)]
         thickness: f64,
+        /// The JSON wall map to write.
         #[arg(long)]
         out: PathBuf,
     },

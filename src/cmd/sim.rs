@@ -9,14 +9,17 @@ use std::path::PathBuf;
 
 #[derive(Args)]
 pub struct SimArgs {
-    /// A bundled map's name or a JSON map file.
+    /// The map: a bundled one's name (office, apartment, warehouse, radial), a JSON wall map, or a
+    /// ROS map_server map's .yaml (the PGM beside it is read and traced into walls).
     #[arg(long, default_value = "office")]
     pub map: String,
     /// clean, people or furniture.
     #[arg(long, default_value = "clean")]
     pub scenario: Scenario,
+    /// Scans to simulate along the random path.
     #[arg(long, default_value_t = 300, value_parser = super::positive_count)]
     pub scans: usize,
+    /// Seed of the path, the noise and the people (the same seed, the same log).
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
     /// Beams over the field of view (682 over 240 degrees is the URG-04LX).
@@ -32,6 +35,7 @@ pub struct SimArgs {
     /// Range noise: constant and proportional standard deviation.
     #[arg(long, default_value_t = 0.01)]
     pub noise: f64,
+    /// Range noise per metre of range (0.005 = 0.5 %).
     #[arg(long, default_value_t = 0.005)]
     pub noise_proportional: f64,
     /// Probability that a reading is lost.
@@ -40,6 +44,7 @@ pub struct SimArgs {
     /// Lost readings read as the maximum range (a SICK LMS) instead of 0 (a URG's error code).
     #[arg(long)]
     pub dropout_as_max_range: bool,
+    /// The log to write: ROBOTLASER1 lines carrying the true poses.
     #[arg(long)]
     pub out: PathBuf,
 }

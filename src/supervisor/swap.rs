@@ -139,6 +139,7 @@ pub struct SwapArgs {
     /// The implementation to run instead.
     #[arg(long = "impl")]
     pub implementation: String,
+    /// The running pipeline's service prefix (its `gema2 run --prefix`).
     #[arg(long, default_value = "gema2")]
     pub prefix: String,
 }

@@ -15,8 +15,9 @@ pub use source::SerialSource;
 
 #[derive(Debug, Error)]
 pub enum ScipError {
+    // the cause in the message, not chained as a source too (it would print twice)
     #[error("serial I/O: {0}")]
-    Io(#[from] std::io::Error),
+    Io(std::io::Error),
     #[error("no answer from the sensor in time")]
     Timeout,
     #[error("the sensor closed the connection")]
@@ -27,6 +28,12 @@ pub enum ScipError {
     Status { command: String, status: String, meaning: &'static str },
     #[error("malformed response: {0}")]
     Malformed(String),
+}
+
+impl From<std::io::Error> for ScipError {
+    fn from(e: std::io::Error) -> Self {
+        ScipError::Io(e)
+    }
 }
 
 /// The bit rates `SS` can set, the URG-04LX's power-up rate first.
