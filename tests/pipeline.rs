@@ -646,15 +646,16 @@ fn the_whole_pipeline_runs_on_an_emulated_urg04lx() {
         .spawn()
         .unwrap();
     wait_for("the emulator's pty", Duration::from_secs(10), || link.exists());
-    let pipeline = common::write_pipeline(
-        dir.path(),
-        "serial.toml",
-        "office",
-        &["--serial", link.to_str().unwrap(), "--carmen-out", recorded.to_str().unwrap()],
-    );
+    // the shipped example, as its comment says to run it
+    let pipeline = concat!(env!("CARGO_MANIFEST_DIR"), "/pipelines/urg-serial.toml");
     let p = prefix("urg");
-    let out =
-        gema2(&["run", "--pipeline", pipeline.to_str().unwrap(), "--prefix", &p, "--scans", "20", "--timeout", "60"]);
+    let out = Command::new(exe())
+        .args(["run", "--pipeline", pipeline, "--prefix", &p, "--scans", "20", "--timeout", "60"])
+        .env("GEMA2_MAP", "office")
+        .env("GEMA2_SERIAL", &link)
+        .env("GEMA2_RECORD", &recorded)
+        .output()
+        .unwrap();
     // SAFETY: kill(2) on a child of this test.
     unsafe { libc::kill(emu.id() as i32, libc::SIGTERM) };
     let _ = emu.wait();
@@ -664,6 +665,37 @@ fn the_whole_pipeline_runs_on_an_emulated_urg04lx() {
     let text = std::fs::read_to_string(&recorded).unwrap();
     assert!(text.starts_with("# gema2: poses are not ground truth"));
     assert!(text.lines().filter(|l| l.starts_with("ROBOTLASER1")).count() >= 20);
+}
+
+/// `pipelines/replay.toml`, run as its comment says: a CARMEN log through every stage against
+/// a map, every scan located, the run ending with the log.
+#[test]
+fn the_replay_example_locates_every_scan_of_a_log() {
+    let dir = tempfile::tempdir().unwrap();
+    let (log, _) = setup(dir.path(), 40, "max");
+    let csv = dir.path().join("poses.csv");
+    let pipeline = concat!(env!("CARGO_MANIFEST_DIR"), "/pipelines/replay.toml");
+    let p = prefix("replay");
+    let out = Command::new(exe())
+        .args(["run", "--pipeline", pipeline, "--prefix", &p, "--timeout", "60", "--out", csv.to_str().unwrap()])
+        .env("GEMA2_MAP", "office")
+        .env("GEMA2_LOG", &log)
+        .env("GEMA2_RATE", "40")
+        .output()
+        .unwrap();
+    let report = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "{report}\n{}", String::from_utf8_lossy(&out.stderr));
+    assert!(report.contains("poses received 40,"), "{report}");
+    assert_eq!(rows(&csv).len(), 40);
+    // without the log's variable the file is refused, naming it
+    let out = Command::new(exe())
+        .args(["run", "--pipeline", pipeline, "--prefix", &p])
+        .env("GEMA2_MAP", "office")
+        .env_remove("GEMA2_LOG")
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success() && err.contains("GEMA2_LOG"), "{err}");
 }
 
 /// iceoryx2 can lose a wake-up under load (`messages::MISSED_WAKEUP_POLL`): a scan whose

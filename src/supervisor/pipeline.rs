@@ -113,7 +113,24 @@ pub const EMBEDDED: &str = "<embedded default pipeline>";
 
 impl Pipeline {
     pub fn parse(text: &str, origin: &Path) -> Result<Self> {
-        let p: Pipeline = toml::from_str(text).with_context(|| format!("{}: not a pipeline", origin.display()))?;
+        Self::parse_with(text, origin, &|name| std::env::var(name).ok())
+    }
+
+    /// [`parse`](Self::parse), with `${NAME}` and `${NAME:-default}` in a stage's `args` and
+    /// `binary` read from `env` (the environment), so one file serves every log or port:
+    /// `GEMA2_LOG=run.log gema2 run --pipeline pipelines/replay.toml`.
+    pub fn parse_with(text: &str, origin: &Path, env: &dyn Fn(&str) -> Option<String>) -> Result<Self> {
+        let mut p: Pipeline = toml::from_str(text).with_context(|| format!("{}: not a pipeline", origin.display()))?;
+        for s in &mut p.stages {
+            let at = |e: String| anyhow::anyhow!("{}: stage {:?}: {e}", origin.display(), s.name);
+            for a in &mut s.args {
+                *a = expand(a, env).map_err(at)?;
+            }
+            if let Some(b) = &s.binary {
+                let expanded = expand(&b.to_string_lossy(), env).map_err(at)?;
+                s.binary = Some(PathBuf::from(expanded));
+            }
+        }
         let priorities = messages::placement::REALTIME_PRIORITIES;
         for (k, s) in p.stages.iter().enumerate() {
             if p.stages[..k].iter().any(|o| o.name == s.name) {
@@ -158,6 +175,33 @@ impl Pipeline {
     }
 }
 
+/// `text` with each `${NAME}` replaced by `env(NAME)`, and each `${NAME:-default}` by it or,
+/// when it is unset or empty, by `default`; an unset `${NAME}` is an error that names it.
+pub fn expand(text: &str, env: &dyn Fn(&str) -> Option<String>) -> Result<String, String> {
+    let mut out = String::new();
+    let mut rest = text;
+    while let Some(start) = rest.find("${") {
+        out.push_str(&rest[..start]);
+        let after = &rest[start + 2..];
+        let end = after.find('}').ok_or_else(|| format!("{text:?}: a ${{ without its closing }}"))?;
+        let (name, default) = match after[..end].split_once(":-") {
+            Some((n, d)) => (n, Some(d)),
+            None => (&after[..end], None),
+        };
+        if name.is_empty() || !name.chars().all(|c| c.is_ascii_alphanumeric() || c == '_') {
+            return Err(format!("{text:?}: ${{{name}}} is not a variable name"));
+        }
+        match (env(name).filter(|v| !v.is_empty()), default) {
+            (Some(v), _) => out.push_str(&v),
+            (None, Some(d)) => out.push_str(d),
+            (None, None) => return Err(format!("{text:?} needs the environment variable {name}, which is not set")),
+        }
+        rest = &after[end + 1..];
+    }
+    out.push_str(rest);
+    Ok(out)
+}
+
 /// Replaces (or adds) `--flag value` in an argument list.
 pub fn set_arg(args: &mut Vec<String>, flag: &str, value: &str) {
     if let Some(k) = args.iter().position(|a| a == flag) {
@@ -174,6 +218,39 @@ pub fn set_arg(args: &mut Vec<String>, flag: &str, value: &str) {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn variables_in_a_pipeline_s_args_come_from_the_environment() {
+        let env = |name: &str| match name {
+            "LOG" => Some("/data/run.log".to_owned()),
+            "EMPTY" => Some(String::new()),
+            _ => None,
+        };
+        assert_eq!(expand("${LOG}", &env).unwrap(), "/data/run.log");
+        assert_eq!(expand("at ${RATE:-10} Hz, ${EMPTY:-x}", &env).unwrap(), "at 10 Hz, x");
+        assert_eq!(expand("plain", &env).unwrap(), "plain");
+        assert!(expand("${NOPE}", &env).unwrap_err().contains("environment variable NOPE"));
+        assert!(expand("${LOG", &env).unwrap_err().contains("closing"));
+        assert!(expand("${A B}", &env).unwrap_err().contains("not a variable name"));
+        let text =
+            "[[stage]]\nname = \"a\"\nkind = \"acquire\"\nargs = [\"--log\", \"${LOG}\", \"--x\", \"${NOPE}\"]\n";
+        let err = Pipeline::parse_with(text, Path::new("p.toml"), &env).unwrap_err();
+        assert!(format!("{err:#}").contains("p.toml: stage \"a\": \"${NOPE}\" needs the environment variable NOPE"));
+        let ok = text.replace("${NOPE}", "${NOPE:-1}");
+        let p = Pipeline::parse_with(&ok, Path::new("p.toml"), &env).unwrap();
+        assert_eq!(p.stages[0].args, ["--log", "/data/run.log", "--x", "1"]);
+    }
+
+    /// The shipped example pipelines parse, given the variables their comments name.
+    #[test]
+    fn the_example_pipelines_parse() {
+        let env = |name: &str| Some(format!("/x/{name}"));
+        for file in ["replay.toml", "urg-serial.toml", "low-latency.toml", "default.toml"] {
+            let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("pipelines").join(file);
+            let text = std::fs::read_to_string(&path).unwrap();
+            Pipeline::parse_with(&text, &path, &env).unwrap_or_else(|e| panic!("{file}: {e:#}"));
+        }
+    }
 
     #[test]
     fn the_default_pipeline_parses_and_bad_ones_are_explained() {
