@@ -81,8 +81,7 @@ mod tests {
     use super::*;
 
     fn boxed_msg() -> Box<MapMsg> {
-        // SAFETY: MapMsg is Zeroable (numbers only); the zeroed heap block is a valid MapMsg.
-        unsafe { Box::<MapMsg>::new_zeroed().assume_init() }
+        messages::zeroed_box()
     }
 
     #[test]

@@ -24,7 +24,7 @@ pub use inlet::{run_stage, Inlet, WaitError, MAX_LISTENERS};
 pub use outlet::{Freshness, Outlet, SendError, CONNECT_PATIENCE, WARM_UP};
 pub use payload::*;
 pub use placement::pin_to_cpu;
-pub use publish::{publish, PublishError, Zeroable};
+pub use publish::{publish, zeroed_box, PublishError, Zeroable};
 pub use runtime::{
     announce_ready, cleanup_dead_nodes, create_node, dead_node_pids, instance, monotonic_ns, ready_listener,
     RuntimeError, StageArgs, MAX_INSTANCE, MISSED_WAKEUP_POLL,

@@ -1,5 +1,6 @@
 //! Payload types. All plain data: numbers and fixed arrays, no pointers.
 
+use bytemuck::Zeroable;
 use iceoryx2::prelude::ZeroCopySend;
 
 /// Most beams in a scan.
@@ -32,7 +33,7 @@ pub const STAGES: usize = 3;
 
 /// When a stage took a message in hand and when it let the result go (monotonic ns, 0 if the
 /// message did not pass the stage).
-#[derive(Clone, Copy, Debug, Default, PartialEq, ZeroCopySend)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, ZeroCopySend, Zeroable)]
 #[repr(C)]
 pub struct StageSpan {
     pub enter_ns: u64,
@@ -40,7 +41,7 @@ pub struct StageSpan {
 }
 
 /// The common header of every message derived from a scan.
-#[derive(Clone, Copy, Debug, PartialEq, ZeroCopySend)]
+#[derive(Clone, Copy, Debug, PartialEq, ZeroCopySend, Zeroable)]
 #[repr(C)]
 pub struct Header {
     /// Sequence number of the scan this message derives from.
@@ -89,7 +90,7 @@ pub fn name_str(bytes: &[u8; NAME_LEN]) -> &str {
 }
 
 /// A pose in the map frame: x, y (metres), theta (radians, REP 103).
-#[derive(Clone, Copy, Debug, Default, PartialEq, ZeroCopySend)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, ZeroCopySend, Zeroable)]
 #[repr(C)]
 pub struct PoseMsgXyt {
     pub x: f64,
@@ -98,7 +99,7 @@ pub struct PoseMsgXyt {
 }
 
 /// `gema2/scan`: one laser scan.
-#[derive(Clone, Copy, Debug, ZeroCopySend)]
+#[derive(Clone, Copy, Debug, ZeroCopySend, Zeroable)]
 #[repr(C)]
 pub struct ScanMsg {
     pub header: Header,
@@ -115,7 +116,7 @@ pub struct ScanMsg {
 }
 
 /// One fitted line.
-#[derive(Clone, Copy, Debug, Default, PartialEq, ZeroCopySend)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, ZeroCopySend, Zeroable)]
 #[repr(C)]
 pub struct LineMsg {
     /// Visible extent, sensor frame, metres.
@@ -129,7 +130,7 @@ pub struct LineMsg {
 }
 
 /// `gema2/lines`: the filtered lines of a scan.
-#[derive(Clone, Copy, Debug, ZeroCopySend)]
+#[derive(Clone, Copy, Debug, ZeroCopySend, Zeroable)]
 #[repr(C)]
 pub struct LinesMsg {
     pub header: Header,
@@ -140,7 +141,7 @@ pub struct LinesMsg {
 }
 
 /// One side of a corner (see `segment::Arm`).
-#[derive(Clone, Copy, Debug, Default, PartialEq, ZeroCopySend)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, ZeroCopySend, Zeroable)]
 #[repr(C)]
 pub struct ArmMsg {
     pub direction: [f64; 2],
@@ -153,7 +154,7 @@ pub struct ArmMsg {
 }
 
 /// One corner (see `segment::Corner`), sensor frame.
-#[derive(Clone, Copy, Debug, Default, PartialEq, ZeroCopySend)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, ZeroCopySend, Zeroable)]
 #[repr(C)]
 pub struct CornerMsg {
     pub position: [f64; 2],
@@ -166,7 +167,7 @@ pub struct CornerMsg {
 /// `gema2/corners`: a scan's corners, best first, with the scan they derive from (the cost
 /// function needs its readings) and its filtered lines (the localizer's slide search lays them
 /// along walls when no corner matches).
-#[derive(Clone, Copy, Debug, ZeroCopySend)]
+#[derive(Clone, Copy, Debug, ZeroCopySend, Zeroable)]
 #[repr(C)]
 pub struct CornersMsg {
     pub scan: ScanMsg,
@@ -181,7 +182,7 @@ pub struct CornersMsg {
 }
 
 /// One pose hypothesis.
-#[derive(Clone, Copy, Debug, Default, PartialEq, ZeroCopySend)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, ZeroCopySend, Zeroable)]
 #[repr(C)]
 pub struct HypothesisMsg {
     pub pose: PoseMsgXyt,
@@ -199,7 +200,7 @@ pub const STATUS_AMBIGUOUS: u32 = 1;
 pub const STATUS_FAILED: u32 = 2;
 
 /// `gema2/pose`: ranked hypotheses of a scan.
-#[derive(Clone, Copy, Debug, ZeroCopySend)]
+#[derive(Clone, Copy, Debug, ZeroCopySend, Zeroable)]
 #[repr(C)]
 pub struct PoseMsg {
     pub header: Header,
@@ -217,7 +218,7 @@ pub struct PoseMsg {
 }
 
 /// `gema2/map`: the wall map, published with history so late joiners get it.
-#[derive(Clone, Copy, Debug, ZeroCopySend)]
+#[derive(Clone, Copy, Debug, ZeroCopySend, Zeroable)]
 #[repr(C)]
 pub struct MapMsg {
     /// Increases every time the map server (re)loads the map.
@@ -239,7 +240,7 @@ pub struct MapMsg {
 
 /// Request to the map server: corners with inner angle within `tolerance` of `inner_angle`,
 /// optionally within `radius` of (`x`, `y`).
-#[derive(Clone, Copy, Debug, Default, PartialEq, ZeroCopySend)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, ZeroCopySend, Zeroable)]
 #[repr(C)]
 pub struct CornerQuery {
     pub inner_angle: f64,
@@ -252,7 +253,7 @@ pub struct CornerQuery {
 }
 
 /// A map corner in a reply.
-#[derive(Clone, Copy, Debug, Default, PartialEq, ZeroCopySend)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, ZeroCopySend, Zeroable)]
 #[repr(C)]
 pub struct MapCornerMsg {
     pub position: [f64; 2],
@@ -261,7 +262,7 @@ pub struct MapCornerMsg {
 }
 
 /// The map server's answer: up to [`MAX_CORNERS`] corners (`total` says how many matched).
-#[derive(Clone, Copy, Debug, ZeroCopySend)]
+#[derive(Clone, Copy, Debug, ZeroCopySend, Zeroable)]
 #[repr(C)]
 pub struct CornerReply {
     pub map_version: u32,
@@ -272,7 +273,7 @@ pub struct CornerReply {
 }
 
 /// Request to the supervisor: replace `stage` by implementation `implementation`.
-#[derive(Clone, Copy, Debug, ZeroCopySend)]
+#[derive(Clone, Copy, Debug, ZeroCopySend, Zeroable)]
 #[repr(C)]
 pub struct ControlRequest {
     pub stage: [u8; NAME_LEN],
@@ -280,7 +281,7 @@ pub struct ControlRequest {
 }
 
 /// The supervisor's answer: `ok` 1 on success, and a message.
-#[derive(Clone, Copy, Debug, ZeroCopySend)]
+#[derive(Clone, Copy, Debug, ZeroCopySend, Zeroable)]
 #[repr(C)]
 pub struct ControlReply {
     pub ok: u32,

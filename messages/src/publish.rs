@@ -1,7 +1,6 @@
 //! Publishing in place: a payload is loaned from shared memory, zeroed there and filled by the
 //! caller, so even an 80 KB message never exists on the stack.
 
-use crate::payload::*;
 use iceoryx2::port::notifier::Notifier;
 use iceoryx2::port::publisher::Publisher;
 use iceoryx2::prelude::*;
@@ -24,21 +23,14 @@ pub enum PublishError {
     Notify(iceoryx2::port::notifier::NotifierNotifyError),
 }
 
-/// Payloads for which all-zero bytes are a valid value (numbers and arrays of numbers only).
-///
-/// # Safety
-/// Implement only for `#[repr(C)]` types whose every field is an integer, a float or an array
-/// or struct of such.
-pub unsafe trait Zeroable {}
+/// Payloads for which all-zero bytes are a valid value: derived (`#[derive(Zeroable)]`), so
+/// the compiler checks that every field is a number or an array or struct of numbers.
+pub use bytemuck::Zeroable;
 
-// SAFETY: every field of these types is an integer, a float, or an array or struct of those.
-unsafe impl Zeroable for ScanMsg {}
-unsafe impl Zeroable for LinesMsg {}
-unsafe impl Zeroable for CornersMsg {}
-unsafe impl Zeroable for PoseMsg {}
-unsafe impl Zeroable for MapMsg {}
-unsafe impl Zeroable for CornerReply {}
-unsafe impl Zeroable for ControlReply {}
+/// A payload of all zeros on the heap, never on the stack (a map message is 600 KB).
+pub fn zeroed_box<T: Zeroable>() -> Box<T> {
+    bytemuck::zeroed_box()
+}
 
 /// Loans a sample, zeroes it in place, lets `fill` write it, sends it and wakes the topic's
 /// listeners. Returns how many subscribers received it.

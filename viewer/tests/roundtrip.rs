@@ -6,8 +6,7 @@ use viewer::entities::*;
 use viewer::{Inspection, Output, OutputSpec, Recorder};
 
 fn zeroed<T: Zeroable>() -> Box<T> {
-    // SAFETY: Zeroable payloads are numbers only; all-zero bytes are a valid value.
-    unsafe { Box::<T>::new_zeroed().assume_init() }
+    messages::zeroed_box()
 }
 
 fn header(seq: u64) -> Header {
