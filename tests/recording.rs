@@ -160,6 +160,18 @@ fn a_recorded_run_holds_every_scan_with_the_counts_the_run_published() {
 
     let (summary, recorded) = inspect(std::slice::from_ref(&file));
     assert!(summary.contains("scans: 120 (seq 0..=119)"), "{summary}");
+    // the run's report and the recording's agree on every latency figure they share: one
+    // definition, from the pose's stamps, with one quantile
+    let report = String::from_utf8_lossy(&out.stdout);
+    let figure = |text: &str, label: &str| -> (String, String) {
+        let line =
+            text.lines().find(|l| l.trim_start().starts_with(label)).unwrap_or_else(|| panic!("{label}: {text}"));
+        let mut numbers = line[line.find(label).unwrap() + label.len()..].split_whitespace().map(str::to_owned);
+        (numbers.next().unwrap(), numbers.next().unwrap())
+    };
+    for f in messages::latency::FIGURES {
+        assert_eq!(figure(&report, f.label), figure(&summary, f.label), "{}:\n{report}\n{summary}", f.label);
+    }
     assert!(summary.contains("map: ") && !summary.contains("map: 0 walls"), "{summary}");
     assert!(summary.contains("success: "), "{summary}");
     for (seq, p) in &published {

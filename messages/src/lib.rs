@@ -12,6 +12,7 @@
 //! process depends on it, and no library algorithm does.
 
 mod inlet;
+pub mod latency;
 mod outlet;
 mod payload;
 pub mod placement;

@@ -1,24 +1,18 @@
 //! What the supervisor learns from the poses it receives: latency per stage and per IPC hop
 //! (from the per-stage enter/leave times every header carries), throughput, accuracy.
 
-use crate::report::{quantile, SUCCESS_HEADING_DEG, SUCCESS_POSITION};
-use messages::{Freshness, PoseMsg, Stage, STATUS_AMBIGUOUS, STATUS_FAILED, STATUS_OK};
+use crate::report::{SUCCESS_HEADING_DEG, SUCCESS_POSITION};
+use messages::{latency, Freshness, PoseMsg, Stage, STATUS_AMBIGUOUS, STATUS_FAILED, STATUS_OK};
 use std::io::Write;
 
-/// Latency figures, microseconds, in pipeline order.
-pub const FIGURES: [&str; 7] = [
-    "acquire stage",
-    "hop acquire -> segment",
-    "segment stage",
-    "hop segment -> localize",
-    "localize stage",
-    "hop localize -> consumer",
-    "end to end (acquisition -> pose received)",
-];
+/// The figures every reader of a pose reports ([`messages::latency::FIGURES`]), then the two
+/// only the supervisor can, as the pose's consumer.
+pub const CONSUMER_FIGURES: [&str; 2] = ["hop localize -> supervisor", "end to end (acquisition -> pose received)"];
 
 #[derive(Default)]
 pub struct Monitor {
-    pub figures: Vec<[f64; 7]>,
+    /// Per pose: [`messages::latency::of_pose`], then [`CONSUMER_FIGURES`].
+    pub figures: Vec<[f64; 8]>,
     pub received: u64,
     pub right: u64,
     pub with_truth: u64,
@@ -30,31 +24,16 @@ pub struct Monitor {
     fresh: Freshness,
 }
 
-fn us(a: u64, b: u64) -> f64 {
-    if a == 0 || b == 0 {
-        f64::NAN
-    } else {
-        (b as f64 - a as f64) / 1e3
-    }
-}
-
 impl Monitor {
     pub fn record(&mut self, p: &PoseMsg, received_ns: u64) {
         if !self.fresh.admit(&p.header) {
             return;
         }
         let h = &p.header;
-        let (a, s, l) =
-            (h.stages[Stage::Acquire as usize], h.stages[Stage::Segment as usize], h.stages[Stage::Localize as usize]);
-        self.figures.push([
-            us(a.enter_ns, a.leave_ns),
-            us(a.leave_ns, s.enter_ns),
-            us(s.enter_ns, s.leave_ns),
-            us(s.leave_ns, l.enter_ns),
-            us(l.enter_ns, l.leave_ns),
-            us(l.leave_ns, received_ns),
-            us(h.stamp_ns, received_ns),
-        ]);
+        let l = h.stages[Stage::Localize as usize];
+        let [a, hop_scan, s, hop_corners, localize, published] = latency::of_pose(h);
+        let consumer = [latency::between_us(l.leave_ns, received_ns), latency::between_us(h.stamp_ns, received_ns)];
+        self.figures.push([a, hop_scan, s, hop_corners, localize, published, consumer[0], consumer[1]]);
         self.received += 1;
         self.first_ns.get_or_insert(received_ns);
         self.last_ns = received_ns;
@@ -76,7 +55,7 @@ impl Monitor {
             STATUS_AMBIGUOUS => "ambiguous",
             _ => "failed",
         };
-        let micros = us(l.enter_ns, l.leave_ns) + us(s.enter_ns, s.leave_ns);
+        let micros = localize + s;
         self.rows.push(crate::report::csv_row(
             h.seq as usize,
             best.map(|b| (b.pose.x, b.pose.y, b.pose.theta, b.cost, b.inliers, b.through)),
@@ -97,9 +76,11 @@ impl Monitor {
 
     pub fn render(&self, published: Option<u64>) -> String {
         let mut s = String::from("latency (us)                                   p50       p99\n");
-        for (k, name) in FIGURES.iter().enumerate() {
-            let mut v: Vec<f64> = self.figures.iter().map(|f| f[k]).filter(|x| x.is_finite()).collect();
-            s += &format!("  {name:42} {:8.1}  {:8.1}\n", quantile(&mut v, 0.5), quantile(&mut v, 0.99));
+        let labels = latency::FIGURES.iter().map(|f| f.label).chain(CONSUMER_FIGURES);
+        for (k, name) in labels.enumerate() {
+            let v: Vec<f64> = self.figures.iter().map(|f| f[k]).collect();
+            let (p50, p99) = latency::p50_p99(&v);
+            s += &format!("  {name:42} {p50:8.1}  {p99:8.1}\n");
         }
         let secs = (self.last_ns.saturating_sub(self.first_ns.unwrap_or(self.last_ns))) as f64 / 1e9;
         let rate = if secs > 0.0 { (self.received.saturating_sub(1)) as f64 / secs } else { f64::NAN };

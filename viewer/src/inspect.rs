@@ -235,10 +235,12 @@ impl Inspection {
             ));
         }
         if !self.latencies.is_empty() {
-            out.push("latency (µs)        p50       p99     count".to_owned());
-            for (name, values) in &self.latencies {
-                let (p50, p99) = percentiles(values);
-                out.push(format!("  {name:<14} {p50:>9.1} {p99:>9.1} {:>9}", values.len()));
+            // the figures and labels `gema2 run` prints, in its order
+            out.push(format!("latency (us){:34} p50       p99     count", ""));
+            for f in messages::latency::FIGURES {
+                let values = self.latencies.get(f.key).map(Vec::as_slice).unwrap_or_default();
+                let (p50, p99) = messages::latency::p50_p99(values);
+                out.push(format!("  {:42} {p50:8.1}  {p99:8.1} {:>9}", f.label, values.len()));
             }
         }
         for (label, status) in [("ambiguous", messages::STATUS_AMBIGUOUS), ("failed", messages::STATUS_FAILED)] {
@@ -263,17 +265,6 @@ impl Inspection {
     }
 }
 
-/// p50 and p99 of `values` (nearest rank).
-pub fn percentiles(values: &[f64]) -> (f64, f64) {
-    if values.is_empty() {
-        return (f64::NAN, f64::NAN);
-    }
-    let mut v = values.to_vec();
-    v.sort_by(f64::total_cmp);
-    let at = |q: f64| v[((q * v.len() as f64).ceil() as usize).clamp(1, v.len()) - 1];
-    (at(0.5), at(0.99))
-}
-
 /// `: 3, 17, 40-42` for a sorted list of scans.
 fn compact(scans: &[i64]) -> String {
     if scans.is_empty() {
@@ -296,8 +287,7 @@ mod tests {
     use super::*;
 
     #[test]
-    fn percentiles_and_runs() {
-        assert_eq!(percentiles(&[3.0, 1.0, 2.0]), (2.0, 3.0));
+    fn runs_of_scans() {
         assert_eq!(compact(&[3, 17, 40, 41, 42]), ": 3, 17, 40-42");
         assert_eq!(compact(&[]), "");
     }

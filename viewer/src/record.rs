@@ -7,8 +7,8 @@ use laser::ScanGeometry;
 use map::{CornerIndex, MapCornerConfig, SeenFree};
 use mapserver::wire::map_from_msg;
 use messages::{
-    CornersMsg, Freshness, Header, HypothesisMsg, LinesMsg, MapMsg, PoseMsg, PoseMsgXyt, ScanMsg, Stage, StageSpan,
-    Topic, MAX_BEAMS, MAX_CORNERS, MAX_HYPOTHESES, MAX_LINES, STATUS_AMBIGUOUS, STATUS_FAILED, STATUS_OK,
+    CornersMsg, Freshness, Header, HypothesisMsg, LinesMsg, MapMsg, PoseMsg, PoseMsgXyt, ScanMsg, Topic, MAX_BEAMS,
+    MAX_CORNERS, MAX_HYPOTHESES, MAX_LINES, STATUS_AMBIGUOUS, STATUS_FAILED, STATUS_OK,
 };
 use rerun::components::TextLogLevel;
 use rerun::datatypes::Rgba32;
@@ -162,14 +162,6 @@ pub struct Recorder {
     last_status: Option<u32>,
 }
 
-fn span_us(s: &StageSpan) -> Option<f64> {
-    (s.enter_ns > 0 && s.leave_ns >= s.enter_ns).then(|| (s.leave_ns - s.enter_ns) as f64 / 1e3)
-}
-
-fn between_us(from_ns: u64, to_ns: u64) -> Option<f64> {
-    (from_ns > 0 && to_ns >= from_ns).then(|| (to_ns - from_ns) as f64 / 1e3)
-}
-
 fn arrow(p: &PoseMsgXyt) -> ([f32; 2], [f32; 2]) {
     ([p.x as f32, p.y as f32], [ARROW * p.theta.cos() as f32, ARROW * p.theta.sin() as f32])
 }
@@ -308,7 +300,6 @@ impl Recorder {
             rec.log(WORLD_TRUTH, &Arrows2D::from_vectors([vector]).with_origins([origin]).with_colors([TRUTH_COLOUR]))
                 .map_err(OutputError::stream)?;
         }
-        self.scalar(&latency("acquire"), span_us(&m.header.stages[Stage::Acquire as usize]))?;
         self.output.account(512 + 8 * kept.points.len() as u64);
         self.kept.push_back(kept);
         self.counts.scan.recorded += 1;
@@ -333,12 +324,6 @@ impl Recorder {
         .with_labels(lines.iter().map(|l| l.samples.to_string()))
         .with_radii([0.02]);
         self.rec().log(SCAN_LINES, &strips).map_err(OutputError::stream)?;
-        let h = &m.header;
-        self.scalar(&latency("segment"), span_us(&h.stages[Stage::Segment as usize]))?;
-        self.scalar(
-            &latency("hop/scan"),
-            between_us(h.stages[Stage::Acquire as usize].leave_ns, h.stages[Stage::Segment as usize].enter_ns),
-        )?;
         self.output.account(512 + 24 * n as u64);
         self.counts.lines.recorded += 1;
         Ok(())
@@ -472,14 +457,11 @@ impl Recorder {
             self.scalar(METRICS_POSITION_ERROR, error)?;
             self.scalar(METRICS_SUCCESS, Some(if success { 1.0 } else { 0.0 }))?;
         }
-        let h = &m.header;
-        let st = &h.stages;
-        self.scalar(&latency("localize"), span_us(&st[Stage::Localize as usize]))?;
-        self.scalar(
-            &latency("hop/corners"),
-            between_us(st[Stage::Segment as usize].leave_ns, st[Stage::Localize as usize].enter_ns),
-        )?;
-        self.scalar(&latency("end_to_end"), between_us(h.stamp_ns, st[Stage::Localize as usize].leave_ns))
+        // every figure from the pose's own stamps, as `gema2 run` reports them
+        for (figure, us) in messages::latency::FIGURES.iter().zip(messages::latency::of_pose(&m.header)) {
+            self.scalar(&latency(figure.key), Some(us).filter(|v| v.is_finite()))?;
+        }
+        Ok(())
     }
 
     /// A text entry when the status differs from the last pose's: a timeline of when the

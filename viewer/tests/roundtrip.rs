@@ -173,7 +173,7 @@ fn a_recording_holds_every_entity_with_the_counts_sent() {
     assert!(!got.position_error.contains_key(&1));
     assert_eq!((got.map_walls, got.map_corners > 0), (4, true));
     assert_eq!(got.acquired, Some((1_000_000_000, 1_300_000_000)));
-    let (p50, _) = viewer::inspect::percentiles(&got.latencies["localize"]);
+    let (p50, _) = messages::latency::p50_p99(&got.latencies["localize"]);
     assert!((p50 - 1000.0).abs() < 1e-6, "{p50}");
     assert_eq!(got.latencies["hop/scan"].len(), 3);
     assert!(got.log.iter().any(|(s, t)| *s == Some(1) && t.contains("status failed")), "{:?}", got.log);
