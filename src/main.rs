@@ -6,6 +6,7 @@
 
 mod cmd;
 mod diagnose;
+mod progress;
 mod report;
 mod results;
 mod supervisor;

@@ -231,6 +231,8 @@ fn success_says_what_it_compares_with_and_no_truth_turns_it_off() {
     let locate = |extra: &[&str]| {
         let out = gema2(&[&["locate", "--map", "apartment", "--log", log.to_str().unwrap()][..], extra].concat());
         assert!(out.status.success(), "{}", text(&out.stderr));
+        // progress is drawn on a terminal only: none of it in a pipe
+        assert!(!text(&out.stderr).contains('\r') && !text(&out.stderr).contains('\u{1b}'), "{}", text(&out.stderr));
         text(&out.stdout)
     };
     let summary = locate(&[]);

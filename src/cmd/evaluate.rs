@@ -215,7 +215,8 @@ pub fn run(a: EvaluateArgs) -> Result<()> {
         for (name, map) in suite_maps(&a.map_seeds)? {
             for scenario in [Scenario::Clean, Scenario::People, Scenario::Furniture] {
                 let scans = simulated_log(&map, scenario, a.seed, a.scans)?;
-                let row = Row::of(format!("{name} {scenario}"), &locate_all(&map, &config, &scans));
+                let log = format!("{name} {scenario}");
+                let row = Row::of(log.clone(), &locate_all(&log, &map, &config, &scans));
                 row.print();
                 rows.push(row);
             }
@@ -244,7 +245,7 @@ pub fn run(a: EvaluateArgs) -> Result<()> {
                     maps.push((format!("{name} grid"), grid_map(&log, built_from)?));
                 }
                 for (name, map) in maps {
-                    let row = Row::of(name, &locate_all(&map, &config, &half));
+                    let row = Row::of(name.clone(), &locate_all(&name, &map, &config, &half));
                     row.print();
                     rows.push(row);
                 }
@@ -293,13 +294,19 @@ fn simulated_log(map: &WallMap, scenario: Scenario, seed: u64, scans: usize) -> 
     Ok(reader.map(|item| item.map(|i| i.scan)).collect::<Result<_, _>>()?)
 }
 
-/// Every scan of `scans` located in `map`, judged as `gema2 locate` judges it.
-fn locate_all(map: &WallMap, config: &Gema2Config, scans: &[LaserScan]) -> Summary {
+/// Every scan of `scans` located in `map`, judged as `gema2 locate` judges it; progress
+/// under `name` on a terminal.
+fn locate_all(name: &str, map: &WallMap, config: &Gema2Config, scans: &[LaserScan]) -> Summary {
     let model = Arc::new(MapModel::new(map.clone(), &config.map_corners));
     let mut gema2 = Gema2::new(model, config.segmenter, config.localizer);
     let mut summary = Summary::default();
+    let progress = crate::progress::Progress::scans(name, Some(scans.len() as u64));
+    let (mut right, mut judged) = (0, 0);
     for scan in scans {
-        summary.add(Outcome::located(&mut gema2, scan));
+        let outcome = Outcome::located(&mut gema2, scan);
+        (right, judged) = (right + u64::from(outcome.success()), judged + u64::from(outcome.has_truth));
+        summary.add(outcome);
+        progress.set(summary.scans() as u64, right, judged);
     }
     summary
 }

@@ -126,6 +126,7 @@ pub fn run(a: RunArgs) -> Result<()> {
     eprintln!("supervisor: {} stages running under prefix {}", stages.len(), a.prefix);
 
     let mut monitor = Monitor::default();
+    let progress = crate::progress::Progress::scans("poses", scans.filter(|&n| n > 0));
     let mut swap: Option<Swap> = None;
     let mut failure: Option<anyhow::Error> = None;
     let mut last_pose = Instant::now();
@@ -138,6 +139,7 @@ pub fn run(a: RunArgs) -> Result<()> {
                 monitor.record(&p, taken);
                 last_pose = Instant::now();
             }
+            progress.set(monitor.received, monitor.right, monitor.with_truth);
         }
         let _ = ready.try_wait(|e| {
             seen.insert(e.id.as_value());
@@ -162,6 +164,7 @@ pub fn run(a: RunArgs) -> Result<()> {
     };
     let listeners = [(poses.name.as_str(), &poses.listener), ("the stages' readiness", &ready)];
     let waited = messages::run_stage(&node, &listeners, Duration::from_millis(20), on_event);
+    progress.finish();
     stop_all(&mut stages);
     drop(swap);
     messages::cleanup_dead_nodes();
