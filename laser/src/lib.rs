@@ -8,9 +8,11 @@
 //! angles counter-clockwise). A reading is valid only when it is finite, above
 //! [`MIN_VALID_RANGE`] and below the sensor's maximum range; invalid readings are never points.
 //!
-//! One job: what a scan and a pose are. Depends on nalgebra and serde only; every other crate
-//! may depend on it.
+//! One job: what a scan and a pose are, and the line fit every stage that draws lines through
+//! points shares ([`fit`]). Depends on nalgebra and serde only; every other crate may depend on
+//! it.
 
+pub mod fit;
 mod geometry;
 mod pose;
 pub mod rng;

@@ -160,7 +160,7 @@ pub fn grid_positions(
 
 /// Most cells of the bounds a grid visits, whatever the free space: a map kilometres wide
 /// with little free space in it is not walked at the step of a room.
-const MAX_CELLS: f64 = 4.0e6;
+const MAX_CELLS: f64 = map::limits::SEARCH_GRID_CELLS as f64;
 
 /// The grid's positions where the sensor `may_stand`, in `out`, and their step: `step`, or as
 /// much wider as keeps them within `max_poses` poses at `headings` a position (the positions

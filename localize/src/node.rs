@@ -270,3 +270,27 @@ fn slide_line(m: &messages::LineMsg) -> Option<SlideLine> {
         direction_sigma: m.direction_sigma,
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The wire's outcome codes read back as the localizer names its statuses.
+    #[test]
+    fn a_status_on_the_wire_reads_as_the_localizer_names_it() {
+        for status in [Status::Ok, Status::Ambiguous, Status::Failed] {
+            let mut p: Box<PoseMsg> = messages::zeroed_box();
+            let corners: Box<CornersMsg> = messages::zeroed_box();
+            let result = Localization {
+                hypotheses: Vec::new(),
+                status,
+                candidates: 0,
+                times: Default::default(),
+                all_candidates: Vec::new(),
+                slide_step: None,
+            };
+            write_pose(&mut p, &corners, &result, 1, 0);
+            assert_eq!(messages::status_name(p.status), status.as_str());
+        }
+    }
+}

@@ -64,7 +64,7 @@ fn tile_index(c: usize, r: usize, tile_cols: usize) -> usize {
 }
 
 /// Largest number of cells a field may have before its resolution is coarsened.
-const MAX_CELLS: f64 = 16.0e6;
+const MAX_CELLS: f64 = crate::limits::FIELD_CELLS as f64;
 
 impl DistanceField {
     /// Builds the field at `resolution` (coarsened if the map is very large), with distances

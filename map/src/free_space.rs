@@ -14,7 +14,7 @@ use crate::field::DistanceField;
 use nalgebra::Point2;
 
 /// Largest number of cells before the grid is coarsened.
-const MAX_CELLS: f64 = 4.0e6;
+const MAX_CELLS: f64 = crate::limits::FREE_SPACE_CELLS as f64;
 
 /// Finest cell size, metres.
 const FINEST_CELL: f64 = 0.1;

@@ -6,7 +6,7 @@ use nalgebra::{Point2, Vector2};
 
 /// Most cells a [`WallGrid`] has: its cells are coarsened beyond that (a map kilometres
 /// across), which makes lists longer but keeps every query's answer.
-const MAX_CELLS: f64 = 4.0e6;
+const MAX_CELLS: f64 = crate::limits::WALL_GRID_CELLS as f64;
 
 /// `cell`, coarsened as needed so that a grid over `width` x `height` metres has at most about
 /// `max_cells` cells, and at most that many along either side whatever its shape.

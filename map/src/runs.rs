@@ -18,6 +18,7 @@
 //! drawn geometry: for them only pieces that continue each other to within [`JOINED`] are
 //! joined ([`crate::WallMap::joined_walls`]).
 
+use crate::simplify::douglas_peucker;
 use crate::wall::Wall;
 use nalgebra::Point2;
 use std::collections::HashMap;
@@ -280,19 +281,16 @@ fn is_b(e: usize) -> bool {
     e & 1 == 1
 }
 
-/// Douglas-Peucker on an open chain of points: pushes the points its runs start at (the
-/// chain's last point, where the last run ends, is left to the caller).
+/// Douglas-Peucker ([`crate::simplify`]) on an open chain of points: pushes the points its
+/// runs start at (the chain's last point, where the last run ends, is left to the caller).
 fn simplify(chain: &[Point2<f64>], tolerance: f64, out: &mut Vec<Point2<f64>>) {
-    let (Some(&a), Some(&b)) = (chain.first(), chain.last()) else {
-        return;
-    };
-    let far = farthest_from_segment(chain, a, b);
-    match far {
-        Some((k, d)) if d > tolerance => {
-            simplify(&chain[..=k], tolerance, out);
-            simplify(&chain[k..], tolerance, out);
+    match chain.len() {
+        0 => {}
+        1 => out.push(chain[0]),
+        n => {
+            let kept = douglas_peucker(chain, vec![(0, n - 1)], tolerance);
+            out.extend(kept[..kept.len() - 1].iter().map(|&k| chain[k]));
         }
-        _ => out.push(a),
     }
 }
 
@@ -307,16 +305,8 @@ fn simplify_ring(ring: &[Point2<f64>], tolerance: f64, out: &mut Vec<Point2<f64>
     if far == 0 {
         return;
     }
-    simplify(&ring[..=far], tolerance, out);
-    let mut rest: Vec<Point2<f64>> = ring[far..].to_vec();
-    rest.push(start);
-    simplify(&rest, tolerance, out);
-}
-
-/// The inner point of `chain` farthest from the segment `a`-`b`, with its distance.
-fn farthest_from_segment(chain: &[Point2<f64>], a: Point2<f64>, b: Point2<f64>) -> Option<(usize, f64)> {
-    let segment = Wall { a, b };
-    (1..chain.len().saturating_sub(1)).map(|k| (k, segment.closest(chain[k]).0)).max_by(|x, y| x.1.total_cmp(&y.1))
+    let kept = douglas_peucker(ring, vec![(0, far), (far, ring.len())], tolerance);
+    out.extend(kept.iter().map(|&k| ring[k]));
 }
 
 #[cfg(test)]

@@ -16,7 +16,7 @@ use nalgebra::Point2;
 use serde_json::{json, Value};
 
 /// Most cells a raster may have (a square kilometre at 0.2 m is 25 million).
-pub const MAX_CELLS: usize = 1 << 26;
+pub const MAX_CELLS: usize = crate::limits::SEEN_CELLS;
 
 /// Cells seen free, one bit each.
 #[derive(Clone, Debug, PartialEq)]

@@ -16,7 +16,7 @@ use nalgebra::{Point2, Vector2};
 use std::f64::consts::PI;
 
 /// Most cells an [`Occupancy`] may have (20 bytes each).
-pub const MAX_CELLS: usize = 1 << 25;
+pub const MAX_CELLS: usize = map::limits::SURVEY_CELLS;
 
 /// Walls closer in direction than this (radians) are one wall where they overlap.
 const ALIKE: f64 = 0.26;

@@ -21,7 +21,7 @@ use std::path::{Path, PathBuf};
 use thiserror::Error;
 
 /// Most cells a grid may have.
-pub const MAX_CELLS: usize = 1 << 27;
+pub const MAX_CELLS: usize = map::limits::GRID_FILE_CELLS;
 
 /// Why a ROS map was rejected.
 #[derive(Debug, Error)]

@@ -424,47 +424,17 @@ fn simplify_open(points: &[[f64; 2]], turns: &[usize], tolerance: f64) -> Vec<us
     }
 }
 
-/// Splits each span `(first, last)` (last taken modulo the point count) at its point farthest
-/// from the chord while that is beyond `tolerance`; the span ends and split points are kept.
-fn douglas_peucker(points: &[[f64; 2]], mut stack: Vec<(usize, usize)>, tolerance: f64) -> Vec<usize> {
-    let n = points.len();
-    let mut keep = vec![false; n];
-    for &(first, last) in &stack {
-        keep[first % n] = true;
-        keep[last % n] = true;
-    }
-    while let Some((first, last)) = stack.pop() {
-        let (a, b) = (points[first], points[last % n]);
-        let farthest =
-            (first + 1..last).map(|k| (k, distance_to_segment(points[k], a, b))).max_by(|x, y| x.1.total_cmp(&y.1));
-        if let Some((k, d)) = farthest {
-            if d > tolerance {
-                keep[k] = true;
-                stack.push((first, k));
-                stack.push((k, last));
-            }
-        }
-    }
-    (0..n).filter(|&k| keep[k]).collect()
+/// [`map::simplify::douglas_peucker`] over the traced points.
+fn douglas_peucker(points: &[[f64; 2]], spans: Vec<(usize, usize)>, tolerance: f64) -> Vec<usize> {
+    let points: Vec<nalgebra::Point2<f64>> = points.iter().map(|p| nalgebra::Point2::new(p[0], p[1])).collect();
+    map::simplify::douglas_peucker(&points, spans, tolerance)
 }
 
-/// A line fitted by total least squares: a point on it and its unit direction.
-fn fit_line(points: impl Iterator<Item = [f64; 2]> + Clone) -> Option<([f64; 2], [f64; 2])> {
-    let n = points.clone().count() as f64;
-    if n < 2.0 {
-        return None;
-    }
-    let (sx, sy) = points.clone().fold((0.0, 0.0), |s, p| (s.0 + p[0], s.1 + p[1]));
-    let (mx, my) = (sx / n, sy / n);
-    let (mut xx, mut xy, mut yy) = (0.0, 0.0, 0.0);
-    for p in points {
-        let (dx, dy) = (p[0] - mx, p[1] - my);
-        xx += dx * dx;
-        xy += dx * dy;
-        yy += dy * dy;
-    }
-    let angle = 0.5 * (2.0 * xy).atan2(xx - yy);
-    Some(([mx, my], [angle.cos(), angle.sin()]))
+/// A line fitted by total least squares ([`laser::fit`]): a point on it and its unit direction.
+fn fit_line(points: impl Iterator<Item = [f64; 2]>) -> Option<([f64; 2], [f64; 2])> {
+    let mut m = laser::fit::Moments::default();
+    points.for_each(|p| m.add(nalgebra::Point2::new(p[0], p[1])));
+    m.fit().map(|f| ([f.centroid.x, f.centroid.y], [f.direction.x, f.direction.y]))
 }
 
 /// The path's vertices after each simplified piece is refitted to the points it replaced and

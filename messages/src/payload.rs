@@ -199,6 +199,17 @@ pub const STATUS_OK: u32 = 0;
 pub const STATUS_AMBIGUOUS: u32 = 1;
 pub const STATUS_FAILED: u32 = 2;
 
+/// An outcome code as every report writes it (`ok`, `ambiguous`, `failed`, as the localizer's
+/// own `Status::as_str`); `unknown` for a code no localizer sends.
+pub fn status_name(code: u32) -> &'static str {
+    match code {
+        STATUS_OK => "ok",
+        STATUS_AMBIGUOUS => "ambiguous",
+        STATUS_FAILED => "failed",
+        _ => "unknown",
+    }
+}
+
 /// `gema2/pose`: ranked hypotheses of a scan.
 #[derive(Clone, Copy, Debug, ZeroCopySend, Zeroable)]
 #[repr(C)]

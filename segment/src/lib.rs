@@ -12,7 +12,8 @@
 pub mod corner;
 pub mod end;
 pub mod filter;
-pub mod fit;
+/// The total least squares line fit (section 4.2), shared with the tracing of grid maps.
+pub use laser::fit;
 pub mod inference;
 pub mod line;
 pub mod node;

@@ -2,7 +2,7 @@
 //! (from the per-stage enter/leave times every header carries), throughput, accuracy.
 
 use crate::report::{SUCCESS_HEADING_DEG, SUCCESS_POSITION};
-use messages::{latency, Freshness, PoseMsg, Stage, STATUS_AMBIGUOUS, STATUS_FAILED, STATUS_OK};
+use messages::{latency, Freshness, PoseMsg, Stage, STATUS_FAILED};
 use std::io::Write;
 
 /// The figures every reader of a pose reports ([`messages::latency::FIGURES`]), then the two
@@ -50,10 +50,10 @@ impl Monitor {
                 }
             }
         }
-        let status = match p.status {
-            STATUS_OK => "ok",
-            STATUS_AMBIGUOUS => "ambiguous",
-            _ => "failed",
+        // a code no localizer sends counts as no answer
+        let status = match messages::status_name(p.status) {
+            "unknown" => "failed",
+            name => name,
         };
         let micros = localize + s;
         self.rows.push(crate::report::csv_row(

@@ -7,8 +7,8 @@ use laser::ScanGeometry;
 use map::{CornerIndex, MapCornerConfig, SeenFree};
 use mapserver::wire::map_from_msg;
 use messages::{
-    CornersMsg, Freshness, Header, HypothesisMsg, LinesMsg, MapMsg, PoseMsg, PoseMsgXyt, ScanMsg, Topic, MAX_BEAMS,
-    MAX_CORNERS, MAX_HYPOTHESES, MAX_LINES, STATUS_AMBIGUOUS, STATUS_FAILED, STATUS_OK,
+    status_name, CornersMsg, Freshness, Header, HypothesisMsg, LinesMsg, MapMsg, PoseMsg, PoseMsgXyt, ScanMsg, Topic,
+    MAX_BEAMS, MAX_CORNERS, MAX_HYPOTHESES, MAX_LINES, STATUS_AMBIGUOUS, STATUS_OK,
 };
 use rerun::components::TextLogLevel;
 use rerun::datatypes::Rgba32;
@@ -164,15 +164,6 @@ pub struct Recorder {
 
 fn arrow(p: &PoseMsgXyt) -> ([f32; 2], [f32; 2]) {
     ([p.x as f32, p.y as f32], [ARROW * p.theta.cos() as f32, ARROW * p.theta.sin() as f32])
-}
-
-fn status_name(status: u32) -> &'static str {
-    match status {
-        STATUS_OK => "ok",
-        STATUS_AMBIGUOUS => "ambiguous",
-        STATUS_FAILED => "failed",
-        _ => "unknown",
-    }
 }
 
 impl Recorder {

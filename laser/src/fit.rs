@@ -1,4 +1,5 @@
-//! Total (orthogonal) least squares line fit from sufficient statistics.
+//! Total (orthogonal) least squares line fit from sufficient statistics: the segmenter's lines
+//! (section 4.2) and the walls traced from an occupancy grid (`mapio::trace`) use this one fit.
 //!
 //! The paper notes that ordinary least squares is biased for steep lines and suggests rotating
 //! the samples first (section 4.2); fitting the principal axis of the samples' scatter is the
