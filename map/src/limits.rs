@@ -51,7 +51,7 @@ mod tests {
             ("the wall grid", WALL_GRID_CELLS, WALL_GRID_CELL_BYTES),
             ("the free space", FREE_SPACE_CELLS, 1),
         ] {
-            assert!(cells * bytes <= RASTER_BUDGET, "{what}: {} MiB", cells * bytes >> 20);
+            assert!(cells * bytes <= RASTER_BUDGET, "{what}: {} MiB", (cells * bytes) >> 20);
         }
     }
 }
