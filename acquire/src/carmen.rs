@@ -73,26 +73,33 @@ pub struct FlaserArgs {
     pub flaser_range_max: Option<f64>,
 }
 
+/// Why `--flaser-*` arguments describe no layout: the argument and what it must be.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+#[error("{0}")]
+pub struct FlaserError(String);
+
 impl FlaserArgs {
     /// The layout these arguments describe, or why they describe none.
-    pub fn layout(&self) -> Result<FlaserLayout, String> {
+    pub fn layout(&self) -> Result<FlaserLayout, FlaserError> {
         let mut layout = FlaserLayout::default();
         if let Some(fov) = self.flaser_fov {
             if !(fov > 0.0 && fov <= 360.0) {
-                return Err(format!("--flaser-fov {fov}: a field of view is more than 0 and at most 360 degrees"));
+                return Err(FlaserError(format!(
+                    "--flaser-fov {fov}: a field of view is more than 0 and at most 360 degrees"
+                )));
             }
             layout.field_of_view = Some(fov.to_radians());
             layout.start_angle = -fov.to_radians() / 2.0;
         }
         if let Some(start) = self.flaser_start {
             if !start.is_finite() {
-                return Err(format!("--flaser-start {start}: an angle in degrees"));
+                return Err(FlaserError(format!("--flaser-start {start}: an angle in degrees")));
             }
             layout.start_angle = start.to_radians();
         }
         if let Some(r) = self.flaser_range_max {
             if !(r.is_finite() && r > laser::MIN_VALID_RANGE) {
-                return Err(format!("--flaser-range-max {r}: a range in metres"));
+                return Err(FlaserError(format!("--flaser-range-max {r}: a range in metres")));
             }
             layout.range_max = r;
         }

@@ -10,5 +10,7 @@ pub mod scip;
 pub mod sim;
 pub mod urg_log;
 
-pub use carmen::{write_robotlaser1, CarmenReader, FlaserArgs, FlaserLayout, LogError, LogScan, NO_TRUTH_MARKER};
+pub use carmen::{
+    write_robotlaser1, CarmenReader, FlaserArgs, FlaserError, FlaserLayout, LogError, LogScan, NO_TRUTH_MARKER,
+};
 pub use sim::{Obstacles, Scenario, SensorModel, Simulator};

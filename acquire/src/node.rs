@@ -133,7 +133,7 @@ fn source(a: &AcquireArgs) -> Result<(Source, &'static str)> {
         return Ok((Box::new(reader.map(|r| r.map_err(anyhow::Error::from))), "urg04lx-log"));
     }
     if let Some(path) = &a.log {
-        let reader = CarmenReader::open(path, a.flaser.layout().map_err(anyhow::Error::msg)?)?;
+        let reader = CarmenReader::open(path, a.flaser.layout()?)?;
         return Ok((Box::new(reader.map(|r| r.map(|s| s.scan).map_err(anyhow::Error::from))), "carmen-log"));
     }
     let map = mapio::load_map(&a.map)?;

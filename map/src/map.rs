@@ -184,7 +184,7 @@ impl WallMap {
             None => None,
             Some(v) => Some(
                 SeenFree::from_json(v)
-                    .map_err(|e| MapError::Shape { path: path.clone(), message: format!("\"seen_free\": {e}") })?,
+                    .map_err(|e| MapError::Shape { path: path.clone(), message: format!("\"seen_free\": {}", e.0) })?,
             ),
         };
         let mut walls = Vec::with_capacity(list.len());

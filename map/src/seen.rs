@@ -24,6 +24,23 @@ pub struct SeenFree {
     raster: BitGrid,
 }
 
+/// Why a `"seen_free"` value is no raster: what is wrong with it, in words.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+#[error("seen free space: {0}")]
+pub struct SeenError(pub String);
+
+impl From<String> for SeenError {
+    fn from(s: String) -> Self {
+        SeenError(s)
+    }
+}
+
+impl From<&str> for SeenError {
+    fn from(s: &str) -> Self {
+        SeenError(s.to_owned())
+    }
+}
+
 impl SeenFree {
     /// A raster of `cell`-sized cells covering `lo`..`hi`, nothing seen yet. `None` when the
     /// cell is not a positive finite size or the raster would exceed [`MAX_CELLS`].
@@ -174,7 +191,7 @@ impl SeenFree {
     }
 
     /// Reads a `"seen_free"` value; the error says what is wrong with it.
-    pub fn from_json(v: &Value) -> Result<SeenFree, String> {
+    pub fn from_json(v: &Value) -> Result<SeenFree, SeenError> {
         let number = |key: &str| v.get(key).and_then(Value::as_f64).ok_or(format!("\"{key}\" must be a number"));
         let count = |key: &str| v.get(key).and_then(Value::as_u64).ok_or(format!("\"{key}\" must be a whole number"));
         let origin = v
@@ -202,7 +219,7 @@ impl SeenFree {
             (at, seen_run) = (end, !seen_run);
         }
         if at != cols * rows {
-            return Err(format!("the runs cover {at} of the {} cells", cols * rows));
+            return Err(format!("the runs cover {at} of the {} cells", cols * rows).into());
         }
         Ok(seen)
     }
@@ -251,20 +268,20 @@ mod tests {
         assert_eq!(back, s);
         let mut v = s.to_json();
         v["runs"].as_array_mut().unwrap().push(json!(5));
-        assert!(SeenFree::from_json(&v).unwrap_err().contains("goes past"));
+        assert!(SeenFree::from_json(&v).unwrap_err().0.contains("goes past"));
         let mut v = s.to_json();
         v["runs"].as_array_mut().unwrap().pop();
-        assert!(SeenFree::from_json(&v).unwrap_err().contains("the runs cover"));
+        assert!(SeenFree::from_json(&v).unwrap_err().0.contains("the runs cover"));
         let mut v = s.to_json();
         v["cell"] = json!(-0.2);
-        assert!(SeenFree::from_json(&v).unwrap_err().contains("positive"));
+        assert!(SeenFree::from_json(&v).unwrap_err().0.contains("positive"));
         let mut v = s.to_json();
         v["cols"] = json!(1u64 << 40);
-        assert!(SeenFree::from_json(&v).unwrap_err().contains("cells"));
+        assert!(SeenFree::from_json(&v).unwrap_err().0.contains("cells"));
         let mut v = s.to_json();
         v["runs"][1] = json!("x");
-        assert!(SeenFree::from_json(&v).unwrap_err().contains("run 1"));
-        assert!(SeenFree::from_json(&json!({"cell": 0.2})).unwrap_err().contains("origin"));
+        assert!(SeenFree::from_json(&v).unwrap_err().0.contains("run 1"));
+        assert!(SeenFree::from_json(&json!({"cell": 0.2})).unwrap_err().0.contains("origin"));
     }
 
     #[test]

@@ -14,8 +14,8 @@ pub enum LoadError {
     Map(#[from] MapError),
     #[error(transparent)]
     Ros(#[from] RosMapError),
-    #[error("{path}: {message}")]
-    Trace { path: PathBuf, message: String },
+    #[error("{path}: {problem}")]
+    Trace { path: PathBuf, problem: crate::ros::GridError },
     #[error("{spec:?} is neither a bundled map ({bundled}) nor a map file")]
     Unknown { spec: String, bundled: String },
 }
@@ -40,7 +40,7 @@ pub fn load_map(spec: &str) -> Result<WallMap, LoadError> {
         let grid = OccupancyGrid::load(path)?;
         return grid
             .to_wall_map(&TraceConfig::default(), None)
-            .map_err(|message| LoadError::Trace { path: path.to_owned(), message });
+            .map_err(|problem| LoadError::Trace { path: path.to_owned(), problem });
     }
     Ok(WallMap::load(path)?)
 }

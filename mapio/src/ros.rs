@@ -37,6 +37,17 @@ pub enum RosMapError {
     Image { path: PathBuf, message: String },
 }
 
+/// Why a grid gives no wall map, or a wall map no grid.
+#[derive(Debug, Error, PartialEq)]
+pub enum GridError {
+    #[error("no occupied cells outline a wall: is the image negated (negate: 1), or are the thresholds off?")]
+    NoWalls,
+    #[error("resolution {resolution} and thickness {thickness}: a positive and a non-negative number of metres")]
+    Drawing { resolution: f64, thickness: f64 },
+    #[error("{width} x {height} cells of {resolution} m: at most {MAX_CELLS} are written")]
+    TooLarge { width: usize, height: usize, resolution: f64 },
+}
+
 pub use crate::trace::Cell;
 
 /// How image values become occupancy (map_server's `mode`).
@@ -397,7 +408,7 @@ impl OccupancyGrid {
     /// farther from them than the localizer's slack); accuracy `sigma` metres (half a cell when
     /// `None`: how far a surface may lie from where its face is drawn; a SLAM map's walls are
     /// often worse, and should say so).
-    pub fn to_wall_map(&self, trace: &TraceConfig, sigma: Option<f64>) -> Result<WallMap, String> {
+    pub fn to_wall_map(&self, trace: &TraceConfig, sigma: Option<f64>) -> Result<WallMap, GridError> {
         let raster = Raster { width: self.width, height: self.height, cells: &self.cells };
         let walls: Vec<Wall> = crate::trace::walls(&raster, trace)
             .into_iter()
@@ -409,9 +420,7 @@ impl OccupancyGrid {
             .filter(|w| w.length() >= MIN_WALL_LENGTH.max(0.25 * self.resolution))
             .collect();
         if walls.is_empty() {
-            return Err("no occupied cells outline a wall: is the image negated (negate: 1), or are the \
-                        thresholds off?"
-                .into());
+            return Err(GridError::NoWalls);
         }
         let corners =
             [(0.0, 0.0), (self.width as f64, 0.0), (0.0, self.height as f64), (self.width as f64, self.height as f64)]
@@ -442,11 +451,9 @@ impl OccupancyGrid {
     /// building (a 4-connected region of cells at least a twentieth the size of the largest,
     /// not the one around a closed building) and, when the map says where its survey saw free
     /// space, there; unknown elsewhere.
-    pub fn from_walls(map: &WallMap, resolution: f64, thickness: f64) -> Result<Self, String> {
+    pub fn from_walls(map: &WallMap, resolution: f64, thickness: f64) -> Result<Self, GridError> {
         if !(resolution.is_finite() && resolution > 0.0 && thickness.is_finite() && thickness >= 0.0) {
-            return Err(format!(
-                "resolution {resolution} and thickness {thickness}: a positive and a non-negative number of metres"
-            ));
+            return Err(GridError::Drawing { resolution, thickness });
         }
         let (lo, hi) = map.bounds();
         let margin = 2.0 * resolution + thickness;
@@ -454,7 +461,7 @@ impl OccupancyGrid {
         let width = ((hi.x - lo.x + 2.0 * margin) / resolution).ceil() as usize;
         let height = ((hi.y - lo.y + 2.0 * margin) / resolution).ceil() as usize;
         if width.checked_mul(height).is_none_or(|n| n > MAX_CELLS) {
-            return Err(format!("{width} x {height} cells of {resolution} m: at most {MAX_CELLS} are written"));
+            return Err(GridError::TooLarge { width, height, resolution });
         }
         let mut occupied = vec![false; width * height];
         let grid = Grid { origin, cell: resolution, cols: width, rows: height };
@@ -732,7 +739,7 @@ mod tests {
     #[test]
     fn a_grid_with_no_walls_is_refused() {
         let g = OccupancyGrid { resolution: 0.1, origin: [0.0; 3], width: 4, height: 4, cells: vec![Cell::Free; 16] };
-        assert!(g.to_wall_map(&TraceConfig::default(), None).unwrap_err().contains("negate"));
+        assert!(g.to_wall_map(&TraceConfig::default(), None).unwrap_err().to_string().contains("negate"));
     }
 
     #[test]

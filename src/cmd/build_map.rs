@@ -238,7 +238,7 @@ enum Surveyed {
 /// A malformed laser line is handed on as such, for the first pass to report; an unreadable
 /// log or a scan without a pose is an error.
 fn survey(a: &BuildArgs) -> Result<impl Iterator<Item = Result<Surveyed>> + '_> {
-    let reader = CarmenReader::open(&a.log, a.flaser.layout().map_err(anyhow::Error::msg)?)?;
+    let reader = CarmenReader::open(&a.log, a.flaser.layout()?)?;
     Ok(reader.enumerate().filter(move |(k, _)| super::selected(*k, a.every, a.offset)).map(move |(k, item)| {
         let item = match item {
             Ok(item) => item,

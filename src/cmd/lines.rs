@@ -33,9 +33,7 @@ pub struct LinesArgs {
 pub fn run(a: LinesArgs) -> Result<()> {
     let scans: Box<dyn Iterator<Item = Result<LaserScan, acquire::LogError>>> = match (&a.urg_log, &a.log) {
         (Some(p), None) => Box::new(UrgLogReader::open(p)?),
-        (None, Some(p)) => {
-            Box::new(CarmenReader::open(p, a.flaser.layout().map_err(anyhow::Error::msg)?)?.map(|r| r.map(|s| s.scan)))
-        }
+        (None, Some(p)) => Box::new(CarmenReader::open(p, a.flaser.layout()?)?.map(|r| r.map(|s| s.scan))),
         _ => bail!("give exactly one of --urg-log and --log"),
     };
     let mut seg = segmenter_by_name(&a.implementation, SegmenterConfig::default())

@@ -98,7 +98,7 @@ pub fn run(a: LocateArgs) -> Result<()> {
     let loc_cfg = config.localizer;
     let model = Arc::new(MapModel::new(map, &config.map_corners));
     let mut gema2 = Gema2::new(Arc::clone(&model), config.segmenter, config.localizer);
-    let reader = CarmenReader::open(&a.log, a.flaser.layout().map_err(anyhow::Error::msg)?)?;
+    let reader = CarmenReader::open(&a.log, a.flaser.layout()?)?;
     let mut csv = a.out.as_deref().map(CsvOut::create).transpose()?;
     let dump = dump_request(&a)?;
     let mut run = Run {
