@@ -471,7 +471,17 @@ fn sighup_reloads_the_map_and_the_map_server_carries_on() {
         let got = lines.next().and_then(Result::ok).unwrap_or_default();
         assert!(got.contains(&format!("as version {version}")), "{got}");
     }
+    // a changed file (replaced whole, as an editor saves) is read again by itself, once
+    std::thread::sleep(Duration::from_millis(50));
+    let new = dir.path().join("new.json");
+    std::fs::write(&new, include_str!("../maps/office.json")).unwrap();
+    std::fs::rename(&new, &map).unwrap();
+    let got = lines.next().and_then(Result::ok).unwrap_or_default();
+    assert!(got.contains("reloaded") && got.contains("as version 4"), "{got}");
+    std::thread::sleep(Duration::from_secs(1));
     server.stop();
+    let rest: Vec<String> = lines.map_while(Result::ok).collect();
+    assert!(rest.iter().all(|l| !l.contains("as version 5")), "the unchanged file was read again: {rest:?}");
 }
 
 /// A reader that dies (kill -9, so nothing of its own cleans up) must not take its publisher with

@@ -36,10 +36,40 @@ extern "C" fn on_sighup(_: libc::c_int) {
 }
 
 /// When the map's files last changed: a ROS map's YAML file or the image it names.
-fn modified(spec: &str) -> Option<SystemTime> {
-    let path = Path::new(spec);
-    let files = if mapio::ros::is_ros_map(path) { mapio::ros::files_of(path) } else { vec![path.to_owned()] };
-    files.iter().filter_map(|f| std::fs::metadata(f).and_then(|m| m.modified()).ok()).max()
+/// The files a map is read from and when they last changed: what the server watches. The
+/// YAML of a ROS map is read once here, for the image it names, not at every look (it was read
+/// every 5 ms); a look only asks the file system for the files' times, and at most every
+/// [`LOOK_EVERY`].
+struct Watched {
+    files: Vec<std::path::PathBuf>,
+    stamp: Option<SystemTime>,
+    looked: std::time::Instant,
+}
+
+/// How often the map's files are looked at for a change.
+const LOOK_EVERY: Duration = Duration::from_millis(250);
+
+impl Watched {
+    fn of(spec: &str) -> Self {
+        let path = Path::new(spec);
+        let files = if mapio::ros::is_ros_map(path) { mapio::ros::files_of(path) } else { vec![path.to_owned()] };
+        let stamp = Self::newest(&files);
+        Watched { files, stamp, looked: std::time::Instant::now() }
+    }
+
+    fn newest(files: &[std::path::PathBuf]) -> Option<SystemTime> {
+        files.iter().filter_map(|f| std::fs::metadata(f).and_then(|m| m.modified()).ok()).max()
+    }
+
+    /// Whether a file changed since the last look that said so (at most every [`LOOK_EVERY`]).
+    fn changed(&mut self) -> bool {
+        if self.looked.elapsed() < LOOK_EVERY {
+            return false;
+        }
+        self.looked = std::time::Instant::now();
+        let now = Self::newest(&self.files);
+        std::mem::replace(&mut self.stamp, now) != now
+    }
 }
 
 fn load(spec: &str) -> Result<(WallMap, CornerIndex)> {
@@ -86,7 +116,7 @@ pub fn run(a: MapServerArgs) -> Result<()> {
     // SAFETY: the handler only stores to an atomic.
     unsafe { libc::signal(libc::SIGHUP, on_sighup as *const () as libc::sighandler_t) };
     let (mut map, mut index) = load(&a.map)?;
-    let mut stamp = modified(&a.map);
+    let mut watched = Watched::of(&a.map);
     let node = messages::create_node("mapserver")?;
     let topic = open_topic::<MapMsg>(&node, &a.stage.prefix, Topic::Map)?;
     let publisher = topic.data.publisher_builder().create().with_context(|| format!("{}: publisher", topic.name))?;
@@ -119,9 +149,9 @@ pub fn run(a: MapServerArgs) -> Result<()> {
             let reply = corner_reply(&index, version, &q);
             response.write_payload(reply).send().context("corner queries: send")?;
         }
-        let changed = modified(&a.map);
-        if RELOAD.swap(false, Ordering::Relaxed) || changed != stamp {
-            stamp = changed;
+        if RELOAD.swap(false, Ordering::Relaxed) || watched.changed() {
+            // the YAML may name another image now
+            watched = Watched::of(&a.map);
             match load(&a.map) {
                 Ok((m, i)) => {
                     version += 1;
