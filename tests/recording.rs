@@ -225,6 +225,37 @@ fn signal(pid: u32, sig: i32) {
     unsafe { libc::kill(pid as i32, sig) };
 }
 
+/// A recorder killed outright (kill -9: nothing of its own cleans up) reads every topic, and
+/// every stage that waits for room had it among its readers: the run must go on to its end as
+/// though it had never been there.
+#[test]
+fn a_recorder_killed_outright_costs_the_run_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    let log = simulate(dir.path(), 3000);
+    let file = dir.path().join("killed.rrd");
+    let p = prefix("killrec");
+    let mut recorder =
+        Command::new(viewer()).args(["--prefix", &p, "--out"]).arg(&file).stderr(Stdio::null()).spawn().unwrap();
+    let run = Command::new(gema2())
+        .args(["run", "--prefix", &p, "--scans", "3000", "--timeout", "120", "--pipeline"])
+        .arg(pipeline(dir.path(), &log, "max"))
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    // kill it once it has had some scans, while the source still publishes as fast as it may
+    let start = Instant::now();
+    while start.elapsed() < Duration::from_secs(60) && std::fs::metadata(&file).map_or(0, |m| m.len()) < 100_000 {
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    signal(recorder.id(), libc::SIGKILL);
+    let _ = recorder.wait();
+    let out = run.wait_with_output().unwrap();
+    let report = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "{report}\n{}", String::from_utf8_lossy(&out.stderr));
+    assert!(report.contains("poses received 3000 of 3000"), "{report}");
+}
+
 #[test]
 fn sigint_mid_run_leaves_a_clean_file_with_every_scan_received() {
     let dir = tempfile::tempdir().unwrap();
