@@ -2,9 +2,10 @@
 //! pose hypotheses (eqs. 5-6), which the ray-cast cost function (eq. 7) ranks.
 //!
 //! One job: localization, as a library ([`Localizer`], [`Gema2`] for segmentation and
-//! localization together) and as the pipeline's localize stage ([`node`]). The searches it runs
-//! are one list, [`CASCADE`]. Depends on `laser`, `segment` and `map`; on `messages` and
-//! `mapserver` (the map's wire form) for the stage alone.
+//! localization together) and as the pipeline's localize stage (`node`, with the default
+//! feature `process`). The searches it runs are one list, [`CASCADE`]. Depends on `laser`,
+//! `segment` and `map`; with `process`, on `messages`, `mapserver` (the map's wire form) and
+//! `clap` for the stage. Without it, no iceoryx2, clap or libc.
 
 pub mod cost;
 pub mod gema2;
@@ -13,6 +14,7 @@ pub mod localizer;
 mod lowest;
 pub mod matching;
 pub mod model;
+#[cfg(feature = "process")]
 pub mod node;
 pub mod refine;
 pub mod settings;

@@ -535,7 +535,9 @@ impl OccupancyGrid {
 /// The occupancy grid a survey makes, as a grid-mapping SLAM does at known poses: each beam
 /// adds evidence that its end cell is occupied and that the cells it crossed are free, in log
 /// odds. What `gema2 map build --grid` writes for AMCL, and a grid of real scans to test
-/// [`OccupancyGrid::to_wall_map`] on.
+/// [`OccupancyGrid::to_wall_map`] on. Not [`crate::occupancy::Occupancy`], which counts scans
+/// (not beams) per cell, short of each hit by a clearance, to tell what stayed from what moved
+/// while a map is built; both walk the same [`map::bitgrid::Grid`].
 #[derive(Clone, Debug)]
 pub struct SurveyGrid {
     grid: Grid,

@@ -7,7 +7,9 @@
 //! returns is in the frame the rest of the project uses.
 //!
 //! One job: segmentation, as a library ([`segmenter`]) and as the pipeline's segment stage
-//! ([`node`]). Depends on `laser`, and on `messages` for the stage alone.
+//! (`node`, with the default feature `process`). Depends on `laser`; with `process`, on
+//! `messages` and `clap` for the stage. `cargo build -p segment --no-default-features` builds
+//! the algorithm alone, without iceoryx2, clap or libc.
 
 pub mod corner;
 pub mod end;
@@ -16,6 +18,7 @@ pub mod filter;
 pub use laser::fit;
 pub mod inference;
 pub mod line;
+#[cfg(feature = "process")]
 pub mod node;
 pub mod noise;
 pub mod sample;
@@ -23,6 +26,7 @@ pub mod segmenter;
 pub mod settings;
 pub mod split_merge;
 pub mod visibility;
+#[cfg(feature = "process")]
 pub mod wire;
 
 pub use corner::{Arm, Corner, CornerConfig, CornerRanking};
