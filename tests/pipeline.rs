@@ -536,6 +536,36 @@ fn a_killed_reader_leaves_every_stage_upstream_running() {
     mapserver.stop();
 }
 
+/// The map server's corner queries have a client: `gema2 map corners` asks the running server
+/// and prints what it holds, near an angle and a place.
+#[test]
+fn map_corners_asks_the_running_map_server() {
+    let p = prefix("corners");
+    let mut server = StageChild::spawn(
+        Command::new(exe()).args(["stage", "mapserver", "--map", "office", "--prefix", &p]).stderr(Stdio::piped()),
+    );
+    let first = BufReader::new(server.child().stderr.take().unwrap()).lines().next();
+    assert!(first.and_then(Result::ok).unwrap_or_default().contains("as version 1"));
+    let ask = |extra: &[&str]| gema2(&[&["map", "corners", "--prefix", &p][..], extra].concat());
+    let out = ask(&["--angle", "90", "--tolerance", "3"]);
+    let text = String::from_utf8_lossy(&out.stdout).into_owned();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let head = text.lines().next().unwrap_or_default();
+    assert!(head.starts_with("# map version 1: "), "{text}");
+    let rows: Vec<Vec<f64>> =
+        text.lines().skip(2).map(|l| l.split('\t').map(|v| v.parse().unwrap()).collect()).collect();
+    assert!(!rows.is_empty(), "{text}");
+    assert!(rows.iter().all(|r| (87.0..=93.0).contains(&r[2])), "{text}");
+    // a place far from the building holds none
+    let out = ask(&["--angle", "90", "--near", "5000", "5000", "1"]);
+    assert!(String::from_utf8_lossy(&out.stdout).starts_with("# map version 1: 0 corners match"));
+    server.stop();
+    // with no map server, it says so
+    let out = gema2(&["map", "corners", "--prefix", &prefix("nocorners"), "--angle", "90"]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success() && err.contains("no map server is serving"), "{err}");
+}
+
 /// A stage process this test started, killed if the test fails before stopping it: an orphan
 /// would hold the test harness's output pipe open and hang the run.
 struct StageChild(Option<Child>);

@@ -20,6 +20,8 @@ pub enum MapCommand {
         #[arg(long)]
         out: PathBuf,
     },
+    /// Ask a running map server for its map's corners near an inner angle (and a place).
+    Corners(super::corners::CornersArgs),
     /// Print a map's size and corner counts.
     Info {
         /// A bundled map's name or a map file.
@@ -82,6 +84,7 @@ pub enum MapCommand {
 
 pub fn run(c: MapCommand) -> Result<()> {
     match c {
+        MapCommand::Corners(a) => super::corners::run(a),
         MapCommand::Generate { kind, seed, out } => generate(&kind, seed, &out),
         MapCommand::Build(a) => super::build_map::run(a),
         MapCommand::Thicken { map, thickness, out } => thicken(&map, thickness, &out),

@@ -2,6 +2,7 @@
 
 pub mod bench;
 pub mod build_map;
+pub mod corners;
 pub mod demo;
 pub mod emulate;
 pub mod evaluate;
