@@ -104,6 +104,11 @@ pub struct SupervisorSpec {
 pub struct Pipeline {
     #[serde(default)]
     pub supervisor: SupervisorSpec,
+    /// `KEY=VALUE` settings for the whole pipeline (`gema2 settings` lists the keys): each goes
+    /// to every stage that takes it, so the segment and localize stages cannot disagree on a key
+    /// both take (the error model, `wall_ends`). Given after a stage's own `args`.
+    #[serde(default)]
+    pub settings: Vec<String>,
     #[serde(rename = "stage")]
     pub stages: Vec<StageSpec>,
 }
@@ -121,6 +126,7 @@ impl Pipeline {
     /// `GEMA2_LOG=run.log gema2 run --pipeline pipelines/replay.toml`.
     pub fn parse_with(text: &str, origin: &Path, env: &dyn Fn(&str) -> Option<String>) -> Result<Self> {
         let mut p: Pipeline = toml::from_str(text).with_context(|| format!("{}: not a pipeline", origin.display()))?;
+        p.share_settings().with_context(|| format!("{}: settings", origin.display()))?;
         for s in &mut p.stages {
             let at = |e: String| anyhow::anyhow!("{}: stage {:?}: {e}", origin.display(), s.name);
             for a in &mut s.args {
@@ -147,6 +153,29 @@ impl Pipeline {
             bail!("{}: no acquire stage: nothing would produce scans", origin.display());
         }
         Ok(p)
+    }
+
+    /// Checks the pipeline's `settings` and appends each, as `--set`, to the stages that take
+    /// it: a segmentation key to the segment stages, every key to the localize stages.
+    fn share_settings(&mut self) -> Result<()> {
+        if self.settings.is_empty() {
+            return Ok(());
+        }
+        localize::Gema2Config::default().apply(&self.settings)?;
+        for s in &mut self.stages {
+            for kv in &self.settings {
+                let key = kv.split_once('=').map_or(kv.as_str(), |(k, _)| k.trim());
+                let takes = match s.kind {
+                    Kind::Segment => segment::SegmenterConfig::SETTINGS.iter().any(|spec| spec.key == key),
+                    Kind::Localize => true,
+                    _ => false,
+                };
+                if takes {
+                    s.args.extend(["--set".to_owned(), kv.clone()]);
+                }
+            }
+        }
+        Ok(())
     }
 
     /// Refuses a `cpu` (a stage's or the supervisor's) that is not among `allowed`, the cores
@@ -239,6 +268,22 @@ mod tests {
         let ok = text.replace("${NOPE}", "${NOPE:-1}");
         let p = Pipeline::parse_with(&ok, Path::new("p.toml"), &env).unwrap();
         assert_eq!(p.stages[0].args, ["--log", "/data/run.log", "--x", "1"]);
+    }
+
+    /// One list of settings reaches every stage that takes each key, after the stage's own
+    /// arguments; a bad key is refused naming the file.
+    #[test]
+    fn the_pipeline_s_settings_go_to_every_stage_that_takes_them() {
+        let text = "settings = [\"error_constant=0.05\", \"screened=100\"]\n\
+                    [[stage]]\nname = \"s\"\nkind = \"segment\"\nargs = [\"--impl\", \"x\"]\n\
+                    [[stage]]\nname = \"l\"\nkind = \"localize\"\n\
+                    [[stage]]\nname = \"a\"\nkind = \"acquire\"\n";
+        let p = Pipeline::parse(text, Path::new("p.toml")).unwrap();
+        assert_eq!(p.stages[0].args, ["--impl", "x", "--set", "error_constant=0.05"]);
+        assert_eq!(p.stages[1].args, ["--set", "error_constant=0.05", "--set", "screened=100"]);
+        assert!(p.stages[2].args.is_empty());
+        let err = Pipeline::parse(&text.replace("screened=100", "screend=1"), Path::new("p.toml")).unwrap_err();
+        assert!(format!("{err:#}").contains("p.toml: settings") && format!("{err:#}").contains("screend"), "{err:#}");
     }
 
     /// The shipped example pipelines parse, given the variables their comments name.
