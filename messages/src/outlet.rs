@@ -26,7 +26,6 @@ use iceoryx2::port::publisher::Publisher;
 use iceoryx2::port::{BackpressureAction, BackpressureInfo};
 use iceoryx2::prelude::*;
 use iceoryx2::service::port_factory::publish_subscribe;
-use std::collections::HashMap;
 use std::fmt::Debug;
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
@@ -43,7 +42,7 @@ pub struct SendError {
 
 /// The process of each subscriber, by the subscriber's port id: what the backpressure handler
 /// asks about while it waits for room.
-type Readers = Arc<Mutex<HashMap<u128, i32>>>;
+type Readers = Arc<Mutex<Vec<(u128, i32)>>>;
 
 /// Whether process `pid` is alive (or a zombie not yet reaped).
 fn alive(pid: i32) -> bool {
@@ -56,7 +55,7 @@ fn alive(pid: i32) -> bool {
 fn wait_for_live_readers(readers: &Readers) -> impl Fn(&BackpressureInfo) -> BackpressureAction + Send {
     let readers = readers.clone();
     move |info: &BackpressureInfo| {
-        let pid = readers.lock().ok().and_then(|r| r.get(&info.receiver_port_id).copied());
+        let pid = readers.lock().ok().and_then(|r| r.iter().find(|(id, _)| *id == info.receiver_port_id).map(|r| r.1));
         match pid {
             Some(pid) if !alive(pid) => BackpressureAction::DiscardData,
             _ => BackpressureAction::Retry,
@@ -96,8 +95,6 @@ pub struct Outlet<T: Debug + ZeroCopySend + Zeroable + 'static> {
     /// design when a buffer is full).
     pub missed: u64,
     readers: Readers,
-    /// The subscriber count when `readers` was last listed.
-    listed: Option<usize>,
 }
 
 impl<T: Debug + ZeroCopySend + Zeroable + 'static> Outlet<T> {
@@ -123,7 +120,6 @@ impl<T: Debug + ZeroCopySend + Zeroable + 'static> Outlet<T> {
         Ok(Outlet {
             waits_for_room,
             readers,
-            listed: None,
             name: ports.name,
             data: ports.data,
             publisher,
@@ -165,7 +161,6 @@ impl<T: Debug + ZeroCopySend + Zeroable + 'static> Outlet<T> {
         match publish(&self.publisher, &self.notifier, &mut *fill) {
             Err(PublishError::Send(_)) => {
                 crate::cleanup_dead_nodes();
-                self.listed = None;
                 self.list_readers();
                 self.missed += 1;
                 publish(&self.publisher, &self.notifier, fill)
@@ -175,24 +170,21 @@ impl<T: Debug + ZeroCopySend + Zeroable + 'static> Outlet<T> {
         .map_err(|reason| SendError { topic: self.name.clone(), reason })
     }
 
-    /// Lists the subscribers' processes for the backpressure handler, when their number changed.
+    /// Lists the subscribers' processes for the backpressure handler, before each publication:
+    /// a reader that died and one that took its place between two messages must both be known
+    /// (a few entries of shared memory, read in place).
     fn list_readers(&mut self) {
-        let config = self.data.dynamic_config();
-        let n = config.number_of_subscribers();
-        if !self.waits_for_room || self.listed == Some(n) {
+        if !self.waits_for_room {
             return;
         }
-        let mut found = HashMap::new();
-        config.list_subscribers(|s| {
+        let Ok(mut readers) = self.readers.lock() else { return };
+        readers.clear();
+        self.data.dynamic_config().list_subscribers(|s| {
             if let Ok(pid) = s.node_id.pid::<ipc::Service>() {
-                found.insert(s.subscriber_id.value(), pid.value());
+                readers.push((s.subscriber_id.value(), pid.value()));
             }
             CallbackProgression::Continue
         });
-        if let Ok(mut r) = self.readers.lock() {
-            *r = found;
-        }
-        self.listed = Some(n);
     }
 
     /// Wakes the subscribers without a message ([`WARM_UP`]).
