@@ -2,12 +2,19 @@
 //! drawn on stderr only when stderr is a terminal, so logs, pipes and CI get none of it, and
 //! results (on stdout) are never mixed with it.
 
+use crate::report::Outcome;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use std::io::IsTerminal;
+use std::path::Path;
 use std::time::Duration;
 
-/// A progress line, or nothing when stderr is not a terminal.
-pub struct Progress(Option<ProgressBar>);
+/// A progress line (nothing when stderr is not a terminal), and the outcomes it has been
+/// told of through [`add`](Self::add).
+pub struct Progress {
+    bar: Option<ProgressBar>,
+    /// Scans added, those right, and those with a true pose to judge them by.
+    tally: (u64, u64, u64),
+}
 
 impl Progress {
     /// Counts scans of `what` (a log's name, "poses"), out of `total` when it is known.
@@ -15,14 +22,18 @@ impl Progress {
         Self::new(what, total, std::io::stderr().is_terminal())
     }
 
+    /// Counts the scans of the log at `path`, named by its file name after `doing` ("" or
+    /// "surveying ").
+    pub fn of_log(doing: &str, path: &Path, total: Option<u64>) -> Self {
+        let name = path.file_name().map_or_else(|| path.display().to_string(), |n| n.to_string_lossy().into_owned());
+        Self::scans(&format!("{doing}{name}"), total)
+    }
+
     fn new(what: &str, total: Option<u64>, on_terminal: bool) -> Self {
         if !on_terminal {
-            return Progress(None);
+            return Progress { bar: None, tally: (0, 0, 0) };
         }
-        let bar = match total {
-            Some(n) => ProgressBar::with_draw_target(Some(n), ProgressDrawTarget::stderr()),
-            None => ProgressBar::with_draw_target(None, ProgressDrawTarget::stderr()),
-        };
+        let bar = ProgressBar::with_draw_target(total, ProgressDrawTarget::stderr());
         let template = match total {
             Some(_) => "{prefix} [{bar:30}] {pos}/{len} scans{msg} ({elapsed}, {eta} left)",
             None => "{spinner} {prefix} {pos} scans{msg} ({elapsed})",
@@ -32,12 +43,20 @@ impl Progress {
         }
         bar.set_prefix(what.to_owned());
         bar.enable_steady_tick(Duration::from_millis(200));
-        Progress(Some(bar))
+        Progress { bar: Some(bar), tally: (0, 0, 0) }
+    }
+
+    /// One more scan, judged as `gema2 locate` judges it.
+    pub fn add(&mut self, o: &Outcome) {
+        let (done, right, judged) = &mut self.tally;
+        (*done, *right, *judged) = (*done + 1, *right + u64::from(o.success()), *judged + u64::from(o.has_truth));
+        let (done, right, judged) = self.tally;
+        self.set(done, right, judged);
     }
 
     /// `done` scans, `right` of the `judged` that had a true pose.
     pub fn set(&self, done: u64, right: u64, judged: u64) {
-        if let Some(bar) = &self.0 {
+        if let Some(bar) = &self.bar {
             bar.set_position(done);
             let seconds = bar.elapsed().as_secs_f64();
             let mut msg =
@@ -51,7 +70,7 @@ impl Progress {
 
     /// Removes the progress line.
     pub fn finish(&self) {
-        if let Some(bar) = &self.0 {
+        if let Some(bar) = &self.bar {
             bar.finish_and_clear();
         }
     }
@@ -70,10 +89,10 @@ mod tests {
     #[test]
     fn nothing_is_drawn_off_a_terminal() {
         let p = Progress::new("log", Some(10), false);
-        assert!(p.0.is_none());
+        assert!(p.bar.is_none());
         p.set(3, 2, 3);
         let p = Progress::new("log", None, true);
-        assert!(p.0.is_some());
+        assert!(p.bar.is_some());
         p.set(3, 2, 3);
         p.finish();
     }

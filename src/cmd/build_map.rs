@@ -145,8 +145,7 @@ pub fn build(a: &BuildArgs, malformed: &mut Malformed) -> Result<Built> {
     let mut seg = LineVisibilitySegmenter::new(SegmenterConfig::default());
     let mut seen = Vec::new();
     let mut scans = 0;
-    let name = a.log.file_name().map_or_else(|| a.log.display().to_string(), |n| n.to_string_lossy().into_owned());
-    let progress = crate::progress::Progress::scans(&format!("surveying {name}"), None);
+    let progress = crate::progress::Progress::of_log("surveying ", &a.log, None);
     for item in survey(a)? {
         progress.set(scans as u64, 0, 0);
         let (scan, truth) = match item? {

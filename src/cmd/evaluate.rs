@@ -300,13 +300,11 @@ fn locate_all(name: &str, map: &WallMap, config: &Gema2Config, scans: &[LaserSca
     let model = Arc::new(MapModel::new(map.clone(), &config.map_corners));
     let mut gema2 = Gema2::new(model, config.segmenter, config.localizer);
     let mut summary = Summary::default();
-    let progress = crate::progress::Progress::scans(name, Some(scans.len() as u64));
-    let (mut right, mut judged) = (0, 0);
+    let mut progress = crate::progress::Progress::scans(name, Some(scans.len() as u64));
     for scan in scans {
         let outcome = Outcome::located(&mut gema2, scan);
-        (right, judged) = (right + u64::from(outcome.success()), judged + u64::from(outcome.has_truth));
+        progress.add(&outcome);
         summary.add(outcome);
-        progress.set(summary.scans() as u64, right, judged);
     }
     summary
 }

@@ -109,9 +109,7 @@ pub fn run(a: LocateArgs) -> Result<()> {
         malformed: Malformed::default(),
     };
     let mut judge = None;
-    let name = a.log.file_name().map_or_else(|| a.log.display().to_string(), |n| n.to_string_lossy().into_owned());
-    let progress = crate::progress::Progress::scans(&name, None);
-    let (mut right, mut judged) = (0, 0);
+    let mut progress = crate::progress::Progress::of_log("", &a.log, None);
     // a malformed laser line keeps its index, so the scans after it keep theirs
     for (index, item) in reader.enumerate() {
         let item = match item {
@@ -165,9 +163,8 @@ pub fn run(a: LocateArgs) -> Result<()> {
         }
         let outcome =
             Outcome::of(loc.status, best.map(|h| h.pose), scan.truth, micros).with_steps(&seg.times, &loc.times);
-        (right, judged) = (right + u64::from(outcome.success()), judged + u64::from(outcome.has_truth));
+        progress.add(&outcome);
         run.summary.add(outcome);
-        progress.set(run.summary.scans() as u64, right, judged);
         if let Some(truth) = judge.take() {
             crate::diagnose::dump_judgement(&gema2.localizer.judge(&scan.view(), &truth), &truth);
         }
