@@ -35,6 +35,8 @@ pub use topic::{
     TopicSettings, ALL_TOPICS,
 };
 
-pub use waiting::{run_waitset, sleep, sleep_until, termination_requested, ListenerDrain, Look};
+pub use waiting::{
+    await_response, run_waitset, sleep, sleep_until, termination_requested, Awaited, ListenerDrain, Look,
+};
 
 pub use iceoryx2;

@@ -5,8 +5,8 @@
 
 use anyhow::{bail, Context, Result};
 use clap::Args;
-use messages::{open_corner_queries, CornerQuery};
-use std::time::{Duration, Instant};
+use messages::{await_response, open_corner_queries, Awaited, CornerQuery};
+use std::time::Duration;
 
 #[derive(Args, Debug)]
 pub struct CornersArgs {
@@ -53,31 +53,25 @@ pub fn run(a: CornersArgs) -> Result<()> {
     let service = open_corner_queries(&node, &a.prefix)?;
     let client = service.client_builder().create().context("corner queries: client")?;
     let pending = client.send_copy(q).context("corner queries: send")?;
-    if pending.number_of_server_connections() == 0 {
-        bail!("no map server is serving {}/map/corners (is `gema2 run --prefix {}` running?)", a.prefix, a.prefix);
+    let reply = match await_response(&node, &pending, Duration::from_secs_f64(a.timeout)).context("corner queries")? {
+        Awaited::Answer(reply) => reply,
+        Awaited::NoServer => {
+            bail!("no map server is serving {}/map/corners (is `gema2 run --prefix {}` running?)", a.prefix, a.prefix)
+        }
+        Awaited::TimedOut => bail!("no answer from the map server within {} s", a.timeout),
+        Awaited::Interrupted => bail!("interrupted while waiting for the map server"),
+    };
+    let n = (reply.count as usize).min(reply.corners.len());
+    println!("# map version {}: {} corners match, {n} listed", reply.map_version, reply.total);
+    println!("x\ty\tinner_angle_deg\torientation_deg");
+    for c in &reply.corners[..n] {
+        println!(
+            "{:.3}\t{:.3}\t{:.2}\t{:.2}",
+            c.position[0],
+            c.position[1],
+            c.inner_angle.to_degrees(),
+            c.orientation.to_degrees()
+        );
     }
-    let deadline = Instant::now() + Duration::from_secs_f64(a.timeout);
-    loop {
-        if let Some(reply) = pending.receive().context("corner queries: receive")? {
-            let n = (reply.count as usize).min(reply.corners.len());
-            println!("# map version {}: {} corners match, {n} listed", reply.map_version, reply.total);
-            println!("x\ty\tinner_angle_deg\torientation_deg");
-            for c in &reply.corners[..n] {
-                println!(
-                    "{:.3}\t{:.3}\t{:.2}\t{:.2}",
-                    c.position[0],
-                    c.position[1],
-                    c.inner_angle.to_degrees(),
-                    c.orientation.to_degrees()
-                );
-            }
-            return Ok(());
-        }
-        if Instant::now() > deadline {
-            bail!("no answer from the map server within {} s", a.timeout);
-        }
-        if !messages::sleep(&node, Duration::from_millis(5)) {
-            bail!("interrupted while waiting for the map server");
-        }
-    }
+    Ok(())
 }

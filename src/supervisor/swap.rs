@@ -10,7 +10,7 @@ use anyhow::{anyhow, Context, Result};
 use clap::Args;
 use messages::iceoryx2::active_request::ActiveRequest;
 use messages::iceoryx2::prelude::*;
-use messages::{name_bytes, name_str, open_control, ControlReply, ControlRequest};
+use messages::{name_bytes, name_str, open_control, Awaited, ControlReply, ControlRequest};
 use segment::SEGMENTERS;
 use std::collections::HashSet;
 use std::process::Child;
@@ -151,12 +151,8 @@ pub fn request(a: SwapArgs) -> Result<()> {
     let client = control.client_builder().create().context("control")?;
     let req = ControlRequest { stage: name_bytes(&a.stage), implementation: name_bytes(&a.implementation) };
     let pending = client.send_copy(req).context("control: send")?;
-    if pending.number_of_server_connections() == 0 {
-        anyhow::bail!("no gema2 run is serving {}/control", a.prefix);
-    }
-    let deadline = Instant::now() + Duration::from_secs(30);
-    loop {
-        if let Some(r) = pending.receive().context("control")? {
+    match messages::await_response(&node, &pending, Duration::from_secs(30)).context("control")? {
+        Awaited::Answer(r) => {
             let message = String::from_utf8_lossy(r.message.split(|&b| b == 0).next().unwrap_or(&[])).into_owned();
             if r.ok == 1 {
                 println!("{message}");
@@ -164,11 +160,8 @@ pub fn request(a: SwapArgs) -> Result<()> {
             }
             anyhow::bail!("{message}");
         }
-        if Instant::now() > deadline {
-            anyhow::bail!("no answer from the supervisor within 30 s");
-        }
-        if !messages::sleep(&node, Duration::from_millis(10)) {
-            anyhow::bail!("interrupted while waiting for the supervisor");
-        }
+        Awaited::NoServer => anyhow::bail!("no gema2 run is serving {}/control", a.prefix),
+        Awaited::TimedOut => anyhow::bail!("no answer from the supervisor within 30 s"),
+        Awaited::Interrupted => anyhow::bail!("interrupted while waiting for the supervisor"),
     }
 }
