@@ -1,5 +1,7 @@
 //! The `gema2` command line, run as a user runs it.
 
+mod common;
+
 use std::path::Path;
 use std::process::{Command, Output};
 
@@ -758,9 +760,7 @@ fn evaluate_and_bench_write_their_own_sections_of_the_results_page() {
 fn a_real_log_keeps_its_success_and_ok_precision() {
     let log = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/datasets/carmen/freiburg-101-corrected.log.gz");
     if !log.is_file() {
-        use std::io::Write;
-        let why = format!("{} is not there", log.display());
-        let _ = writeln!(std::io::stderr(), "SKIPPED a_real_log_keeps_its_success_and_ok_precision: {why}");
+        common::skipped("a_real_log_keeps_its_success_and_ok_precision", &format!("{} is not there", log.display()));
         return;
     }
     let dir = tempfile::tempdir().unwrap();

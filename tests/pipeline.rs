@@ -823,14 +823,6 @@ fn scheduling_of(pid: u32) -> (i32, i32, Vec<usize>) {
     }
 }
 
-/// Says, past the harness's capture, that a test could not run its checks here: libtest has no
-/// "skipped", and a test that returns early would otherwise read as passed. `.ci/run` lists
-/// these lines at the end of its log.
-fn skipped(test: &str, why: &str) {
-    use std::io::Write;
-    let _ = writeln!(std::io::stderr(), "SKIPPED {test}: {why}");
-}
-
 #[test]
 fn a_realtime_pipeline_runs_each_stage_where_and_how_its_file_says() {
     let dir = tempfile::tempdir().unwrap();
@@ -854,7 +846,7 @@ fn a_realtime_pipeline_runs_each_stage_where_and_how_its_file_says() {
             let err = String::from_utf8_lossy(&out.stderr);
             assert!(!out.status.success(), "ended before its stages started: {err}");
             assert!(err.contains("CAP_SYS_NICE") || err.contains("/dev/cpu_dma_latency"), "{err}");
-            skipped(
+            common::skipped(
                 "a_realtime_pipeline_runs_each_stage_where_and_how_its_file_says",
                 "the system refuses \
                      real-time scheduling (no CAP_SYS_NICE or RLIMIT_RTPRIO): only the refusal's message was checked",
