@@ -12,7 +12,7 @@
 
 use crate::slide::SlideLine;
 use laser::{angle_diff, wrap_angle};
-use map::Wall;
+pub use map::model::wall_directions;
 use nalgebra::Point2;
 use std::f64::consts::PI;
 
@@ -60,46 +60,6 @@ const MIN_VOTE_SHARE: f64 = 0.5;
 /// A line's direction is taken as no surer than this (radians) when it votes: the fit's own
 /// figure for a long line in a clean scan is far smaller than the walls are straight.
 const MIN_SIGMA: f64 = 0.25 * PI / 180.0;
-
-/// The map's main wall directions, in [0, pi): peaks of the histogram of its walls' directions
-/// (1 degree bins, weighted by length) that hold at least 3 % of the walls' length, at most
-/// `max` of them, the heaviest first. Each is the length-weighted mean direction of the walls in
-/// its bin and the two beside it.
-pub fn wall_directions(walls: &[Wall], max: usize) -> Vec<f64> {
-    const BINS: usize = 180;
-    let bin_of = |w: &Wall| {
-        let d = w.b - w.a;
-        let a = d.y.atan2(d.x).rem_euclid(PI);
-        ((a / PI * BINS as f64) as usize).min(BINS - 1)
-    };
-    let mut histogram = [0.0f64; BINS];
-    for w in walls {
-        histogram[bin_of(w)] += w.length();
-    }
-    let total: f64 = histogram.iter().sum();
-    let mut peaks: Vec<(usize, f64)> = (0..BINS)
-        .filter(|&k| {
-            let (before, after) = (histogram[(k + BINS - 1) % BINS], histogram[(k + 1) % BINS]);
-            histogram[k] > 0.0 && histogram[k] >= 0.03 * total && histogram[k] >= before && histogram[k] > after
-        })
-        .map(|k| (k, histogram[k]))
-        .collect();
-    peaks.sort_by(|a, b| b.1.total_cmp(&a.1));
-    peaks.truncate(max);
-    peaks
-        .into_iter()
-        .map(|(k, _)| {
-            // mean of the doubled angles, so that directions either side of 0 = pi average right
-            let (mut s, mut c) = (0.0, 0.0);
-            for w in walls.iter().filter(|w| (bin_of(w) + BINS - k + 1) % BINS <= 2) {
-                let d = w.b - w.a;
-                let a2 = 2.0 * d.y.atan2(d.x);
-                (s, c) = (s + w.length() * a2.sin(), c + w.length() * a2.cos());
-            }
-            (s.atan2(c) / 2.0).rem_euclid(PI)
-        })
-        .collect()
-}
 
 /// Up to `count` sensor headings that lay the scan's longest lines along the map's wall
 /// `directions`, the most voted first, and only those voted at least `MIN_VOTE_SHARE` of the
@@ -200,23 +160,9 @@ fn cells(bounds: (Point2<f64>, Point2<f64>), step: f64) -> impl Iterator<Item = 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use map::Wall;
     use nalgebra::Vector2;
     use proptest::prelude::*;
-
-    /// A room's walls along 0 and 90 degrees, and a short diagonal one too light to count.
-    #[test]
-    fn the_main_wall_directions_are_the_heaviest_peaks() {
-        let mut walls = Wall::rectangle(0.0, 0.0, 20.0, 10.0).to_vec();
-        walls.push(Wall::new(5.0, 5.0, 5.3, 5.3));
-        // a wall drawn a hair off the axis still counts with its neighbours, either side of 0
-        walls.push(Wall::new(0.0, 2.0, 10.0, 2.0 - 0.01));
-        let dirs = wall_directions(&walls, 4);
-        assert_eq!(dirs.len(), 2, "{dirs:?}");
-        assert!(angle_diff(2.0 * dirs[0], 0.0).abs() < 0.002, "{dirs:?}");
-        assert!((dirs[1] - PI / 2.0).abs() < 1e-9, "{dirs:?}");
-        assert_eq!(wall_directions(&walls, 1).len(), 1);
-        assert!(wall_directions(&[], 4).is_empty());
-    }
 
     proptest! {
         /// A scan of a square room seen at any heading votes for that heading, up to the room's

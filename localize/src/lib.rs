@@ -13,7 +13,6 @@ pub mod grid;
 pub mod localizer;
 mod lowest;
 pub mod matching;
-pub mod model;
 #[cfg(feature = "process")]
 pub mod node;
 pub mod refine;
@@ -27,7 +26,7 @@ pub use localizer::{
     same_pose, FirstLook, Hypothesis, Judgement, Localization, Localizer, LocalizerConfig, LocateTimes, Ran, Status,
     Step, CASCADE,
 };
+pub use map::model::{self, MapModel};
 pub use matching::pose_from_corners;
-pub use model::MapModel;
 pub use refine::RefineConfig;
 pub use slide::{SlideConfig, FROM_SLIDE};

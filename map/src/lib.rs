@@ -5,7 +5,8 @@
 //! which of them a sensor can see ([`view`], [`sight`]), ray casting for eq. 7's expected ranges
 //! ([`raycast`] over the [`grid`] of walls), the truncated distance field that also names each
 //! point's nearest wall ([`field`]), and where a robot can stand ([`free_space`], [`seen`],
-//! [`open_floor`]). The four bundled plans ship inside it ([`bundled`](mod@bundled)).
+//! [`open_floor`]). [`model`] gathers all of it, built once: what the localizer reads and the map
+//! server serves. The four bundled plans ship inside it ([`bundled`](mod@bundled)).
 //!
 //! Depends on `laser` (poses and scan geometry) and nothing of the pipeline: no IPC, no file
 //! format but its own JSON. Map import and building live in `mapio`, generated plans in
@@ -13,7 +14,7 @@
 //!
 //! Inside the crate imports run one way: `wall` <- `grid`, `bitgrid` <- `field`, `raycast`,
 //! `sight`, `free_space` <- `seen`, `runs` <- `map` <- `corners`, `view`, `open_floor`,
-//! `thick`, `bundled`.
+//! `thick`, `bundled` <- `model`.
 
 pub mod bitgrid;
 pub mod bundled;
@@ -23,6 +24,7 @@ pub mod free_space;
 pub mod grid;
 pub mod limits;
 pub mod map;
+pub mod model;
 pub mod open_floor;
 pub mod raycast;
 pub mod runs;
@@ -38,6 +40,7 @@ pub use corners::{CornerIndex, MapArm, MapCorner, MapCornerConfig};
 pub use field::DistanceField;
 pub use free_space::{FreeSpace, Outside};
 pub use map::{MapError, WallMap, APPROXIMATE_MAP, MAX_EXTENT, MIN_WALL_LENGTH};
+pub use model::MapModel;
 pub use open_floor::OpenFloor;
 pub use raycast::{RayCaster, RayScratch};
 pub use seen::SeenFree;
