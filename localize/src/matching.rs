@@ -65,7 +65,7 @@ mod tests {
         ) {
             let truth = pose(x, y, th);
             let (dr, dl) = (Vector2::new(a.cos(), a.sin()), Vector2::new((a + beta).cos(), (a + beta).sin()));
-            let marm = |d| MapArm { direction: d, gap: 0.0, length: 2.0, extent: 2.0, wall: 0 };
+            let marm = |d| MapArm { direction: d, gap: 0.0, length: 2.0, extent: 2.0, wall: 0, reserved: 0 };
             let m = MapCorner { position: Point2::new(mx, my), inner_angle: beta, orientation: a, arms: [marm(dr), marm(dl)] };
             let inv = truth.inverse();
             let c = Corner {
@@ -89,8 +89,8 @@ mod tests {
             inner_angle: std::f64::consts::FRAC_PI_2,
             orientation: 0.0,
             arms: [
-                MapArm { direction: Vector2::x(), gap: 0.0, length: 1.0, extent: 1.0, wall: 0 },
-                MapArm { direction: Vector2::y(), gap: 0.0, length: 1.0, extent: 1.0, wall: 1 },
+                MapArm { direction: Vector2::x(), gap: 0.0, length: 1.0, extent: 1.0, wall: 0, reserved: 0 },
+                MapArm { direction: Vector2::y(), gap: 0.0, length: 1.0, extent: 1.0, wall: 1, reserved: 0 },
             ],
         };
         let off = 2f64.to_radians();

@@ -2,6 +2,8 @@
 //! what [`crate::Outside`] and [`crate::SeenFree`] keep, and how [`crate::FreeSpace`] finds a
 //! point's cell.
 
+use crate::flat::{check_len, Flat, FlatError, FlatReader, FlatWriter};
+use crate::slab::Slab;
 use nalgebra::Point2;
 
 /// `cols` x `rows` cells of `cell` metres, the first cell's corner at `origin`, numbered row by
@@ -56,13 +58,13 @@ impl Grid {
 #[derive(Clone, Debug, PartialEq)]
 pub(crate) struct BitGrid {
     pub grid: Grid,
-    pub bits: Vec<u64>,
+    pub bits: Slab<u64>,
 }
 
 impl BitGrid {
     /// Every bit clear.
     pub fn clear(grid: Grid) -> Self {
-        BitGrid { grid, bits: vec![0; grid.cells().div_ceil(64)] }
+        BitGrid { grid, bits: vec![0; grid.cells().div_ceil(64)].into() }
     }
 
     #[inline]
@@ -72,7 +74,7 @@ impl BitGrid {
 
     #[inline]
     pub fn set(&mut self, i: usize) {
-        self.bits[i / 64] |= 1 << (i % 64);
+        self.bits.to_mut()[i / 64] |= 1 << (i % 64);
     }
 
     /// The bit of the cell holding `q`; `None` off the grid.
@@ -83,7 +85,7 @@ impl BitGrid {
 
     /// Every bit flipped (the padding stays clear).
     pub fn inverted(mut self) -> Self {
-        for w in self.bits.iter_mut() {
+        for w in self.bits.to_mut().iter_mut() {
             *w = !*w;
         }
         self.clear_padding();
@@ -94,9 +96,41 @@ impl BitGrid {
     pub fn clear_padding(&mut self) {
         let cells = self.grid.cells();
         if !cells.is_multiple_of(64) {
-            if let Some(last) = self.bits.last_mut() {
+            if let Some(last) = self.bits.to_mut().last_mut() {
                 *last &= (1u64 << (cells % 64)) - 1;
             }
         }
+    }
+}
+
+impl Flat for Grid {
+    fn put(&self, w: &mut FlatWriter) {
+        w.put_f64(self.origin.x);
+        w.put_f64(self.origin.y);
+        w.put_f64(self.cell);
+        w.put_usize(self.cols);
+        w.put_usize(self.rows);
+    }
+    fn take(r: &mut FlatReader<'_>) -> Result<Self, FlatError> {
+        let origin = Point2::new(r.take_finite("grid origin")?, r.take_finite("grid origin")?);
+        let cell = r.take_finite("grid cell")?;
+        let (cols, rows) = (r.take_usize("grid columns")?, r.take_usize("grid rows")?);
+        if cell <= 0.0 || cols.checked_mul(rows).is_none_or(|n| n == usize::MAX) {
+            return Err(FlatError::new(format!("a grid of {cols} x {rows} cells of {cell} m")));
+        }
+        Ok(Grid { origin, cell, cols, rows })
+    }
+}
+
+impl Flat for BitGrid {
+    fn put(&self, w: &mut FlatWriter) {
+        self.grid.put(w);
+        self.bits.put(w);
+    }
+    fn take(r: &mut FlatReader<'_>) -> Result<Self, FlatError> {
+        let grid = Grid::take(r)?;
+        let bits = Slab::take(r)?;
+        check_len("raster bits", bits.len(), grid.cells().div_ceil(64))?;
+        Ok(BitGrid { grid, bits })
     }
 }

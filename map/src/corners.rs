@@ -11,12 +11,15 @@
 //! two walls gives both corners (beta and 2 pi - beta); hypotheses from the wrong one are
 //! rejected by the cost function.
 
+use crate::flat::{Flat, FlatError, FlatReader, FlatWriter};
+use crate::slab::{Plain, Slab};
 use crate::wall::Wall;
 use nalgebra::{Point2, Vector2};
 use std::f64::consts::{PI, TAU};
 
 /// One side of a map corner.
 #[derive(Clone, Copy, Debug, PartialEq)]
+#[repr(C)]
 pub struct MapArm {
     /// Unit vector from the corner along the wall.
     pub direction: Vector2<f64>,
@@ -29,10 +32,13 @@ pub struct MapArm {
     /// can see here.
     pub extent: f64,
     pub wall: u32,
+    /// Nothing: spells out the padding, so a corner is plain bytes ([`crate::slab::Plain`]).
+    pub reserved: u32,
 }
 
 /// A corner m of the map.
 #[derive(Clone, Copy, Debug, PartialEq)]
+#[repr(C)]
 pub struct MapCorner {
     pub position: Point2<f64>,
     /// beta_m in (0, 2 pi); exactly 2 pi for a wall end.
@@ -139,7 +145,7 @@ fn wall_ends(walls: &[Wall], lines: &CollinearWalls, cfg: &MapCornerConfig, out:
         }
         for (end, other) in [(w.a, w.b), (w.b, w.a)] {
             let direction = (other - end) / len;
-            let mut arm = MapArm { direction, gap: 0.0, length: len, extent: len, wall: k as u32 };
+            let mut arm = MapArm { direction, gap: 0.0, length: len, extent: len, wall: k as u32, reserved: 0 };
             arm.extent = lines.extent(walls, &arm, end, cfg.max_gap);
             out.push(MapCorner { position: end, inner_angle: TAU, orientation: angle_of(direction), arms: [arm, arm] });
         }
@@ -212,7 +218,7 @@ fn arms_of(w: &Wall, index: u32, x: Point2<f64>, cfg: &MapCornerConfig, out: &mu
     let t = (x - w.a).dot(&dir);
     for (direction, gap, length) in [(dir, (-t).max(0.0), len - t.max(0.0)), (-dir, (t - len).max(0.0), t.min(len))] {
         if gap <= cfg.reach && length >= cfg.min_arm_length {
-            out.push(MapArm { direction, gap, length, extent: gap + length, wall: index });
+            out.push(MapArm { direction, gap, length, extent: gap + length, wall: index, reserved: 0 });
         }
     }
 }
@@ -297,13 +303,13 @@ fn dedupe_arms(arms: &mut Vec<MapArm>) {
 /// Map corners sorted by inner angle: similar-angle look-ups in O(log n + k) (section 5.1).
 #[derive(Clone, Debug, Default)]
 pub struct CornerIndex {
-    corners: Vec<MapCorner>,
+    corners: Slab<MapCorner>,
 }
 
 impl CornerIndex {
     pub fn new(mut corners: Vec<MapCorner>) -> Self {
         corners.sort_by(|a, b| a.inner_angle.total_cmp(&b.inner_angle));
-        CornerIndex { corners }
+        CornerIndex { corners: corners.into() }
     }
 
     pub fn build(walls: &[Wall], cfg: &MapCornerConfig) -> Self {
@@ -312,7 +318,7 @@ impl CornerIndex {
 
     /// Keeps the corners `keep` says yes to, in order.
     pub(crate) fn retain(&mut self, keep: impl FnMut(&MapCorner) -> bool) {
-        self.corners.retain(keep);
+        self.corners.to_mut().retain(keep);
     }
 
     /// Every corner, sorted by inner angle.
@@ -342,6 +348,37 @@ impl CornerIndex {
         radius: f64,
     ) -> impl Iterator<Item = &MapCorner> {
         self.similar(beta, tolerance).iter().filter(move |c| (c.position - centre).norm() <= radius)
+    }
+}
+
+
+// SAFETY: `repr(C)`, f64 and u32 fields with the padding spelled out (checked), valid for any
+// bits.
+unsafe impl Plain for MapArm {}
+// SAFETY: as above.
+unsafe impl Plain for MapCorner {}
+const _: () = assert!(std::mem::size_of::<MapArm>() == 48 && std::mem::size_of::<MapCorner>() == 128);
+
+impl CornerIndex {
+    /// Whether every corner's arms name one of `walls` walls and the corners are sorted by
+    /// inner angle, as a look-up needs: for an index read from a block.
+    pub fn check(&self, walls: usize) -> Result<(), FlatError> {
+        if let Some(k) = self.corners.iter().position(|c| c.arms.iter().any(|a| a.wall as usize >= walls)) {
+            return Err(FlatError::new(format!("corner {k} names a wall past the {walls} there are")));
+        }
+        if !self.corners.windows(2).all(|p| p[0].inner_angle <= p[1].inner_angle) {
+            return Err(FlatError::new("the corners are not sorted by inner angle"));
+        }
+        Ok(())
+    }
+}
+
+impl Flat for CornerIndex {
+    fn put(&self, w: &mut FlatWriter) {
+        self.corners.put(w);
+    }
+    fn take(r: &mut FlatReader<'_>) -> Result<Self, FlatError> {
+        Ok(CornerIndex { corners: Slab::take(r)? })
     }
 }
 

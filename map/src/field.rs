@@ -3,6 +3,8 @@
 //! hypotheses can be screened cheaply before the ray-cast cost function ranks the survivors,
 //! and refinement finds the wall each scan point lies on without searching.
 
+use crate::flat::{check_len, Flat, FlatError, FlatReader, FlatWriter};
+use crate::slab::Slab;
 use crate::wall::Wall;
 use nalgebra::Point2;
 
@@ -20,17 +22,17 @@ pub struct DistanceField {
     /// Distance in units of `cap / 255` (one byte, so the field of a whole floor stays in
     /// cache: screening thousands of poses is bound by these lookups), stored in tiles of
     /// [`TILE`] x [`TILE`] cells (see [`tile_index`]).
-    cells: Vec<u8>,
+    cells: Slab<u8>,
     /// Tiles per row of tiles.
     tile_cols: usize,
     /// The least of `cells` over each block of [`POOL`] x [`POOL`] cells (the last row and
     /// column of blocks may be partial): a lower bound of the distance from a table a
     /// `POOL * POOL`-th of the size, which stays in cache where `cells` of a large map do not.
-    pooled: Vec<u8>,
+    pooled: Slab<u8>,
     pooled_cols: usize,
     /// One bit a cell, in the order of `cells`: whether its nearest wall is one [`mark_nearest`](Self::mark_nearest)
     /// marked. Empty until then.
-    marked: Vec<u64>,
+    marked: Slab<u64>,
     /// Nearest wall of each cell's centre, in the order of `cells`.
     nearest: NearestWalls,
 }
@@ -40,9 +42,9 @@ pub struct DistanceField {
 #[derive(Clone, Debug)]
 enum NearestWalls {
     /// `u16::MAX`: no wall within the cap.
-    Narrow(Vec<u16>),
+    Narrow(Slab<u16>),
     /// `u32::MAX`: no wall within the cap.
-    Wide(Vec<u32>),
+    Wide(Slab<u32>),
 }
 
 /// Side of the blocks of cells [`DistanceField::lower_bound`] reads, in cells.
@@ -105,9 +107,9 @@ impl DistanceField {
             }
         }
         let nearest = if walls.len() < u16::MAX as usize {
-            NearestWalls::Narrow(nearest.iter().map(|&k| k.min(u16::MAX as u32) as u16).collect())
+            NearestWalls::Narrow(nearest.iter().map(|&k| k.min(u16::MAX as u32) as u16).collect::<Vec<_>>().into())
         } else {
-            NearestWalls::Wide(nearest)
+            NearestWalls::Wide(nearest.into())
         };
         let pooled_cols = cols.div_ceil(POOL);
         let mut pooled = vec![u8::MAX; pooled_cols * rows.div_ceil(POOL)];
@@ -125,11 +127,11 @@ impl DistanceField {
             rows,
             cap,
             quantum: cap / 255.0,
-            cells,
+            cells: cells.into(),
             tile_cols,
-            pooled,
+            pooled: pooled.into(),
             pooled_cols,
-            marked: Vec::new(),
+            marked: Slab::default(),
             nearest,
         }
     }
@@ -147,7 +149,7 @@ impl DistanceField {
                 bits[i / 64] |= 1 << (i % 64);
             }
         }
-        self.marked = bits;
+        self.marked = bits.into();
     }
 
     /// [`nearest_wall`](Self::nearest_wall) when that wall is marked ([`mark_nearest`]); `None`
@@ -222,6 +224,85 @@ impl DistanceField {
 
     pub fn resolution(&self) -> f64 {
         self.resolution
+    }
+}
+
+
+impl DistanceField {
+    /// Whether every nearest wall the cells name is one of `walls` walls: for a field read
+    /// from a block, whose walls are another array of it.
+    pub fn check_walls(&self, walls: usize) -> Result<(), FlatError> {
+        let named = match &self.nearest {
+            NearestWalls::Narrow(n) => n.iter().position(|&k| k != u16::MAX && k as usize >= walls),
+            NearestWalls::Wide(n) => n.iter().position(|&k| k != u32::MAX && k as usize >= walls),
+        };
+        match named {
+            None => Ok(()),
+            Some(i) => Err(FlatError::new(format!("distance field: cell {i} names a wall past the {walls} there are"))),
+        }
+    }
+}
+
+impl Flat for DistanceField {
+    fn put(&self, w: &mut FlatWriter) {
+        crate::bitgrid::Grid { origin: self.origin, cell: self.resolution, cols: self.cols, rows: self.rows }.put(w);
+        w.put_f64(self.cap);
+        self.cells.put(w);
+        self.pooled.put(w);
+        self.marked.put(w);
+        match &self.nearest {
+            NearestWalls::Narrow(n) => {
+                w.put_u64(16);
+                n.put(w);
+            }
+            NearestWalls::Wide(n) => {
+                w.put_u64(32);
+                n.put(w);
+            }
+        }
+    }
+    fn take(r: &mut FlatReader<'_>) -> Result<Self, FlatError> {
+        let crate::bitgrid::Grid { origin, cell: resolution, cols, rows } = crate::bitgrid::Grid::take(r)?;
+        let cap = r.take_finite("distance field cap")?;
+        if cap <= 0.0 {
+            return Err(FlatError::new(format!("distance field cap {cap}")));
+        }
+        let tile_cols = cols.div_ceil(TILE);
+        let stored = tile_cols * rows.div_ceil(TILE) * TILE * TILE;
+        let pooled_cols = cols.div_ceil(POOL);
+        let cells: Slab<u8> = Slab::take(r)?;
+        check_len("distance field cells", cells.len(), stored)?;
+        let pooled: Slab<u8> = Slab::take(r)?;
+        check_len("distance field blocks", pooled.len(), pooled_cols * rows.div_ceil(POOL))?;
+        let marked: Slab<u64> = Slab::take(r)?;
+        if !marked.is_empty() {
+            check_len("distance field marks", marked.len(), stored.div_ceil(64))?;
+        }
+        let nearest = match r.take_u64("distance field nearest walls")? {
+            16 => NearestWalls::Narrow(Slab::take(r)?),
+            32 => NearestWalls::Wide(Slab::take(r)?),
+            bits => return Err(FlatError::new(format!("distance field: nearest walls in {bits} bits"))),
+        };
+        let nearest_len = match &nearest {
+            NearestWalls::Narrow(n) => n.len(),
+            NearestWalls::Wide(n) => n.len(),
+        };
+        check_len("distance field nearest walls", nearest_len, stored)?;
+        Ok(DistanceField {
+            origin,
+            resolution,
+            inverse_resolution: 1.0 / resolution,
+            cols,
+            rows,
+            cap,
+            quantum: cap / 255.0,
+            cells,
+            tile_cols,
+            pooled,
+            pooled_cols,
+            marked,
+            nearest,
+        })
     }
 }
 

@@ -10,6 +10,7 @@
 //! the rooms it opens onto.
 
 use crate::bitgrid::{BitGrid, Grid};
+use crate::flat::{Flat, FlatError, FlatReader, FlatWriter};
 use crate::field::DistanceField;
 use nalgebra::Point2;
 
@@ -166,6 +167,16 @@ pub fn connected_regions(passable: &[bool], cols: usize, rows: usize) -> (Vec<u3
         }
     }
     (labels, sizes)
+}
+
+
+impl Flat for Outside {
+    fn put(&self, w: &mut FlatWriter) {
+        self.raster.put(w);
+    }
+    fn take(r: &mut FlatReader<'_>) -> Result<Self, FlatError> {
+        Ok(Outside { raster: BitGrid::take(r)? })
+    }
 }
 
 #[cfg(test)]

@@ -1,6 +1,8 @@
 //! A uniform grid over the map whose cells list the walls within a margin of them: the spatial
 //! index behind ray casting and nearest-wall queries.
 
+use crate::flat::{check_indices, Flat, FlatError, FlatReader, FlatWriter};
+use crate::slab::Slab;
 use crate::wall::Wall;
 use nalgebra::{Point2, Vector2};
 
@@ -21,8 +23,8 @@ pub struct WallGrid {
     cols: usize,
     rows: usize,
     /// Start of each cell's run in `items` (CSR layout, `cols * rows + 1` entries).
-    starts: Vec<u32>,
-    items: Vec<u32>,
+    starts: Slab<u32>,
+    items: Slab<u32>,
 }
 
 impl WallGrid {
@@ -78,7 +80,7 @@ impl WallGrid {
             items.extend_from_slice(list);
         }
         starts.push(items.len() as u32);
-        WallGrid { origin, cell, cols, rows, starts, items }
+        WallGrid { origin, cell, cols, rows, starts: starts.into(), items: items.into() }
     }
 
     fn clamp_cell(origin: Point2<f64>, cell: f64, cols: usize, rows: usize, p: Point2<f64>) -> (usize, usize) {
@@ -293,6 +295,35 @@ pub(crate) fn cell_holding(
 #[inline]
 pub(crate) fn centre_of(origin: Point2<f64>, cell: f64, c: usize, r: usize) -> Point2<f64> {
     Point2::new(origin.x + (c as f64 + 0.5) * cell, origin.y + (r as f64 + 0.5) * cell)
+}
+
+
+impl WallGrid {
+    /// Whether every wall the cells list is one of `walls` walls: for a grid read from a block,
+    /// whose lists index another array of it.
+    pub fn check_walls(&self, walls: usize) -> Result<(), FlatError> {
+        check_indices("wall grid", &self.items, walls)
+    }
+}
+
+impl Flat for WallGrid {
+    fn put(&self, w: &mut FlatWriter) {
+        crate::bitgrid::Grid { origin: self.origin, cell: self.cell, cols: self.cols, rows: self.rows }.put(w);
+        self.starts.put(w);
+        self.items.put(w);
+    }
+    fn take(r: &mut FlatReader<'_>) -> Result<Self, FlatError> {
+        let crate::bitgrid::Grid { origin, cell, cols, rows } = crate::bitgrid::Grid::take(r)?;
+        let starts: Slab<u32> = Slab::take(r)?;
+        let items: Slab<u32> = Slab::take(r)?;
+        crate::flat::check_len("wall grid starts", starts.len(), cols * rows + 1)?;
+        // each cell's run lies within the items, in order: [starts[k], starts[k + 1])
+        let ordered = starts.windows(2).all(|p| p[0] <= p[1]) && starts.first() == Some(&0);
+        if !ordered || starts.last().map(|&e| e as usize) != Some(items.len()) {
+            return Err(FlatError::new("wall grid: its cells' runs do not tile its items"));
+        }
+        Ok(WallGrid { origin, cell, cols, rows, starts, items })
+    }
 }
 
 #[cfg(test)]

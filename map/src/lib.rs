@@ -12,7 +12,7 @@
 //! format but its own JSON. Map import and building live in `mapio`, generated plans in
 //! `worlds`, the map server process in `mapserver`.
 //!
-//! Inside the crate imports run one way: `wall` <- `grid`, `bitgrid` <- `field`, `raycast`,
+//! Inside the crate imports run one way: `slab` <- `flat` <- `wall` <- `grid`, `bitgrid` <- `field`, `raycast`,
 //! `sight`, `free_space` <- `seen`, `runs` <- `map` <- `corners`, `view`, `open_floor`,
 //! `thick`, `bundled` <- `model`.
 
@@ -20,6 +20,7 @@ pub mod bitgrid;
 pub mod bundled;
 pub mod corners;
 pub mod field;
+pub mod flat;
 pub mod free_space;
 pub mod grid;
 pub mod limits;
@@ -31,6 +32,7 @@ pub mod runs;
 pub mod seen;
 pub mod sight;
 pub mod simplify;
+pub mod slab;
 pub mod thick;
 pub mod view;
 pub mod wall;

@@ -1,6 +1,14 @@
-//! Everything the localizer pre-computes from a wall map, once.
+//! Everything the localizer pre-computes from a wall map, once: the map model.
+//!
+//! Built here by [`MapModel::new`] (offline `locate`, a user's program), or by the map server,
+//! which publishes it as one block of bytes ([`MapModel::to_block`], layout [`MODEL_LAYOUT`])
+//! that every localizer reads in place ([`MapModel::from_block`]): its large arrays are
+//! [`Slab`]s viewing the block, so a second localizer adds no copy of them.
 
+use crate::flat::{Flat, FlatError, FlatReader, FlatWriter};
 use crate::runs::RunChain;
+use crate::slab::{Plain, Slab};
+use crate::SeenFree;
 use crate::{CornerIndex, DistanceField, FreeSpace, MapCornerConfig, OpenFloor, Outside, RayCaster, Wall, WallMap};
 use nalgebra::{Point2, Vector2};
 use std::f64::consts::PI;
@@ -22,7 +30,7 @@ pub struct MapModel {
     pub map: WallMap,
     /// The walls as straight runs ([`crate::runs`]): what corners come from and scan
     /// lines slide along.
-    pub runs: Vec<Wall>,
+    pub runs: Slab<Wall>,
     /// The main directions of the runs, in [0, pi), the heaviest first: the headings the grid
     /// search tries lay the scan's lines along them ([`wall_directions`]).
     pub wall_directions: Vec<f64>,
@@ -38,7 +46,7 @@ pub struct MapModel {
     /// through a wall). What the screen asks of a point no wall explains; one byte a cell.
     pub open_floor: OpenFloor,
     /// Each wall as refinement reads it, in one place.
-    pub frames: Vec<WallFrame>,
+    pub frames: Slab<WallFrame>,
     /// Which sides of each wall face no space a sensor can stand in (the inside of a thick
     /// wall's faces), by wall as `frames`: left (along `normal`) then right. `None` when every
     /// side is open.
@@ -48,11 +56,15 @@ pub struct MapModel {
     /// Where the map's survey saw no free space (more than a cell from any it saw); `None`
     /// when the map does not say.
     pub unseen: Option<Outside>,
+    /// The corner settings the model was built with: a localizer built for others must not
+    /// read it.
+    pub corner_config: MapCornerConfig,
 }
 
 /// A wall's start, direction, squared length and unit normal: what point-to-wall distances
 /// need, together so one cache line holds them.
 #[derive(Clone, Copy, Debug, PartialEq)]
+#[repr(C)]
 pub struct WallFrame {
     pub a: Point2<f64>,
     /// b - a.
@@ -92,17 +104,161 @@ impl MapModel {
         MapModel {
             corners: CornerIndex::of_runs(&map, &runs, corners),
             wall_directions: wall_directions(&runs, WALL_DIRECTIONS),
-            runs,
+            runs: runs.into(),
             bends: chains.into_iter().filter(|c| c.run_count() >= 2).collect(),
             caster: RayCaster::new(&walls),
             outside: free_space.outside(),
             open_floor: OpenFloor::new(&walls, &free_space, OPEN_FLOOR_REACH),
             unseen: map.seen_free.as_ref().map(|seen| seen.unseen(1)),
             field,
-            frames: walls.iter().map(WallFrame::of).collect(),
+            frames: walls.iter().map(WallFrame::of).collect::<Vec<_>>().into(),
             closed_sides,
             map,
+            corner_config: *corners,
         }
+    }
+}
+
+// SAFETY: `repr(C)`, seven f64 and no padding (checked), valid for any bits.
+unsafe impl Plain for WallFrame {}
+const _: () = assert!(std::mem::size_of::<WallFrame>() == 56);
+
+/// The version of the model block's layout: raised whenever a [`Flat::put`] of the model's
+/// parts changes what it writes. A block of another layout is refused.
+pub const MODEL_LAYOUT: u64 = 1;
+
+/// The first 8 bytes of a model block, as written on this machine: also tells a block of
+/// another byte order.
+const MAGIC: u64 = u64::from_le_bytes(*b"gema2mdl");
+
+impl MapModel {
+    /// The model as one block of bytes (see [`crate::flat`]): what the map server publishes.
+    pub fn to_block(&self) -> FlatWriter {
+        let mut w = FlatWriter::new();
+        w.put_u64(MAGIC);
+        w.put_u64(MODEL_LAYOUT);
+        self.corner_config.put(&mut w);
+        w.put_slice(&self.map.walls);
+        w.put_f64(self.map.sigma);
+        put_option(&mut w, self.map.seen_free.as_ref());
+        self.runs.put(&mut w);
+        w.put_slice(&self.wall_directions);
+        w.put_usize(self.bends.len());
+        for chain in &self.bends {
+            w.put_slice(&chain.points);
+            w.put_bool(chain.closed);
+        }
+        self.corners.put(&mut w);
+        self.caster.put(&mut w);
+        self.field.put(&mut w);
+        self.open_floor.put(&mut w);
+        self.frames.put(&mut w);
+        let sides: Option<Vec<u8>> =
+            self.closed_sides.as_ref().map(|c| c.iter().flat_map(|s| s.map(u8::from)).collect());
+        w.put_bool(sides.is_some());
+        if let Some(sides) = sides {
+            w.put_slice(&sides);
+        }
+        put_option(&mut w, self.outside.as_ref());
+        put_option(&mut w, self.unseen.as_ref());
+        w
+    }
+
+    /// The model a block holds, its large arrays viewed where they lie (the reader's owner
+    /// keeps the block). Every length, offset and index is checked; a block of another layout
+    /// or byte order, or a damaged one, is an error.
+    pub fn from_block(r: &mut FlatReader<'_>) -> Result<Self, FlatError> {
+        if r.take_u64("magic")? != MAGIC {
+            return Err(FlatError::new("not a map model block (or one of another byte order)"));
+        }
+        let layout = r.take_u64("layout")?;
+        if layout != MODEL_LAYOUT {
+            return Err(FlatError::new(format!(
+                "a block of layout {layout}; this program reads layout {MODEL_LAYOUT} (a map server of another build?)"
+            )));
+        }
+        let corner_config = MapCornerConfig::take(r)?;
+        let walls = r.take_vec::<Wall>("walls")?;
+        let sigma = r.take_finite("sigma")?;
+        let seen_free = take_option::<SeenFree>(r)?;
+        let map = WallMap { walls, sigma, seen_free };
+        let runs: Slab<Wall> = Slab::take(r)?;
+        let wall_directions = r.take_vec::<f64>("wall directions")?;
+        let chains = r.take_usize("bends")?;
+        let mut bends = Vec::new();
+        for _ in 0..chains {
+            let points = r.take_vec::<Point2<f64>>("bend")?;
+            bends.push(RunChain { points, closed: r.take_bool("bend closed")? });
+        }
+        let corners = CornerIndex::take(r)?;
+        corners.check(runs.len())?;
+        let caster = RayCaster::take(r)?;
+        let field = DistanceField::take(r)?;
+        let open_floor = OpenFloor::take(r)?;
+        let frames: Slab<WallFrame> = Slab::take(r)?;
+        field.check_walls(frames.len())?;
+        let closed_sides = if r.take_bool("closed sides")? {
+            let bytes = r.take_vec::<u8>("closed sides")?;
+            if bytes.len() != 2 * frames.len() || bytes.iter().any(|&b| b > 1) {
+                return Err(FlatError::new("closed sides: not two yes-or-no bytes a wall"));
+            }
+            Some(bytes.chunks(2).map(|p| [p[0] == 1, p[1] == 1]).collect())
+        } else {
+            None
+        };
+        let outside = take_option::<Outside>(r)?;
+        let unseen = take_option::<Outside>(r)?;
+        r.finish()?;
+        Ok(MapModel {
+            map,
+            runs,
+            wall_directions,
+            bends,
+            corners,
+            caster,
+            field,
+            open_floor,
+            frames,
+            closed_sides,
+            outside,
+            unseen,
+            corner_config,
+        })
+    }
+}
+
+fn put_option<T: Flat>(w: &mut FlatWriter, v: Option<&T>) {
+    w.put_bool(v.is_some());
+    if let Some(v) = v {
+        v.put(w);
+    }
+}
+
+fn take_option<T: Flat>(r: &mut FlatReader<'_>) -> Result<Option<T>, FlatError> {
+    if r.take_bool(std::any::type_name::<T>())? {
+        T::take(r).map(Some)
+    } else {
+        Ok(None)
+    }
+}
+
+impl Flat for MapCornerConfig {
+    fn put(&self, w: &mut FlatWriter) {
+        for v in [self.min_angle, self.reach, self.min_arm_length, self.max_gap] {
+            w.put_f64(v);
+        }
+        w.put_bool(self.wall_ends);
+        w.put_bool(self.only_in_view);
+    }
+    fn take(r: &mut FlatReader<'_>) -> Result<Self, FlatError> {
+        Ok(MapCornerConfig {
+            min_angle: r.take_f64("min_angle")?,
+            reach: r.take_f64("reach")?,
+            min_arm_length: r.take_f64("min_arm_length")?,
+            max_gap: r.take_f64("max_gap")?,
+            wall_ends: r.take_bool("wall_ends")?,
+            only_in_view: r.take_bool("only_in_view")?,
+        })
     }
 }
 
@@ -164,5 +320,59 @@ mod tests {
         assert!((dirs[1] - PI / 2.0).abs() < 1e-9, "{dirs:?}");
         assert_eq!(wall_directions(&walls, 1).len(), 1);
         assert!(wall_directions(&[], 4).is_empty());
+    }
+
+    fn office() -> MapModel {
+        let map = crate::bundled("office").and_then(Result::ok).expect("the bundled office parses");
+        MapModel::new(map, &MapCornerConfig::default())
+    }
+
+    /// A model read from its block is the same model, its large arrays viewing the block.
+    #[test]
+    fn a_model_read_from_its_block_is_the_model_and_views_the_block() {
+        let model = office();
+        let block = model.to_block();
+        let mut r = FlatReader::of_copy(block.bytes());
+        let back = MapModel::from_block(&mut r).expect("its own block reads");
+        assert_eq!(back.to_block().bytes(), block.bytes());
+        assert!(back.corners.corners().len() > 100);
+        assert_eq!(back.corners.corners(), model.corners.corners());
+        assert!(back.runs.is_shared() && back.frames.is_shared());
+        // what is copied rather than viewed is small: the walls, directions, bends, sides
+        assert!(r.copied() * 10 < block.len(), "{} of {} bytes copied", r.copied(), block.len());
+        for k in 0..200 {
+            let p = Point2::new(0.1 * k as f64, 0.07 * k as f64);
+            assert_eq!(back.field.distance(p).to_bits(), model.field.distance(p).to_bits());
+            let angle = k as f64 * 0.1;
+            assert_eq!(back.caster.cast_ray_brute(p, angle).to_bits(), model.caster.cast_ray_brute(p, angle).to_bits());
+            assert_eq!(back.off_limits(p), model.off_limits(p));
+        }
+    }
+
+    /// A cut or damaged block is refused or read, never a panic or a read out of bounds.
+    #[test]
+    fn a_cut_or_damaged_block_is_refused_not_a_panic() {
+        let block = office().to_block();
+        let bytes = block.bytes();
+        for cut in (0..bytes.len()).step_by(bytes.len() / 97 + 1) {
+            assert!(MapModel::from_block(&mut FlatReader::of_copy(&bytes[..cut])).is_err(), "cut at {cut}");
+        }
+        let mut other = bytes.to_vec();
+        other[8..16].copy_from_slice(&(MODEL_LAYOUT + 1).to_ne_bytes());
+        let err = MapModel::from_block(&mut FlatReader::of_copy(&other)).err().expect("another layout is refused");
+        assert!(err.to_string().contains("layout"), "{err}");
+        // flip bytes all over: any outcome but a panic
+        let mut state = 0x9e37_79b9_7f4a_7c15u64;
+        for _ in 0..300 {
+            let mut damaged = bytes.to_vec();
+            for _ in 0..4 {
+                state ^= state << 13;
+                state ^= state >> 7;
+                state ^= state << 17;
+                let at = (state % damaged.len() as u64) as usize;
+                damaged[at] ^= (state >> 32) as u8 | 1;
+            }
+            let _ = MapModel::from_block(&mut FlatReader::of_copy(&damaged));
+        }
     }
 }

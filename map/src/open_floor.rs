@@ -6,6 +6,8 @@
 //! space reach it without going through a wall.
 
 use crate::bitgrid::Grid;
+use crate::flat::{check_len, Flat, FlatError, FlatReader, FlatWriter};
+use crate::slab::Slab;
 use crate::field::DistanceField;
 use crate::free_space::FreeSpace;
 use crate::wall::Wall;
@@ -20,7 +22,7 @@ const AWAY: u8 = 0x80;
 pub struct OpenFloor {
     grid: Grid,
     /// Distance to the nearest wall in units of `reach / 127`, and [`AWAY`].
-    cells: Vec<u8>,
+    cells: Slab<u8>,
     reach: f64,
     /// What a point off the grid is: beyond the map's bounds, so in the space around it, which
     /// is the main region when the outline is open.
@@ -53,7 +55,7 @@ impl OpenFloor {
         }
         // the grid's first cell lies beyond the map's bounds, in the space around it
         let off_grid = DISTANCE | if away(free_space.label(0)) { AWAY } else { 0 };
-        OpenFloor { grid, cells, reach, off_grid }
+        OpenFloor { grid, cells: cells.into(), reach, off_grid }
     }
 
     /// The distance from `p` to the nearest wall (metres, at most the reach; to within the
@@ -64,6 +66,25 @@ impl OpenFloor {
     pub fn at(&self, p: Point2<f64>) -> (f64, bool) {
         let v = self.grid.index(p).map_or(self.off_grid, |i| self.cells[i]);
         (f64::from(v & DISTANCE) * (self.reach / f64::from(DISTANCE)), v & AWAY != 0)
+    }
+}
+
+
+impl Flat for OpenFloor {
+    fn put(&self, w: &mut FlatWriter) {
+        self.grid.put(w);
+        self.cells.put(w);
+        w.put_f64(self.reach);
+        w.put_u64(u64::from(self.off_grid));
+    }
+    fn take(r: &mut FlatReader<'_>) -> Result<Self, FlatError> {
+        let grid = Grid::take(r)?;
+        let cells: Slab<u8> = Slab::take(r)?;
+        check_len("open floor", cells.len(), grid.cells())?;
+        let reach = r.take_finite("open floor reach")?;
+        let off_grid = u8::try_from(r.take_u64("open floor off the grid")?)
+            .map_err(|_| FlatError::new("open floor: its off-grid value is no byte"))?;
+        Ok(OpenFloor { grid, cells, reach, off_grid })
     }
 }
 

@@ -5,6 +5,8 @@
 //! Where a cast has few beams and the sweep many walls (a sparse cost at a long reach), each
 //! beam instead marches through the wall grid to its first wall; both give the same ranges.
 
+use crate::flat::{Flat, FlatError, FlatReader, FlatWriter};
+use crate::slab::Slab;
 use crate::grid::WallGrid;
 use crate::wall::Wall;
 use laser::{Pose, ScanGeometry};
@@ -16,7 +18,7 @@ use std::sync::OnceLock;
 /// Expected ranges d'_i of eq. 7: what an ideal sensor at a pose would read in the map.
 #[derive(Clone, Debug)]
 pub struct RayCaster {
-    walls: Vec<Wall>,
+    walls: Slab<Wall>,
     grid: WallGrid,
     /// Set up on the first cast: for each cell, every wall within the sensor's reach of it (the
     /// reach of that first cast), and, built on the first cast from the cell, those another
@@ -195,7 +197,7 @@ const MAX_REACH_ENTRIES: f64 = 8.0e6;
 
 impl RayCaster {
     pub fn new(walls: &[Wall]) -> Self {
-        RayCaster { walls: walls.to_vec(), grid: WallGrid::new(walls, CELL, 0.0), reach: OnceLock::new() }
+        RayCaster { walls: walls.to_vec().into(), grid: WallGrid::new(walls, CELL, 0.0), reach: OnceLock::new() }
     }
 
     /// How to cast `beams` beams from `p` with the per-cell reach lists, when they cover
@@ -643,6 +645,22 @@ fn fast_atan2(y: f64, x: f64) -> f64 {
         -r
     } else {
         r
+    }
+}
+
+
+/// The walls and their grid; the per-cell reach lists are this process's own, made on the
+/// first cast as for a caster built here.
+impl Flat for RayCaster {
+    fn put(&self, w: &mut FlatWriter) {
+        self.walls.put(w);
+        self.grid.put(w);
+    }
+    fn take(r: &mut FlatReader<'_>) -> Result<Self, FlatError> {
+        let walls: Slab<Wall> = Slab::take(r)?;
+        let grid = WallGrid::take(r)?;
+        grid.check_walls(walls.len())?;
+        Ok(RayCaster { walls, grid, reach: OnceLock::new() })
     }
 }
 

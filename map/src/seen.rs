@@ -11,6 +11,7 @@
 //! first cell's corner) as run lengths, alternately not seen and seen, starting with not seen.
 
 use crate::bitgrid::{BitGrid, Grid};
+use crate::flat::{Flat, FlatError, FlatReader, FlatWriter};
 use crate::free_space::Outside;
 use nalgebra::Point2;
 use serde_json::{json, Value};
@@ -104,7 +105,7 @@ impl SeenFree {
         if bits.len() != seen.raster.bits.len() {
             return None;
         }
-        seen.raster.bits.copy_from_slice(bits);
+        seen.raster.bits.to_mut().copy_from_slice(bits);
         seen.raster.clear_padding();
         Some(seen)
     }
@@ -222,6 +223,16 @@ impl SeenFree {
             return Err(format!("the runs cover {at} of the {} cells", cols * rows).into());
         }
         Ok(seen)
+    }
+}
+
+
+impl Flat for SeenFree {
+    fn put(&self, w: &mut FlatWriter) {
+        self.raster.put(w);
+    }
+    fn take(r: &mut FlatReader<'_>) -> Result<Self, FlatError> {
+        Ok(SeenFree { raster: BitGrid::take(r)? })
     }
 }
 
