@@ -600,7 +600,7 @@ impl Drop for StageChild {
 }
 
 #[test]
-fn a_hot_swap_of_segment_loses_at_most_two_scans() {
+fn a_hot_swap_of_segment_then_localize_loses_at_most_two_scans() {
     let Running { _dir, csv, prefix: p, run } = start_running("swap", 240, "40", Duration::from_secs(1));
     let old = stage_pids("segment", &p);
     let swap = gema2(&["swap", "segment", "--impl", "split-and-merge", "--prefix", &p]);
@@ -613,7 +613,16 @@ fn a_hot_swap_of_segment_loses_at_most_two_scans() {
     assert!(!bad.status.success() && String::from_utf8_lossy(&bad.stderr).contains("no-such"));
     let other = gema2(&["swap", "localize", "--impl", "split-and-merge", "--prefix", &p]);
     let why = String::from_utf8_lossy(&other.stderr);
-    assert!(!other.status.success() && why.contains("is a localize stage, which has one implementation"), "{why}");
+    assert!(!other.status.success() && why.contains("no implementation \"split-and-merge\""), "{why}");
+    let source = gema2(&["swap", "acquire", "--impl", "x", "--prefix", &p]);
+    assert!(String::from_utf8_lossy(&source.stderr).contains("cannot be swapped"));
+    // a fresh localizer reads the map server's model in place, and takes over
+    let old = stage_pids("localize", &p);
+    let swap = gema2(&["swap", "localize", "--impl", "gema2", "--prefix", &p]);
+    assert!(swap.status.success(), "{}", String::from_utf8_lossy(&swap.stderr));
+    let now = stage_pids("localize", &p);
+    assert_eq!(now.len(), 1);
+    assert_ne!(now, old);
     let out = run.wait_with_output().unwrap();
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let seqs: BTreeSet<u64> = rows(&csv).iter().map(|r| r[0].parse().unwrap()).collect();
@@ -632,9 +641,99 @@ fn a_localizer_started_late_receives_the_map() {
         StageChild::spawn(Command::new(exe()).args(["stage", "localize", "--prefix", &p]).stderr(Stdio::piped()));
     let mut lines = BufReader::new(loc.child().stderr.take().unwrap()).lines();
     let got = lines.next().and_then(Result::ok).unwrap_or_default();
-    assert!(got.contains("map version 1 (38 walls)"), "{got}");
+    assert!(got.contains("map version 1 (38 walls,") && got.contains("read in place"), "{got}");
     loc.stop();
     map.stop();
+}
+
+/// Memory of the process `pid` of its own (not shared), kB: what it adds to the machine.
+fn private_kb(pid: u32) -> u64 {
+    let text = std::fs::read_to_string(format!("/proc/{pid}/smaps_rollup")).unwrap_or_default();
+    text.lines()
+        .filter(|l| l.starts_with("Private_Clean:") || l.starts_with("Private_Dirty:"))
+        .filter_map(|l| l.split_whitespace().nth(1)?.parse::<u64>().ok())
+        .sum()
+}
+
+/// Starts a localize stage under `prefix` and returns it once it has read the map model, with
+/// the megabytes of the model it reported.
+fn localizer_with_model(prefix: &str, set: &[&str]) -> (StageChild, f64) {
+    let mut cmd = Command::new(exe());
+    cmd.args(["stage", "localize", "--prefix", prefix]).stderr(Stdio::piped());
+    for kv in set {
+        cmd.args(["--set", kv]);
+    }
+    let mut loc = StageChild::spawn(&mut cmd);
+    let mut lines = BufReader::new(loc.child().stderr.take().unwrap()).lines();
+    let got = lines.next().and_then(Result::ok).unwrap_or_default();
+    let mb = got
+        .split(": ")
+        .nth(2)
+        .and_then(|t| t.split(" MB read in place").next())
+        .and_then(|n| n.parse::<f64>().ok())
+        .unwrap_or_else(|| panic!("no model read: {got}"));
+    // keep reading what it says, so it never blocks on a full pipe
+    std::thread::spawn(move || lines.map_while(Result::ok).for_each(drop));
+    (loc, mb)
+}
+
+/// The map server builds the model once and every localizer reads it in place: a second
+/// localizer of a large map adds to the machine's memory at most a tenth of the model's size
+/// over what a localizer of a map a hundredth that size takes.
+#[test]
+fn a_second_localizer_reads_the_model_in_place_and_adds_no_copy_of_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let big = dir.path().join("big.json");
+    let made = gema2(&["map", "generate", "office-1500", "--seed", "3", "--out", big.to_str().unwrap()]);
+    assert!(made.status.success());
+    let (p, small_p) = (prefix("inplace"), prefix("inplace-small"));
+    let mut server = StageChild::spawn(
+        Command::new(exe())
+            .args(["stage", "mapserver", "--map", big.to_str().unwrap(), "--prefix", &p])
+            .stderr(Stdio::piped()),
+    );
+    let said = BufReader::new(server.child().stderr.take().unwrap()).lines().next().and_then(Result::ok);
+    assert!(said.unwrap_or_default().contains("as version 1"));
+    let small_server = StageChild::spawn(
+        Command::new(exe())
+            .args(["stage", "mapserver", "--map", "apartment", "--prefix", &small_p])
+            .stderr(Stdio::null()),
+    );
+    std::thread::sleep(Duration::from_millis(500));
+    let (first, mb) = localizer_with_model(&p, &[]);
+    let (mut second, mb_again) = localizer_with_model(&p, &[]);
+    let (mut small, small_mb) = localizer_with_model(&small_p, &[]);
+    assert_eq!(mb, mb_again);
+    assert!(mb > 10.0 && small_mb * 20.0 < mb, "a model of {mb} MB and one of {small_mb} MB");
+    let (added, baseline) = (private_kb(second.child().id()), private_kb(small.child().id()));
+    assert!(baseline > 0, "no memory figures for the localizers");
+    let limit = baseline as f64 + mb * 1e3 / 10.0;
+    assert!(
+        (added as f64) <= limit,
+        "the second localizer holds {added} kB of its own, over {limit:.0} kB: a model of {mb} MB"
+    );
+    drop((first, second, small, small_server));
+    server.stop();
+}
+
+/// A localizer whose corner settings differ from those the model was built with refuses it,
+/// naming the setting; with the same settings on both it locates.
+#[test]
+fn a_model_built_for_other_corner_settings_is_refused() {
+    let p = prefix("refuse");
+    let server = StageChild::spawn(
+        Command::new(exe())
+            .args(["stage", "mapserver", "--map", "apartment", "--prefix", &p, "--set", "map_reach=2"])
+            .stderr(Stdio::null()),
+    );
+    std::thread::sleep(Duration::from_millis(1000));
+    let out = Command::new(exe()).args(["stage", "localize", "--prefix", &p]).stdin(Stdio::null()).output().unwrap();
+    let why = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success(), "{why}");
+    assert!(why.contains("map_reach = 2 there, 5 here") && why.contains("same --set"), "{why}");
+    let (agreeing, _) = localizer_with_model(&p, &["map_reach=2"]);
+    drop(agreeing);
+    server.stop();
 }
 
 #[test]

@@ -4,7 +4,7 @@
 //! One job: localization, as a library ([`Localizer`], [`Gema2`] for segmentation and
 //! localization together) and as the pipeline's localize stage (`node`, with the default
 //! feature `process`). The searches it runs are one list, [`CASCADE`]. Depends on `laser`,
-//! `segment` and `map`; with `process`, on `messages`, `mapserver` (the map's wire form) and
+//! `segment` and `map`; with `process`, on `messages` (the map model comes from the map server) and
 //! `clap` for the stage. Without it, no iceoryx2, clap or libc.
 
 pub mod cost;
@@ -28,5 +28,9 @@ pub use localizer::{
 };
 pub use map::model::{self, MapModel};
 pub use matching::pose_from_corners;
+
+/// The localize stage's implementations, what `gema2 swap` takes for one: a swap to the same
+/// name starts a fresh process (a new build, once installed) beside the running one.
+pub const LOCALIZERS: [&str; 1] = ["gema2"];
 pub use refine::RefineConfig;
 pub use slide::{SlideConfig, FROM_SLIDE};

@@ -1,18 +1,23 @@
-//! The localization process: corners (with their scan) and the map in, ranked poses out
-//! (`gema2/pose`). The map arrives on `gema2/map` with history, so a late start still gets it;
-//! a new map version is used from the next scan on. A scan seen before (two segmenters during a
-//! hot swap) is skipped; gaps are fine.
+//! The localization process: corners (with their scan) and the map model in, ranked poses out
+//! (`gema2/pose`). The model arrives on `gema2/map/model` with history, built by the map
+//! server once per map version and read here in place ([`MapModel::from_block`]), so a late
+//! start, a restart or a swapped-in localizer locates from its first scan. A new version is
+//! used from the next scan on; the old one is read until then. A model built for other corner
+//! settings than this stage's is refused. A scan seen before (two segmenters during a hot swap)
+//! is skipped; gaps are fine.
 
 use crate::slide::SlideLine;
 use crate::{Gema2Config, Localization, Localizer, MapModel, Status};
 use anyhow::{anyhow, Context, Result};
 use clap::Args;
 use laser::{pose_theta, ScanView};
-use mapserver::wire::map_from_msg;
+use map::flat::FlatReader;
+use map::model::MODEL_LAYOUT;
 use messages::iceoryx2::prelude::*;
+use messages::iceoryx2::sample::Sample;
 use messages::{
-    monotonic_ns, CornersMsg, Freshness, HypothesisMsg, Inlet, Look, MapMsg, Outlet, PoseMsg, PoseMsgXyt, Stage, Topic,
-    MAX_HYPOTHESES, STATUS_AMBIGUOUS, STATUS_FAILED, STATUS_OK,
+    monotonic_ns, open_model_topic, CornersMsg, Freshness, HypothesisMsg, Inlet, Look, ModelHeader, Outlet, PoseMsg,
+    PoseMsgXyt, Stage, Topic, MAX_HYPOTHESES, STATUS_AMBIGUOUS, STATUS_FAILED, STATUS_OK,
 };
 use segment::noise::usable_scale;
 use segment::sample::build_samples;
@@ -53,7 +58,10 @@ pub fn run(a: LocalizeArgs) -> Result<()> {
     a.stage.place()?;
     let node = messages::create_node("localize")?;
     let corners = Inlet::<CornersMsg>::open(&node, &a.stage.prefix, Topic::Corners)?;
-    let map = Inlet::<MapMsg>::open(&node, &a.stage.prefix, Topic::Map)?;
+    let model_ports = open_model_topic(&node, &a.stage.prefix)?;
+    let models = model_ports.subscriber()?;
+    let model_listener =
+        model_ports.event.listener_builder().create().map_err(|e| anyhow!("{}: listener: {e:?}", model_ports.name))?;
     let mut pose_out =
         Outlet::<PoseMsg>::open(&node, &a.stage.prefix, Topic::Pose, BackpressureStrategy::RetryUntilDelivered)?;
 
@@ -61,14 +69,26 @@ pub fn run(a: LocalizeArgs) -> Result<()> {
     let mut failure: Option<anyhow::Error> = None;
     let on_event = |woken: &[bool]| {
         // both queues in each pass (messages::Look)
-        let mut look = Look::new([&map.listener, &corners.listener], woken[0]);
+        let mut look = Look::new([&model_listener, &corners.listener], woken[0]);
         while look.next_pass() {
-            // the map: newest version wins
-            while let Ok(Some(m)) = map.subscriber.receive() {
-                // ready once there is a map to localize against
-                if state.take_map(&m) {
-                    if let Err(e) = messages::announce_ready(&node, &a.stage.prefix) {
-                        eprintln!("localize: {e}");
+            // the model: newest version wins
+            loop {
+                let taken = match models.receive() {
+                    Ok(Some(sample)) => state.take_model(sample),
+                    Ok(None) => break,
+                    Err(e) => Err(anyhow!("{}: receive: {e:?}", model_ports.name)),
+                };
+                match taken {
+                    // ready once there is a model to localize against
+                    Ok(true) => {
+                        if let Err(e) = messages::announce_ready(&node, &a.stage.prefix) {
+                            eprintln!("localize: {e}");
+                        }
+                    }
+                    Ok(false) => {}
+                    Err(e) => {
+                        failure = Some(e);
+                        return CallbackProgression::Stop;
                     }
                 }
             }
@@ -93,7 +113,7 @@ pub fn run(a: LocalizeArgs) -> Result<()> {
         CallbackProgression::Continue
     };
     // the map may already be waiting in history; a wake-up may be lost (MISSED_WAKEUP_POLL)
-    let listeners = [(corners.name.as_str(), &corners.listener), (map.name.as_str(), &map.listener)];
+    let listeners = [(corners.name.as_str(), &corners.listener), (model_ports.name.as_str(), &model_listener)];
     messages::run_stage(&node, &listeners, messages::MISSED_WAKEUP_POLL, on_event).context("localize")?;
     state.report(&pose_out);
     match failure {
@@ -103,15 +123,30 @@ pub fn run(a: LocalizeArgs) -> Result<()> {
     .context("localize")
 }
 
+/// A model block in shared memory that a model read from it views, and the lease its views
+/// hold: the block is released to the map server only once nothing holds the lease but this.
+struct HeldBlock {
+    _sample: Sample<ipc::Service, [u8], ModelHeader>,
+    lease: Arc<Lease>,
+}
+
+/// What a model's views of a [`HeldBlock`] keep alive: while any holds it, the block is not
+/// released (and so never reused by the map server).
+struct Lease;
+
 /// What the stage keeps from scan to scan: the localizer with its map's version (none before
-/// the first map), and what tells a scan seen before.
+/// the first map), the model blocks it reads, and what tells a scan seen before.
 struct Located {
     config: Gema2Config,
     localizer: Option<(Localizer, u32)>,
+    /// The blocks the models in use view; the oldest is released once its model is dropped.
+    blocks: Vec<HeldBlock>,
     seg: Segmentation,
     fresh: Freshness,
     waiting_for_map: u64,
     found_by_poll: u64,
+    /// When the stage started, until its first pose is published (then said, with the time).
+    started: Option<std::time::Instant>,
 }
 
 impl Located {
@@ -119,39 +154,94 @@ impl Located {
         Located {
             config,
             localizer: None,
+            blocks: Vec::new(),
             seg: Segmentation::default(),
             fresh: Freshness::default(),
             waiting_for_map: 0,
             found_by_poll: 0,
+            started: Some(std::time::Instant::now()),
         }
     }
 
-    /// Takes a map from the wire when its version is new; a bad map is reported and ignored.
-    /// Returns whether this was the first map, so the stage is now ready.
-    fn take_map(&mut self, m: &MapMsg) -> bool {
-        if self.localizer.as_ref().is_some_and(|(_, v)| *v == m.version) {
-            return false;
+    /// Takes a model block from the map server: reads the model in place and locates with it
+    /// from the next scan on. Returns whether this was the first model, so the stage is now
+    /// ready. A model of another layout or built for other corner settings is refused: an error
+    /// when there is no model to go on with, reported and skipped when there is.
+    fn take_model(&mut self, sample: Sample<ipc::Service, [u8], ModelHeader>) -> Result<bool> {
+        let header = *sample.user_header();
+        if self.localizer.as_ref().is_some_and(|(_, v)| *v == header.map_version) {
+            return Ok(false);
         }
-        let walls = match map_from_msg(m) {
-            Ok(walls) => walls,
-            Err(e) => {
-                eprintln!("localize: ignored a bad map: {e}");
-                return false;
+        let started = std::time::Instant::now();
+        let lease = Arc::new(Lease);
+        let read = (header.layout == MODEL_LAYOUT)
+            .then_some(())
+            .ok_or_else(|| {
+                anyhow!("the map server's model has layout {}, this localizer reads {MODEL_LAYOUT}: rebuild both from the same sources", header.layout)
+            })
+            .and_then(|()| {
+                let bytes: &[u8] = sample.payload();
+                let owner: map::slab::Owner = lease.clone();
+                // SAFETY: the block lies in the sample, which `blocks` keeps (unchanged: the
+                // publisher never writes a sent sample) until nothing holds `lease`, the owner
+                // of every view read from it; the subscriber outlives the stage's state
+                let mut r = unsafe { FlatReader::new(std::slice::from_raw_parts(bytes.as_ptr(), bytes.len()), owner) }?;
+                let model = MapModel::from_block(&mut r)?;
+                Ok((model, r.copied()))
+            })
+            .and_then(|(model, copied)| match self.config.model_disagreement(&model.corner_config) {
+                None => Ok((model, copied)),
+                Some(d) => Err(anyhow!(
+                    "the map server's model was built for other corner settings ({d}): give the map server \
+                     and the localizer the same --set, or put it in the pipeline file's top-level settings"
+                )),
+            });
+        let (model, copied) = match read {
+            Ok(m) => m,
+            Err(e) if self.localizer.is_some() => {
+                eprintln!(
+                    "localize: kept map version {}: refused version {}: {e:#}",
+                    self.version(),
+                    header.map_version
+                );
+                return Ok(false);
             }
+            Err(e) => return Err(e.context(format!("map version {}", header.map_version))),
         };
-        let model = Arc::new(MapModel::new(walls, &self.config.map_corners));
-        eprintln!("localize: map version {} ({} walls)", m.version, m.count);
-        match self.localizer.as_mut() {
+        eprintln!(
+            "localize: map version {} ({} walls, {} corners): {:.1} MB read in place, {} KB copied, in {:.1} ms{}",
+            header.map_version,
+            model.map.walls.len(),
+            model.corners.corners().len(),
+            header.block_len as f64 / 1e6,
+            copied / 1024,
+            started.elapsed().as_secs_f64() * 1e3,
+            self.started.map_or(String::new(), |s| format!(
+                "; ready {:.1} ms after the stage started",
+                s.elapsed().as_secs_f64() * 1e3
+            ))
+        );
+        self.blocks.push(HeldBlock { _sample: sample, lease });
+        let model = Arc::new(model);
+        let first = match self.localizer.as_mut() {
             Some((l, v)) => {
                 l.set_model(model);
-                *v = m.version;
+                *v = header.map_version;
                 false
             }
             None => {
-                self.localizer = Some((Localizer::new(model, self.config.localizer), m.version));
+                self.localizer = Some((Localizer::new(model, self.config.localizer), header.map_version));
                 true
             }
-        }
+        };
+        // the blocks no model views any more go back to the map server
+        self.blocks.retain(|b| Arc::strong_count(&b.lease) > 1);
+        Ok(first)
+    }
+
+    /// The map version located with; 0 before any.
+    fn version(&self) -> u32 {
+        self.localizer.as_ref().map_or(0, |(_, v)| *v)
     }
 
     /// Locates the scan of `msg`, taken at `enter` in `look`, and publishes its pose to `out`;
@@ -169,8 +259,11 @@ impl Located {
         self.found_by_poll += u64::from(look.found_by_poll());
         let Some((result, version)) = self.locate(msg) else { return Ok(()) };
         out.send(|p: &mut PoseMsg| write_pose(p, msg, result, version, enter))
-            .map(|_| ())
-            .map_err(|e| anyhow!("localize: publishing pose {}: {e}", msg.scan.header.seq))
+            .map_err(|e| anyhow!("localize: publishing pose {}: {e}", msg.scan.header.seq))?;
+        if let Some(started) = self.started.take() {
+            eprintln!("localize: first pose {:.1} ms after the stage started", started.elapsed().as_secs_f64() * 1e3);
+        }
+        Ok(())
     }
 
     /// What the stage says when it stops, with its outlet's report.

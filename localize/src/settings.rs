@@ -472,6 +472,21 @@ impl Gema2Config {
         ),
     ];
 
+    /// What differs between the map-corner settings of this configuration and those a map
+    /// model was `built` with, as `key: built vs ours`; `None` when they agree. A localizer
+    /// must not match corners against a model built for other settings.
+    pub fn model_disagreement(&self, built: &MapCornerConfig) -> Option<String> {
+        if *built == self.map_corners {
+            return None;
+        }
+        let named: Vec<String> = Self::MAP_SETTINGS
+            .iter()
+            .filter(|s| s.shown(built) != s.shown(&self.map_corners))
+            .map(|s| format!("{} = {} there, {} here", s.key, s.shown(built), s.shown(&self.map_corners)))
+            .collect();
+        Some(if named.is_empty() { format!("{built:?} there, {:?} here", self.map_corners) } else { named.join(", ") })
+    }
+
     /// Every key [`set`](Self::set) knows.
     pub fn keys() -> impl Iterator<Item = &'static str> + Clone {
         let segment = SegmenterConfig::SETTINGS.iter().map(|s| s.key);

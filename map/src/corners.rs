@@ -351,7 +351,6 @@ impl CornerIndex {
     }
 }
 
-
 // SAFETY: `repr(C)`, f64 and u32 fields with the padding spelled out (checked), valid for any
 // bits.
 unsafe impl Plain for MapArm {}

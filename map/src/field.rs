@@ -227,7 +227,6 @@ impl DistanceField {
     }
 }
 
-
 impl DistanceField {
     /// Whether every nearest wall the cells name is one of `walls` walls: for a field read
     /// from a block, whose walls are another array of it.

@@ -102,7 +102,7 @@ impl<'a> FlatReader<'a> {
     /// `bytes` must stay valid and unwritten for as long as `owner`, or any clone of it, lives:
     /// the slabs read from it view it and keep only `owner`.
     pub unsafe fn new(bytes: &'a [u8], owner: Owner) -> Result<Self, FlatError> {
-        if (bytes.as_ptr() as usize) % ALIGN != 0 {
+        if !(bytes.as_ptr() as usize).is_multiple_of(ALIGN) {
             return Err(FlatError::new(format!("the block does not start {ALIGN}-byte aligned")));
         }
         Ok(FlatReader { bytes, pos: 0, owner, copied: 0 })
@@ -143,11 +143,7 @@ impl<'a> FlatReader<'a> {
     }
 
     fn short(&self, what: &str, need: usize) -> FlatError {
-        FlatError::new(format!(
-            "{what}: needs {need} bytes at offset {}, the block has {}",
-            self.pos,
-            self.bytes.len()
-        ))
+        FlatError::new(format!("{what}: needs {need} bytes at offset {}, the block has {}", self.pos, self.bytes.len()))
     }
 
     pub fn take_u64(&mut self, what: &str) -> Result<u64, FlatError> {
@@ -192,7 +188,7 @@ impl<'a> FlatReader<'a> {
         let size = len.checked_mul(std::mem::size_of::<T>()).ok_or_else(|| self.short(what, usize::MAX))?;
         let end = start.checked_add(size).filter(|&e| e <= self.bytes.len()).ok_or_else(|| self.short(what, size))?;
         let ptr = self.bytes[start..end].as_ptr();
-        if (ptr as usize) % std::mem::align_of::<T>() != 0 {
+        if !(ptr as usize).is_multiple_of(std::mem::align_of::<T>()) {
             return Err(FlatError::new(format!("{what}: misaligned at offset {start}")));
         }
         self.pos = end;

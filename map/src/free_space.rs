@@ -10,8 +10,8 @@
 //! the rooms it opens onto.
 
 use crate::bitgrid::{BitGrid, Grid};
-use crate::flat::{Flat, FlatError, FlatReader, FlatWriter};
 use crate::field::DistanceField;
+use crate::flat::{Flat, FlatError, FlatReader, FlatWriter};
 use nalgebra::Point2;
 
 /// Largest number of cells before the grid is coarsened.
@@ -168,7 +168,6 @@ pub fn connected_regions(passable: &[bool], cols: usize, rows: usize) -> (Vec<u3
     }
     (labels, sizes)
 }
-
 
 impl Flat for Outside {
     fn put(&self, w: &mut FlatWriter) {

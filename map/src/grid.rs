@@ -297,7 +297,6 @@ pub(crate) fn centre_of(origin: Point2<f64>, cell: f64, c: usize, r: usize) -> P
     Point2::new(origin.x + (c as f64 + 0.5) * cell, origin.y + (r as f64 + 0.5) * cell)
 }
 
-
 impl WallGrid {
     /// Whether every wall the cells list is one of `walls` walls: for a grid read from a block,
     /// whose lists index another array of it.

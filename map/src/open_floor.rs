@@ -6,10 +6,10 @@
 //! space reach it without going through a wall.
 
 use crate::bitgrid::Grid;
-use crate::flat::{check_len, Flat, FlatError, FlatReader, FlatWriter};
-use crate::slab::Slab;
 use crate::field::DistanceField;
+use crate::flat::{check_len, Flat, FlatError, FlatReader, FlatWriter};
 use crate::free_space::FreeSpace;
+use crate::slab::Slab;
 use crate::wall::Wall;
 use nalgebra::Point2;
 
@@ -68,7 +68,6 @@ impl OpenFloor {
         (f64::from(v & DISTANCE) * (self.reach / f64::from(DISTANCE)), v & AWAY != 0)
     }
 }
-
 
 impl Flat for OpenFloor {
     fn put(&self, w: &mut FlatWriter) {

@@ -6,8 +6,8 @@
 //! beam instead marches through the wall grid to its first wall; both give the same ranges.
 
 use crate::flat::{Flat, FlatError, FlatReader, FlatWriter};
-use crate::slab::Slab;
 use crate::grid::WallGrid;
+use crate::slab::Slab;
 use crate::wall::Wall;
 use laser::{Pose, ScanGeometry};
 use nalgebra::{Point2, Vector2};
@@ -647,7 +647,6 @@ fn fast_atan2(y: f64, x: f64) -> f64 {
         r
     }
 }
-
 
 /// The walls and their grid; the per-cell reach lists are this process's own, made on the
 /// first cast as for a caster built here.

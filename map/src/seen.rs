@@ -226,7 +226,6 @@ impl SeenFree {
     }
 }
 
-
 impl Flat for SeenFree {
     fn put(&self, w: &mut FlatWriter) {
         self.raster.put(w);

@@ -71,8 +71,6 @@ pub fn bounds_of(walls: &[Wall]) -> (Point2<f64>, Point2<f64>) {
     (lo, hi)
 }
 
-/// Walls from `(x, y, direction, length)` tuples: how the property tests draw random maps.
-
 // SAFETY: two points of two f64 each (nalgebra's points are `repr(C)` arrays), no padding
 // (checked), valid for any bits.
 unsafe impl crate::slab::Plain for Wall {}
@@ -80,6 +78,7 @@ unsafe impl crate::slab::Plain for Wall {}
 unsafe impl crate::slab::Plain for Point2<f64> {}
 const _: () = assert!(std::mem::size_of::<Wall>() == 32 && std::mem::size_of::<Point2<f64>>() == 16);
 
+/// Walls from `(x, y, direction, length)` tuples: how the property tests draw random maps.
 #[cfg(test)]
 pub(crate) fn walls_from_seed(seed: &[(f64, f64, f64, f64)]) -> Vec<Wall> {
     seed.iter().map(|&(x, y, a, l)| Wall::new(x, y, x + l * a.cos(), y + l * a.sin())).collect()

@@ -1,16 +1,21 @@
-//! The map server process: loads the map, publishes it on `gema2/map` with history (so a
-//! localizer that starts later gets it), answers corner queries on `gema2/map/corners`
-//! (inner angle and tolerance, optionally within a region), and reloads the map when its file
-//! (or a ROS map's image) changes or on SIGHUP, publishing a new version.
+//! The map server process: loads the map and builds its model once per version
+//! ([`map::MapModel`]: corners sorted by inner angle, wall grids, distance field, free space),
+//! then publishes the model on `gema2/map/model` and the walls on `gema2/map`, both with
+//! history, so a localizer that starts, restarts or is swapped in later reads the model in
+//! place at once. It answers corner queries on `gema2/map/corners` (inner angle and tolerance,
+//! optionally within a region) from the model, and reloads the map when its file (or a ROS
+//! map's image) changes or on SIGHUP, publishing a new version. The model's corner settings
+//! are the pipeline's (`--set`, as the localizer's); a localizer with others refuses it.
 
 use anyhow::{bail, Context, Result};
 use clap::Args;
-use map::{CornerIndex, MapCornerConfig, WallMap};
+use map::model::MODEL_LAYOUT;
+use map::MapModel;
 use mapio::load_map;
 use messages::iceoryx2::port::update_connections::UpdateConnections;
 use messages::{
-    open_corner_queries, open_topic, publish, CornerQuery, CornerReply, MapCornerMsg, MapMsg, Topic, MAX_CORNERS,
-    MAX_WALLS,
+    open_corner_queries, open_model_topic, open_topic, publish, publish_model, CornerQuery, CornerReply, MapCornerMsg,
+    MapMsg, Topic, MAX_CORNERS, MAX_WALLS,
 };
 use nalgebra::Point2;
 use std::path::Path;
@@ -18,7 +23,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, SystemTime};
 
 /// What the stage is, for its `--help` (its own program's and `gema2 stage mapserver`'s).
-pub const ABOUT: &str = "GEMA2 map server: the map with history, corner queries, reload on change";
+pub const ABOUT: &str = "GEMA2 map server: the map and its model with history, corner queries, reload on change";
 
 #[derive(Args, Debug, Clone)]
 pub struct MapServerArgs {
@@ -27,6 +32,10 @@ pub struct MapServerArgs {
     /// A bundled map's name, a JSON wall map or a ROS map_server .yaml (watched for changes).
     #[arg(long, default_value = "office")]
     pub map: String,
+    /// A setting, KEY=VALUE (repeatable), as the localizer's `--set`: the map-corner keys
+    /// (`gema2 settings`) shape the model, and must be the localizers' too.
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    pub set: Vec<String>,
 }
 
 static RELOAD: AtomicBool = AtomicBool::new(false);
@@ -72,19 +81,30 @@ impl Watched {
     }
 }
 
-fn load(spec: &str) -> Result<(WallMap, CornerIndex)> {
+/// A map version: the map and its model, built with `config`'s corner settings.
+struct Version {
+    model: MapModel,
+    /// The model as one block, as published; dropped once sent (the model answers queries).
+    block: Option<map::flat::FlatWriter>,
+    block_len: usize,
+    built_in: Duration,
+}
+
+fn load(spec: &str, config: &localize::Gema2Config) -> Result<Version> {
     let map = load_map(spec)?;
     if map.walls.len() > MAX_WALLS {
         bail!("{spec}: {} walls, at most {MAX_WALLS} can be published", map.walls.len());
     }
-    let index = CornerIndex::of_map(&map, &MapCornerConfig::default());
-    Ok((map, index))
+    let started = std::time::Instant::now();
+    let model = MapModel::new(map, &config.map_corners);
+    let block = model.to_block();
+    Ok(Version { model, block_len: block.len(), block: Some(block), built_in: started.elapsed() })
 }
 
 /// The answer to a corner query `q` from `index` (the map of `version`): the corners of
 /// similar inner angle, within the query's region when it gives one, as many as fit, and how
 /// many there were.
-fn corner_reply(index: &CornerIndex, version: u32, q: &CornerQuery) -> CornerReply {
+fn corner_reply(index: &map::CornerIndex, version: u32, q: &CornerQuery) -> CornerReply {
     let mut reply = CornerReply {
         map_version: version,
         count: 0,
@@ -112,52 +132,70 @@ fn corner_reply(index: &CornerIndex, version: u32, q: &CornerQuery) -> CornerRep
 }
 
 pub fn run(a: MapServerArgs) -> Result<()> {
+    let mut config = localize::Gema2Config::default();
+    config.apply(&a.set).context("mapserver: --set")?;
     a.stage.place()?;
     // SAFETY: the handler only stores to an atomic.
     unsafe { libc::signal(libc::SIGHUP, on_sighup as *const () as libc::sighandler_t) };
-    let (mut map, mut index) = load(&a.map)?;
+    let mut current = load(&a.map, &config)?;
     let mut watched = Watched::of(&a.map);
     let node = messages::create_node("mapserver")?;
     let topic = open_topic::<MapMsg>(&node, &a.stage.prefix, Topic::Map)?;
     let publisher = topic.data.publisher_builder().create().with_context(|| format!("{}: publisher", topic.name))?;
     let notifier = topic.event.notifier_builder().create().with_context(|| format!("{}: notifier", topic.name))?;
+    let model_topic = open_model_topic(&node, &a.stage.prefix)?;
+    let model_publisher = model_topic.publisher(current.block_len)?;
+    let model_notifier =
+        model_topic.event.notifier_builder().create().with_context(|| format!("{}: notifier", model_topic.name))?;
     let queries = open_corner_queries(&node, &a.stage.prefix)?;
     let server = queries.server_builder().create().context("corner queries: server")?;
     let mut version = 1u32;
-    let send_map = |map: &WallMap, version: u32| {
+    // the model first: a localizer that sees the walls' new version finds its model there
+    let send = |v: &mut Version, version: u32| -> Result<()> {
+        if let Some(block) = v.block.take() {
+            publish_model(&model_topic, &model_publisher, &model_notifier, version, MODEL_LAYOUT, block.bytes())?;
+        }
         let mut written = Ok(());
-        let sent = publish(&publisher, &notifier, |m: &mut MapMsg| written = crate::wire::map_to_msg(map, version, m));
+        let sent = publish(&publisher, &notifier, |m: &mut MapMsg| {
+            written = crate::wire::map_to_msg(&v.model.map, version, m)
+        });
         written
             .map_err(anyhow::Error::from)
             .and(sent.map(|_| ()).map_err(anyhow::Error::from))
             .with_context(|| topic.name.clone())
     };
-    send_map(&map, version)?;
+    send(&mut current, version)?;
     messages::announce_ready(&node, &a.stage.prefix)?;
-    eprintln!(
-        "mapserver: {} ({} walls, {} corners) as version {version}",
-        a.map,
-        map.walls.len(),
-        index.corners().len()
-    );
+    let said = |v: &Version, what: &str, version: u32| {
+        eprintln!(
+            "mapserver: {what} {} ({} walls, {} corners) as version {version}: model of {:.1} MB built in {:.2} s",
+            a.map,
+            v.model.map.walls.len(),
+            v.model.corners.corners().len(),
+            v.block_len as f64 / 1e6,
+            v.built_in.as_secs_f64()
+        )
+    };
+    said(&current, "serving", version);
     // queries and late joiners are served every few milliseconds; the data path never waits here
     while messages::sleep(&node, Duration::from_millis(5)) {
         publisher.update_connections().with_context(|| topic.name.clone())?;
+        model_publisher.update_connections().with_context(|| model_topic.name.clone())?;
         while let Some(request) = server.receive().context("corner queries")? {
             let q = *request.payload();
             let response = request.loan_uninit().context("corner queries: loan")?;
-            let reply = corner_reply(&index, version, &q);
+            let reply = corner_reply(&current.model.corners, version, &q);
             response.write_payload(reply).send().context("corner queries: send")?;
         }
         if RELOAD.swap(false, Ordering::Relaxed) || watched.changed() {
             // the YAML may name another image now
             watched = Watched::of(&a.map);
-            match load(&a.map) {
-                Ok((m, i)) => {
+            match load(&a.map, &config) {
+                Ok(v) => {
                     version += 1;
-                    (map, index) = (m, i);
-                    send_map(&map, version)?;
-                    eprintln!("mapserver: reloaded {} as version {version} ({} walls)", a.map, map.walls.len());
+                    current = v;
+                    send(&mut current, version)?;
+                    said(&current, "reloaded", version);
                 }
                 Err(e) => eprintln!("mapserver: kept version {version}: {e:#}"),
             }

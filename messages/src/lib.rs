@@ -13,6 +13,7 @@
 
 mod inlet;
 pub mod latency;
+mod model;
 mod outlet;
 mod payload;
 pub mod placement;
@@ -22,6 +23,7 @@ mod topic;
 mod waiting;
 
 pub use inlet::{run_stage, Inlet, WaitError, MAX_LISTENERS};
+pub use model::{open_model_topic, publish_model, ModelHeader, ModelPorts, MODEL_ALIGN, MODEL_HELD};
 pub use outlet::{Freshness, Outlet, SendError, CONNECT_PATIENCE, WARM_UP};
 pub use payload::*;
 pub use placement::pin_to_cpu;

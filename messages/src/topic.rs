@@ -97,7 +97,7 @@ pub struct TopicPorts<T: Debug + ZeroCopySend + 'static> {
     pub event: event::PortFactory<ipc::Service>,
 }
 
-fn parse_name(service: &str) -> Result<ServiceName, OpenError> {
+pub(crate) fn parse_name(service: &str) -> Result<ServiceName, OpenError> {
     ServiceName::new(service).map_err(|e| OpenError::Name { service: service.into(), message: format!("{e:?}") })
 }
 

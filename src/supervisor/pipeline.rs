@@ -156,7 +156,8 @@ impl Pipeline {
     }
 
     /// Checks the pipeline's `settings` and appends each, as `--set`, to the stages that take
-    /// it: a segmentation key to the segment stages, every key to the localize stages.
+    /// it: a segmentation key to the segment stages, a map-corner key to the map server (which
+    /// builds the model with it), every key to the localize stages.
     fn share_settings(&mut self) -> Result<()> {
         if self.settings.is_empty() {
             return Ok(());
@@ -168,6 +169,8 @@ impl Pipeline {
                 let takes = match s.kind {
                     Kind::Segment => segment::SegmenterConfig::SETTINGS.iter().any(|spec| spec.key == key),
                     Kind::Localize => true,
+                    // the model's corner settings: the map server builds it with them
+                    Kind::Mapserver => localize::Gema2Config::MAP_SETTINGS.iter().any(|spec| spec.key == key),
                     _ => false,
                 };
                 if takes {
@@ -274,14 +277,17 @@ mod tests {
     /// arguments; a bad key is refused naming the file.
     #[test]
     fn the_pipeline_s_settings_go_to_every_stage_that_takes_them() {
-        let text = "settings = [\"error_constant=0.05\", \"screened=100\"]\n\
+        let text = "settings = [\"error_constant=0.05\", \"screened=100\", \"map_reach=3\"]\n\
                     [[stage]]\nname = \"s\"\nkind = \"segment\"\nargs = [\"--impl\", \"x\"]\n\
                     [[stage]]\nname = \"l\"\nkind = \"localize\"\n\
-                    [[stage]]\nname = \"a\"\nkind = \"acquire\"\n";
+                    [[stage]]\nname = \"a\"\nkind = \"acquire\"\n\
+                    [[stage]]\nname = \"m\"\nkind = \"mapserver\"\n";
         let p = Pipeline::parse(text, Path::new("p.toml")).unwrap();
         assert_eq!(p.stages[0].args, ["--impl", "x", "--set", "error_constant=0.05"]);
-        assert_eq!(p.stages[1].args, ["--set", "error_constant=0.05", "--set", "screened=100"]);
+        assert_eq!(p.stages[1].args, ["--set", "error_constant=0.05", "--set", "screened=100", "--set", "map_reach=3"]);
         assert!(p.stages[2].args.is_empty());
+        // the model is built with the localizer's corner settings
+        assert_eq!(p.stages[3].args, ["--set", "map_reach=3"]);
         let err = Pipeline::parse(&text.replace("screened=100", "screend=1"), Path::new("p.toml")).unwrap_err();
         assert!(format!("{err:#}").contains("p.toml: settings") && format!("{err:#}").contains("screend"), "{err:#}");
     }

@@ -1,13 +1,17 @@
 //! Hot swap: `gema2 swap STAGE --impl NAME` asks the supervisor, over the control service, to
 //! replace a stage's implementation. The supervisor starts the new process under the same
-//! service names, waits until it announces that its ports are connected, then stops the old
-//! one; nothing else restarts. While both run, downstream skips duplicate scans.
+//! service names, waits until it announces that it is ready (ports connected; a localizer has
+//! read the map model), then stops the old one; nothing else restarts. While both run,
+//! downstream skips duplicate scans. A segment stage swaps between its segmenters; a localize
+//! stage to a fresh process of its one implementation (a new build, once installed), which
+//! reads the map server's model in place and so locates from its first scan.
 
 use super::child::{spawn, stop, StageProcess};
 use super::control::ControlServer;
 use super::pipeline::Kind;
 use anyhow::{anyhow, Context, Result};
 use clap::Args;
+use localize::LOCALIZERS;
 use messages::iceoryx2::active_request::ActiveRequest;
 use messages::iceoryx2::prelude::*;
 use messages::{name_bytes, name_str, open_control, Awaited, ControlReply, ControlRequest};
@@ -63,15 +67,18 @@ impl Swap {
             return refuse(format!("no stage called {name:?}"));
         };
         let kind = stages[stage].spec.kind;
-        if kind != Kind::Segment {
+        let implementations = implementations(kind);
+        if implementations.is_empty() {
             return refuse(format!(
-                "stage {name:?} is a {} stage, which has one implementation: only a segment stage can be \
-                 swapped (to one of {SEGMENTERS:?})",
+                "stage {name:?} is a {} stage, which cannot be swapped: a segment stage can (to one of \
+                 {SEGMENTERS:?}), and a localize stage (to {LOCALIZERS:?})",
                 kind.as_str()
             ));
         }
-        if !SEGMENTERS.contains(&implementation.as_str()) {
-            return refuse(format!("stage {name:?} has no implementation {implementation:?}: one of {SEGMENTERS:?}"));
+        if !implementations.contains(&implementation.as_str()) {
+            return refuse(format!(
+                "stage {name:?} has no implementation {implementation:?}: one of {implementations:?}"
+            ));
         }
         let instance = instance();
         let new = match spawn(&stages[stage].spec, prefix, Some(&implementation), instance) {
@@ -129,6 +136,15 @@ impl Drop for Swap {
         if let Some(mut n) = self.new.take() {
             stop(&mut n, Duration::from_secs(1));
         }
+    }
+}
+
+/// What a stage of `kind` can be swapped to; none for a stage that cannot be.
+fn implementations(kind: Kind) -> &'static [&'static str] {
+    match kind {
+        Kind::Segment => &SEGMENTERS,
+        Kind::Localize => &LOCALIZERS,
+        _ => &[],
     }
 }
 

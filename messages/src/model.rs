@@ -1,0 +1,121 @@
+//! The map model topic, `<prefix>/map/model`: the map server's model of the map, built once per
+//! map version and read in place by every localizer.
+//!
+//! The payload is one block of bytes, a dynamic-size `[u8]` slice, 16-byte aligned, whose
+//! layout the map library defines and versions (`map::flat`, `map::model::MODEL_LAYOUT`); the
+//! [`ModelHeader`] says which map version and layout it holds and how long it is. The service
+//! keeps the newest block as history, so a localizer that starts, restarts or is swapped in
+//! later gets the current model at once. A subscriber may hold two blocks: the one it locates
+//! with and a newer one it switches to between two scans. Publishing a new version never
+//! overwrites a block a localizer still holds: the publisher takes a fresh chunk, and a chunk
+//! returns to it only when every reader has released it.
+
+use crate::topic::{parse_name, service_name, OpenError};
+use bytemuck::Zeroable;
+use iceoryx2::port::publisher::Publisher;
+use iceoryx2::port::subscriber::Subscriber;
+use iceoryx2::prelude::*;
+use iceoryx2::service::port_factory::{event, publish_subscribe};
+
+/// What a model block is, in front of it.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, ZeroCopySend, Zeroable)]
+#[repr(C)]
+pub struct ModelHeader {
+    /// The map version the model was built from: that of the `gema2/map` message of the same
+    /// map.
+    pub map_version: u32,
+    pub _pad: u32,
+    /// The block's layout version (`map::model::MODEL_LAYOUT`).
+    pub layout: u64,
+    /// The block's length, bytes.
+    pub block_len: u64,
+}
+
+/// The alignment of a model block, bytes (`map::flat::ALIGN`).
+pub const MODEL_ALIGN: usize = 16;
+
+/// Blocks a model reader may hold at once: the one it reads and a newer one.
+pub const MODEL_HELD: usize = 2;
+
+/// The model topic's data and wake-up services.
+pub struct ModelPorts {
+    pub name: String,
+    pub data: publish_subscribe::PortFactory<ipc::Service, [u8], ModelHeader>,
+    pub event: event::PortFactory<ipc::Service>,
+}
+
+/// Opens (or creates) `<prefix>/map/model`.
+pub fn open_model_topic(node: &Node<ipc::Service>, prefix: &str) -> Result<ModelPorts, OpenError> {
+    let service = service_name(prefix, "map/model");
+    let name = parse_name(&service)?;
+    let alignment = Alignment::new(MODEL_ALIGN)
+        .ok_or_else(|| OpenError::Open { service: service.clone(), message: "alignment".into() })?;
+    let open = |e: &dyn std::fmt::Debug| OpenError::Open { service: service.clone(), message: format!("{e:?}") };
+    let data = node
+        .service_builder(&name)
+        .publish_subscribe::<[u8]>()
+        .user_header::<ModelHeader>()
+        .payload_alignment(alignment)
+        .history_size(1)
+        .subscriber_max_buffer_size(1)
+        .subscriber_max_borrowed_samples(MODEL_HELD)
+        .enable_safe_overflow(true)
+        // a map server and its replacement
+        .max_publishers(2)
+        .max_subscribers(16)
+        .max_nodes(32)
+        .open_or_create()
+        .map_err(|e| open(&e))?;
+    let event = node
+        .service_builder(&name)
+        .event()
+        .max_notifiers(4)
+        .max_listeners(16)
+        .max_nodes(32)
+        .open_or_create()
+        .map_err(|e| open(&e))?;
+    Ok(ModelPorts { name: service, data, event })
+}
+
+impl ModelPorts {
+    /// A publisher whose first chunks hold `block_len` bytes, growing (by powers of two) for a
+    /// larger model of a later version.
+    pub fn publisher(&self, block_len: usize) -> Result<Publisher<ipc::Service, [u8], ModelHeader>, OpenError> {
+        self.data
+            .publisher_builder()
+            .initial_max_slice_len(block_len.max(1))
+            .allocation_strategy(AllocationStrategy::PowerOfTwo)
+            .max_loaned_samples(1)
+            .create()
+            .map_err(|e| OpenError::Port { service: self.name.clone(), message: format!("publisher: {e:?}") })
+    }
+
+    pub fn subscriber(&self) -> Result<Subscriber<ipc::Service, [u8], ModelHeader>, OpenError> {
+        self.data
+            .subscriber_builder()
+            .create()
+            .map_err(|e| OpenError::Port { service: self.name.clone(), message: format!("subscriber: {e:?}") })
+    }
+}
+
+/// Publishes the model block `block` as `map_version` (its layout `layout`) and wakes the
+/// readers. The block is copied once, into the loaned chunk; readers read it there.
+pub fn publish_model(
+    ports: &ModelPorts,
+    publisher: &Publisher<ipc::Service, [u8], ModelHeader>,
+    notifier: &iceoryx2::port::notifier::Notifier<ipc::Service>,
+    map_version: u32,
+    layout: u64,
+    block: &[u8],
+) -> Result<(), OpenError> {
+    let fail = |what: &str, e: &dyn std::fmt::Debug| OpenError::Port {
+        service: ports.name.clone(),
+        message: format!("{what} {} bytes: {e:?}", block.len()),
+    };
+    let mut sample = publisher.loan_slice_uninit(block.len()).map_err(|e| fail("loan", &e))?;
+    *sample.user_header_mut() = ModelHeader { map_version, _pad: 0, layout, block_len: block.len() as u64 };
+    let sample = sample.write_from_slice(block);
+    sample.send().map_err(|e| fail("send", &e))?;
+    notifier.notify().map_err(|e| fail("notify", &e))?;
+    Ok(())
+}
