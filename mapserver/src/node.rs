@@ -13,6 +13,7 @@ use map::model::MODEL_LAYOUT;
 use map::MapModel;
 use mapio::load_map;
 use messages::iceoryx2::port::update_connections::UpdateConnections;
+use messages::iceoryx2::service::port_factory::PortFactory as _;
 use messages::{
     open_corner_queries, open_model_topic, open_topic, publish, publish_model, CornerQuery, CornerReply, MapCornerMsg,
     MapMsg, Topic, MAX_CORNERS, MAX_WALLS,
@@ -177,10 +178,17 @@ pub fn run(a: MapServerArgs) -> Result<()> {
         )
     };
     said(&current, "serving", version);
+    let mut model_readers = 0;
     // queries and late joiners are served every few milliseconds; the data path never waits here
     while messages::sleep(&node, Duration::from_millis(5)) {
         publisher.update_connections().with_context(|| topic.name.clone())?;
         model_publisher.update_connections().with_context(|| model_topic.name.clone())?;
+        // a reader that joined was just handed the history, with no wake-up of its own: wake it
+        let readers = model_topic.data.dynamic_config().number_of_subscribers();
+        if readers > model_readers {
+            model_notifier.notify().with_context(|| model_topic.name.clone())?;
+        }
+        model_readers = readers;
         while let Some(request) = server.receive().context("corner queries")? {
             let q = *request.payload();
             let response = request.loan_uninit().context("corner queries: loan")?;

@@ -70,6 +70,11 @@ where
         .collect::<Result<Vec<_>, _>>()?;
     let _poll = waitset.attach_interval(poll).map_err(|e| attach("the poll", &e))?;
     let mut woken = [false; MAX_LISTENERS];
+    // a look before the first wait: what a service's history holds (the map model) came with
+    // no wake-up, and would otherwise wait for the first poll
+    if on_event(&woken[..guards.len()]) == CallbackProgression::Stop {
+        return Ok(());
+    }
     run_waitset(node, &waitset, |id| {
         for (w, g) in woken.iter_mut().zip(&guards) {
             *w = id.has_event_from(g);
