@@ -12,9 +12,11 @@
 //! rejected by the cost function.
 
 use crate::flat::{Flat, FlatError, FlatReader, FlatWriter};
+use crate::hash::BuildMix;
 use crate::slab::{Plain, Slab};
 use crate::wall::Wall;
 use nalgebra::{Point2, Vector2};
+use std::collections::HashMap;
 use std::f64::consts::{PI, TAU};
 
 /// One side of a map corner.
@@ -89,6 +91,17 @@ const MERGE: f64 = 0.02;
 
 /// Extracts every corner of `walls`.
 pub fn extract_map_corners(walls: &[Wall], cfg: &MapCornerConfig) -> Vec<MapCorner> {
+    extract_map_corners_where(walls, cfg, |_| true)
+}
+
+/// The corners of `walls` that `keep` says yes to, in the order they are found (junction by
+/// junction, then the wall ends): a filter applied as they come, so the corners left out are
+/// never stored (on a map built from a real log, two in three).
+pub fn extract_map_corners_where(
+    walls: &[Wall],
+    cfg: &MapCornerConfig,
+    mut keep: impl FnMut(&MapCorner) -> bool,
+) -> Vec<MapCorner> {
     let junctions = junctions(walls, cfg);
     let lines = CollinearWalls::new(walls);
     let mut corners = Vec::new();
@@ -117,17 +130,20 @@ pub fn extract_map_corners(walls: &[Wall], cfg: &MapCornerConfig) -> Vec<MapCorn
                 if beta < cfg.min_angle || beta > TAU - cfg.min_angle || (beta - PI).abs() < cfg.min_angle {
                     continue;
                 }
-                corners.push(MapCorner {
+                let c = MapCorner {
                     position: x,
                     inner_angle: beta,
                     orientation: angle_of(right.direction),
                     arms: [*right, *left],
-                });
+                };
+                if keep(&c) {
+                    corners.push(c);
+                }
             }
         }
     }
     if cfg.wall_ends {
-        wall_ends(walls, &lines, cfg, &mut corners);
+        wall_ends(walls, &lines, cfg, &mut keep, &mut corners);
     }
     corners
 }
@@ -137,7 +153,13 @@ pub fn extract_map_corners(walls: &[Wall], cfg: &MapCornerConfig) -> Vec<MapCorn
 /// walls have no thickness, so from outside a junction a sensor can see one wall end with the
 /// other wall edge-on or out of view. In the simulated warehouse (racks are closed outlines)
 /// keeping only free ends left 45 of 300 scans with no candidate near the truth.
-fn wall_ends(walls: &[Wall], lines: &CollinearWalls, cfg: &MapCornerConfig, out: &mut Vec<MapCorner>) {
+fn wall_ends(
+    walls: &[Wall],
+    lines: &CollinearWalls,
+    cfg: &MapCornerConfig,
+    keep: &mut impl FnMut(&MapCorner) -> bool,
+    out: &mut Vec<MapCorner>,
+) {
     for (k, w) in walls.iter().enumerate() {
         let len = w.length();
         if len < cfg.min_arm_length {
@@ -147,7 +169,10 @@ fn wall_ends(walls: &[Wall], lines: &CollinearWalls, cfg: &MapCornerConfig, out:
             let direction = (other - end) / len;
             let mut arm = MapArm { direction, gap: 0.0, length: len, extent: len, wall: k as u32, reserved: 0 };
             arm.extent = lines.extent(walls, &arm, end, cfg.max_gap);
-            out.push(MapCorner { position: end, inner_angle: TAU, orientation: angle_of(direction), arms: [arm, arm] });
+            let c = MapCorner { position: end, inner_angle: TAU, orientation: angle_of(direction), arms: [arm, arm] };
+            if keep(&c) {
+                out.push(c);
+            }
         }
     }
 }
@@ -167,14 +192,16 @@ fn junctions(walls: &[Wall], cfg: &MapCornerConfig) -> Vec<(Point2<f64>, Vec<u32
             (w.a.inf(&w.b) - r, w.a.sup(&w.b) + r)
         })
         .collect();
+    let directions: Vec<Vector2<f64>> = walls.iter().map(|w| (w.b - w.a).normalize()).collect();
     for i in 0..walls.len() {
+        let bi = boxes[i];
         for j in i + 1..walls.len() {
-            let (bi, bj) = (&boxes[i], &boxes[j]);
+            let bj = &boxes[j];
             if bi.0.x > bj.1.x || bj.0.x > bi.1.x || bi.0.y > bj.1.y || bj.0.y > bi.1.y {
                 continue;
             }
             let (a, b) = (&walls[i], &walls[j]);
-            let (da, db) = ((a.b - a.a).normalize(), (b.b - b.a).normalize());
+            let (da, db) = (directions[i], directions[j]);
             let den = da.perp(&db);
             if den.abs() < min_sin {
                 continue;
@@ -190,19 +217,28 @@ fn junctions(walls: &[Wall], cfg: &MapCornerConfig) -> Vec<(Point2<f64>, Vec<u32
     found.sort_by(|p, q| p.0.x.total_cmp(&q.0.x));
     let mut out: Vec<(Point2<f64>, Vec<u32>)> = Vec::new();
     let mut used = vec![false; found.len()];
+    // the points by cells of side MERGE, each cell's in the sorted order: the points within
+    // MERGE of one lie in its cell and the eight around (on a wall drawn along y, thousands of
+    // junctions share one x, which made a scan along x quadratic)
+    let cell = |p: Point2<f64>| ((p.x / MERGE).floor() as i64, (p.y / MERGE).floor() as i64);
+    let mut cells: HashMap<(i64, i64), Vec<u32>, BuildMix> = HashMap::default();
+    for (k, f) in found.iter().enumerate() {
+        cells.entry(cell(f.0)).or_default().push(k as u32);
+    }
     for k in 0..found.len() {
         if used[k] {
             continue;
         }
         let x = found[k].0;
         let mut members = vec![found[k].1, found[k].2];
-        for m in k + 1..found.len() {
-            if found[m].0.x - x.x > MERGE {
-                break;
-            }
-            if !used[m] && (found[m].0 - x).norm() <= MERGE {
-                used[m] = true;
-                members.extend([found[m].1, found[m].2]);
+        let (cx, cy) = cell(x);
+        for (dx, dy) in (-1..=1).flat_map(|dx| (-1..=1).map(move |dy| (dx, dy))) {
+            for &m in cells.get(&(cx + dx, cy + dy)).map_or(&[][..], Vec::as_slice) {
+                let m = m as usize;
+                if m > k && !used[m] && (found[m].0 - x).norm() <= MERGE {
+                    used[m] = true;
+                    members.extend([found[m].1, found[m].2]);
+                }
             }
         }
         members.sort_unstable();
@@ -314,11 +350,6 @@ impl CornerIndex {
 
     pub fn build(walls: &[Wall], cfg: &MapCornerConfig) -> Self {
         Self::new(extract_map_corners(walls, cfg))
-    }
-
-    /// Keeps the corners `keep` says yes to, in order.
-    pub(crate) fn retain(&mut self, keep: impl FnMut(&MapCorner) -> bool) {
-        self.corners.to_mut().retain(keep);
     }
 
     /// Every corner, sorted by inner angle.

@@ -12,7 +12,7 @@
 //! format but its own JSON. Map import and building live in `mapio`, generated plans in
 //! `worlds`, the map server process in `mapserver`.
 //!
-//! Inside the crate imports run one way: `slab` <- `flat` <- `wall` <- `grid`, `bitgrid` <- `field`, `raycast`,
+//! Inside the crate imports run one way: `hash`, `slab` <- `flat` <- `wall` <- `grid`, `bitgrid` <- `field`, `raycast`,
 //! `sight`, `free_space` <- `seen`, `runs` <- `map` <- `corners`, `view`, `open_floor`,
 //! `thick`, `bundled` <- `model`.
 
@@ -23,6 +23,7 @@ pub mod field;
 pub mod flat;
 pub mod free_space;
 pub mod grid;
+pub mod hash;
 pub mod limits;
 pub mod map;
 pub mod model;

@@ -76,6 +76,11 @@ impl SightLines {
         best
     }
 
+    /// The walls the lines of sight run among.
+    pub fn walls(&self) -> &[Wall] {
+        &self.walls
+    }
+
     /// Distance from `p` to the nearest wall, or the reach when none lies nearer.
     pub fn clearance(&self, p: Point2<f64>) -> f64 {
         self.grid.walls_near(p).iter().map(|&k| self.walls[k as usize].closest(p).0).fold(self.reach, f64::min)

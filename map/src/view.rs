@@ -18,6 +18,7 @@
 //! ambiguous (dropping them made 7 more wrong `ok` answers over 42 simulated logs).
 
 use crate::corners::{CornerIndex, MapCorner, MapCornerConfig};
+use crate::hash::BuildMix;
 use crate::sight::SightLines;
 use crate::wall::Wall;
 use nalgebra::{Point2, Vector2};
@@ -61,51 +62,21 @@ pub fn in_view(c: &MapCorner, sight: &SightLines) -> bool {
 /// points, most of them the same few hundred thousand.
 pub struct Looks<'a> {
     sight: &'a SightLines,
-    known: std::collections::HashMap<[i64; 5], bool, BuildMix>,
-}
-
-/// A fast hash for [`Looks`]' keys (a few integers that are already well spread); the
-/// standard one was a third of the time spent on a large map's corners.
-#[derive(Clone, Copy, Default)]
-struct BuildMix;
-
-#[derive(Default)]
-struct Mix(u64);
-
-impl std::hash::BuildHasher for BuildMix {
-    type Hasher = Mix;
-    fn build_hasher(&self) -> Mix {
-        Mix(0)
-    }
-}
-
-impl std::hash::Hasher for Mix {
-    fn finish(&self) -> u64 {
-        self.0
-    }
-    fn write(&mut self, bytes: &[u8]) {
-        for &b in bytes {
-            self.write_u64(u64::from(b));
-        }
-    }
-    fn write_u64(&mut self, v: u64) {
-        self.0 = (self.0.rotate_left(5) ^ v).wrapping_mul(0x517c_c1b7_2722_0a95);
-    }
-    fn write_i64(&mut self, v: i64) {
-        self.write_u64(v as u64);
-    }
-    fn write_usize(&mut self, v: usize) {
-        self.write_u64(v as u64);
-    }
+    known: std::collections::HashMap<u128, bool, BuildMix>,
+    /// Where the looks' points are measured from (the walls' lowest corner), so that a point
+    /// of any map within [`crate::MAX_EXTENT`] keys in 32 bits.
+    origin: Point2<f64>,
 }
 
 /// The precision the remembered looks are told apart at: 1 mm, and 1e-5 of a unit direction.
 const LOOK_KEY: f64 = 1e3;
 const TURN_KEY: f64 = 1e5;
+/// What makes a direction's keyed component positive: `TURN_KEY`, rounded up to a power of two.
+const TURN_OFFSET: i64 = 1 << 17;
 
 impl<'a> Looks<'a> {
     pub fn new(sight: &'a SightLines) -> Self {
-        Looks { sight, known: Default::default() }
+        Looks { sight, known: Default::default(), origin: crate::wall::bounds_of(sight.walls()).0 }
     }
 
     /// Whether a sensor can see corner `c`: both arms face the wedge with space to stand in,
@@ -143,15 +114,26 @@ impl<'a> Looks<'a> {
     }
 
     fn faces_standing_space(&mut self, on_line: Point2<f64>, along: Vector2<f64>, side: Vector2<f64>) -> bool {
-        let key = [
-            (on_line.x * LOOK_KEY).round() as i64,
-            (on_line.y * LOOK_KEY).round() as i64,
-            (along.x * TURN_KEY).round() as i64,
-            (along.y * TURN_KEY).round() as i64,
-            i64::from(along.perp(&side) > 0.0),
-        ];
-        let sight = self.sight;
-        *self.known.entry(key).or_insert_with(|| faces_standing_space(on_line, along, side, sight))
+        // millimetres from the origin in 32 bits each, the direction's components in 20 bits
+        // each (offset to be positive), the side in one
+        let q = |v: f64, scale: f64| (v * scale).round() as i64;
+        let (x, y) = (q(on_line.x - self.origin.x, LOOK_KEY), q(on_line.y - self.origin.y, LOOK_KEY));
+        let (ux, uy) = (q(along.x, TURN_KEY) + TURN_OFFSET, q(along.y, TURN_KEY) + TURN_OFFSET);
+        let left = along.perp(&side) > 0.0;
+        let key = (x as u32 as u128)
+            | (y as u32 as u128) << 32
+            | ((ux as u128) & 0xf_ffff) << 64
+            | ((uy as u128) & 0xf_ffff) << 84
+            | u128::from(left) << 104;
+        let (sight, origin) = (self.sight, self.origin);
+        *self.known.entry(key).or_insert_with(|| {
+            // looked at from the key's own point and direction, so the answer is the key's
+            // whichever corner asks first
+            let at = origin + Vector2::new(x as f64, y as f64) / LOOK_KEY;
+            let u = Vector2::new((ux - TURN_OFFSET) as f64, (uy - TURN_OFFSET) as f64).normalize();
+            let normal = Vector2::new(-u.y, u.x);
+            faces_standing_space(at, u, if left { normal } else { -normal }, sight)
+        })
     }
 }
 
@@ -221,13 +203,16 @@ impl CornerIndex {
     /// [`of_map`](Self::of_map) with the map's straight runs already at hand.
     pub fn of_runs(map: &crate::map::WallMap, runs: &[Wall], cfg: &MapCornerConfig) -> Self {
         let cfg = MapCornerConfig { wall_ends: cfg.wall_ends && !map.is_approximate(), ..*cfg };
-        let mut index = Self::build(runs, &cfg);
-        if cfg.only_in_view {
+        let corners = if cfg.only_in_view {
+            // as they are found, junction by junction: the looks of one junction's corners are
+            // remembered together, and only the corners kept are stored and sorted
             let sight = SightLines::new(runs, LOOK);
             let mut looks = Looks::new(&sight);
-            index.retain(|c| looks.in_view(c));
-        }
-        index
+            crate::corners::extract_map_corners_where(runs, &cfg, |c| looks.in_view(c))
+        } else {
+            crate::corners::extract_map_corners(runs, &cfg)
+        };
+        Self::new(corners)
     }
 }
 
