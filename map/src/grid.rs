@@ -22,9 +22,14 @@ pub struct WallGrid {
     cell: f64,
     cols: usize,
     rows: usize,
-    /// Start of each cell's run in `items` (CSR layout, `cols * rows + 1` entries).
+    /// Start of each cell's run in `items` (CSR layout, `cols * rows + 1` entries); for an
+    /// `every_cell` grid, just `[0, items.len()]`.
     starts: Slab<u32>,
     items: Slab<u32>,
+    /// Whether every cell lists every wall, `items` once for all: a margin that reaches across
+    /// the whole grid (a sensor's range over a map smaller than it), whose lists would
+    /// otherwise repeat the whole map in every cell.
+    every_cell: bool,
 }
 
 impl WallGrid {
@@ -42,6 +47,13 @@ impl WallGrid {
         let origin = Point2::new(lo.x - pad, lo.y - pad);
         let cols = (((hi.x - lo.x) + 2.0 * pad) / cell).ceil().max(1.0) as usize;
         let rows = (((hi.y - lo.y) + 2.0 * pad) / cell).ceil().max(1.0) as usize;
+        // a margin past the grid's diagonal lists every wall in every cell (each lies within the
+        // grid, so within the diagonal of any point of it): keep the list once
+        if margin >= (cols as f64 * cell).hypot(rows as f64 * cell) && walls.len() < u32::MAX as usize {
+            let items: Vec<u32> = (0..walls.len() as u32).collect();
+            let starts = vec![0, items.len() as u32];
+            return WallGrid { origin, cell, cols, rows, starts: starts.into(), items: items.into(), every_cell: true };
+        }
         let half_diag = cell * std::f64::consts::FRAC_1_SQRT_2;
         let mut per_cell: Vec<Vec<u32>> = vec![Vec::new(); cols * rows];
         for (k, w) in walls.iter().enumerate() {
@@ -80,7 +92,7 @@ impl WallGrid {
             items.extend_from_slice(list);
         }
         starts.push(items.len() as u32);
-        WallGrid { origin, cell, cols, rows, starts: starts.into(), items: items.into() }
+        WallGrid { origin, cell, cols, rows, starts: starts.into(), items: items.into(), every_cell: false }
     }
 
     fn clamp_cell(origin: Point2<f64>, cell: f64, cols: usize, rows: usize, p: Point2<f64>) -> (usize, usize) {
@@ -100,6 +112,9 @@ impl WallGrid {
     /// Walls listed in cell (c, r).
     #[inline]
     pub fn walls_in(&self, c: usize, r: usize) -> &[u32] {
+        if self.every_cell {
+            return &self.items;
+        }
         let k = r * self.cols + c;
         &self.items[self.starts[k] as usize..self.starts[k + 1] as usize]
     }
@@ -157,12 +172,19 @@ impl WallGrid {
 
     /// Total length of the cells' lists.
     pub fn entries(&self) -> usize {
-        self.items.len()
+        if self.every_cell {
+            self.items.len() * self.cell_count()
+        } else {
+            self.items.len()
+        }
     }
 
     /// Total length of the lists of the cells from `(c0, r0)` to `(c1, r1)` inclusive: a wall
     /// in several of them counts in each.
     pub fn entries_within(&self, (c0, r0): (usize, usize), (c1, r1): (usize, usize)) -> usize {
+        if self.every_cell {
+            return self.items.len() * (c1 + 1 - c0) * (r1 + 1 - r0);
+        }
         (r0..=r1)
             .map(|r| (self.starts[self.cell_index(c1, r) + 1] - self.starts[self.cell_index(c0, r)]) as usize)
             .sum()
@@ -308,20 +330,22 @@ impl WallGrid {
 impl Flat for WallGrid {
     fn put(&self, w: &mut FlatWriter) {
         crate::bitgrid::Grid { origin: self.origin, cell: self.cell, cols: self.cols, rows: self.rows }.put(w);
+        w.put_bool(self.every_cell);
         self.starts.put(w);
         self.items.put(w);
     }
     fn take(r: &mut FlatReader<'_>) -> Result<Self, FlatError> {
         let crate::bitgrid::Grid { origin, cell, cols, rows } = crate::bitgrid::Grid::take(r)?;
+        let every_cell = r.take_bool("wall grid lists every wall")?;
         let starts: Slab<u32> = Slab::take(r)?;
         let items: Slab<u32> = Slab::take(r)?;
-        crate::flat::check_len("wall grid starts", starts.len(), cols * rows + 1)?;
+        crate::flat::check_len("wall grid starts", starts.len(), if every_cell { 2 } else { cols * rows + 1 })?;
         // each cell's run lies within the items, in order: [starts[k], starts[k + 1])
         let ordered = starts.windows(2).all(|p| p[0] <= p[1]) && starts.first() == Some(&0);
         if !ordered || starts.last().map(|&e| e as usize) != Some(items.len()) {
             return Err(FlatError::new("wall grid: its cells' runs do not tile its items"));
         }
-        Ok(WallGrid { origin, cell, cols, rows, starts, items })
+        Ok(WallGrid { origin, cell, cols, rows, starts, items, every_cell })
     }
 }
 
@@ -331,6 +355,24 @@ mod tests {
     use crate::field::DistanceField;
     use crate::wall::walls_from_seed as walls_of;
     use proptest::prelude::*;
+
+    /// Lists of a reach past the grid's diagonal (a long-range sensor over a small map) hold
+    /// every wall in every cell, kept once.
+    #[test]
+    fn a_reach_across_the_whole_grid_lists_every_wall_everywhere_once() {
+        let walls = [Wall::new(0.0, 0.0, 10.0, 0.0), Wall::new(10.0, 0.0, 10.0, 6.0), Wall::new(3.0, 3.0, 4.0, 5.0)];
+        let grid = WallGrid::covering(&walls, 1.0, 50.0, 1.0);
+        assert!(grid.every_cell && grid.items.len() == 3);
+        assert_eq!(grid.entries(), 3 * grid.cell_count());
+        for r in 0..grid.rows() {
+            for c in 0..grid.cols() {
+                assert_eq!(grid.walls_in(c, r), &[0, 1, 2]);
+            }
+        }
+        // a reach short of the diagonal lists by cell as before
+        let near = WallGrid::covering(&walls, 1.0, 2.0, 1.0);
+        assert!(!near.every_cell && near.walls_in(0, 0) == [0]);
+    }
 
     proptest! {
         /// The cell of a point is the floor of its offset in cells, outside the grid none;
