@@ -3,6 +3,7 @@
 //! hypotheses can be screened cheaply before the ray-cast cost function ranks the survivors,
 //! and refinement finds the wall each scan point lies on without searching.
 
+use crate::bitgrid::Grid;
 use crate::flat::{check_len, Flat, FlatError, FlatReader, FlatWriter};
 use crate::slab::Slab;
 use crate::wall::Wall;
@@ -119,6 +120,26 @@ impl DistanceField {
                 pooled[b] = pooled[b].min(cells[tile_index(c, r, tile_cols)]);
             }
         }
+        Self::of_parts(
+            Grid { origin, cell: resolution, cols, rows },
+            cap,
+            cells.into(),
+            pooled.into(),
+            Slab::default(),
+            nearest,
+        )
+    }
+
+    /// A field from its stored parts, with what follows from them.
+    fn of_parts(
+        grid: Grid,
+        cap: f64,
+        cells: Slab<u8>,
+        pooled: Slab<u8>,
+        marked: Slab<u64>,
+        nearest: NearestWalls,
+    ) -> Self {
+        let Grid { origin, cell: resolution, cols, rows } = grid;
         DistanceField {
             origin,
             resolution,
@@ -127,11 +148,11 @@ impl DistanceField {
             rows,
             cap,
             quantum: cap / 255.0,
-            cells: cells.into(),
-            tile_cols,
-            pooled: pooled.into(),
-            pooled_cols,
-            marked: Slab::default(),
+            cells,
+            tile_cols: cols.div_ceil(TILE),
+            pooled,
+            pooled_cols: cols.div_ceil(POOL),
+            marked,
             nearest,
         }
     }
@@ -244,7 +265,7 @@ impl DistanceField {
 
 impl Flat for DistanceField {
     fn put(&self, w: &mut FlatWriter) {
-        crate::bitgrid::Grid { origin: self.origin, cell: self.resolution, cols: self.cols, rows: self.rows }.put(w);
+        Grid { origin: self.origin, cell: self.resolution, cols: self.cols, rows: self.rows }.put(w);
         w.put_f64(self.cap);
         self.cells.put(w);
         self.pooled.put(w);
@@ -261,7 +282,7 @@ impl Flat for DistanceField {
         }
     }
     fn take(r: &mut FlatReader<'_>) -> Result<Self, FlatError> {
-        let crate::bitgrid::Grid { origin, cell: resolution, cols, rows } = crate::bitgrid::Grid::take(r)?;
+        let Grid { origin, cell: resolution, cols, rows } = Grid::take(r)?;
         let cap = r.take_finite("distance field cap")?;
         if cap <= 0.0 {
             return Err(FlatError::new(format!("distance field cap {cap}")));
@@ -287,21 +308,7 @@ impl Flat for DistanceField {
             NearestWalls::Wide(n) => n.len(),
         };
         check_len("distance field nearest walls", nearest_len, stored)?;
-        Ok(DistanceField {
-            origin,
-            resolution,
-            inverse_resolution: 1.0 / resolution,
-            cols,
-            rows,
-            cap,
-            quantum: cap / 255.0,
-            cells,
-            tile_cols,
-            pooled,
-            pooled_cols,
-            marked,
-            nearest,
-        })
+        Ok(Self::of_parts(Grid { origin, cell: resolution, cols, rows }, cap, cells, pooled, marked, nearest))
     }
 }
 
