@@ -42,19 +42,14 @@ impl WallGrid {
     /// [`new`](Self::new) with a grid that covers the walls' bounding box and only `pad`
     /// beyond: lists of a long reach for points that lie among the walls.
     pub fn covering(walls: &[Wall], cell: f64, margin: f64, pad: f64) -> Self {
-        let (lo, hi) = crate::wall::bounds_of(walls);
-        let cell = coarsened(cell, hi.x - lo.x + 2.0 * pad, hi.y - lo.y + 2.0 * pad, MAX_CELLS);
-        let origin = Point2::new(lo.x - pad, lo.y - pad);
-        let cols = (((hi.x - lo.x) + 2.0 * pad) / cell).ceil().max(1.0) as usize;
-        let rows = (((hi.y - lo.y) + 2.0 * pad) / cell).ceil().max(1.0) as usize;
-        // a margin past the grid's diagonal lists every wall in every cell (each lies within the
-        // grid, so within the diagonal of any point of it): keep the list once
-        if margin >= (cols as f64 * cell).hypot(rows as f64 * cell) && walls.len() < u32::MAX as usize {
+        let frame = ReachFrame::covering(walls, cell, margin, pad);
+        let ReachFrame { origin, cell, cols, rows, every_cell, .. } = frame;
+        // a margin past the grid's diagonal lists every wall in every cell: keep the list once
+        if every_cell {
             let items: Vec<u32> = (0..walls.len() as u32).collect();
             let starts = vec![0, items.len() as u32];
             return WallGrid { origin, cell, cols, rows, starts: starts.into(), items: items.into(), every_cell: true };
         }
-        let half_diag = cell * std::f64::consts::FRAC_1_SQRT_2;
         let mut per_cell: Vec<Vec<u32>> = vec![Vec::new(); cols * rows];
         for (k, w) in walls.iter().enumerate() {
             let reach = margin + cell;
@@ -74,12 +69,7 @@ impl WallGrid {
             );
             for r in r0..=r1 {
                 for c in c0..=c1 {
-                    let centre = centre_of(origin, cell, c, r);
-                    let near = w.closest(centre).0;
-                    // within the circle round the cell; then exactly, for those it may miss
-                    if near <= margin + half_diag
-                        && (near <= margin + 0.5 * cell || distance_to_square(w, centre, 0.5 * cell) <= margin)
-                    {
+                    if frame.lists(w, c, r) {
                         per_cell[r * cols + c].push(k as u32);
                     }
                 }
@@ -263,6 +253,90 @@ impl WallGrid {
     }
 }
 
+/// The cells of a [`WallGrid::covering`] grid, without their lists: each cell's list is made
+/// when asked ([`list_of`](Self::list_of)), the same list `covering` would keep. For lists of a
+/// long reach (a ray caster's, at a sensor's range), which kept whole hold the map once per
+/// cell, and which a process needs for the cells it casts from only.
+#[derive(Clone, Copy, Debug)]
+pub struct ReachFrame {
+    origin: Point2<f64>,
+    cell: f64,
+    cols: usize,
+    rows: usize,
+    margin: f64,
+    /// Whether the margin spans the grid, so that every cell lists every wall.
+    every_cell: bool,
+}
+
+impl ReachFrame {
+    /// The frame of `WallGrid::covering(walls, cell, margin, pad)`.
+    pub fn covering(walls: &[Wall], cell: f64, margin: f64, pad: f64) -> Self {
+        let (lo, hi) = crate::wall::bounds_of(walls);
+        let cell = coarsened(cell, hi.x - lo.x + 2.0 * pad, hi.y - lo.y + 2.0 * pad, MAX_CELLS);
+        let origin = Point2::new(lo.x - pad, lo.y - pad);
+        let cols = (((hi.x - lo.x) + 2.0 * pad) / cell).ceil().max(1.0) as usize;
+        let rows = (((hi.y - lo.y) + 2.0 * pad) / cell).ceil().max(1.0) as usize;
+        // every wall lies within the grid, so within its diagonal of any point of it
+        let every_cell = margin >= (cols as f64 * cell).hypot(rows as f64 * cell) && walls.len() < u32::MAX as usize;
+        ReachFrame { origin, cell, cols, rows, margin, every_cell }
+    }
+
+    /// Whether cell (c, r) lists wall `w`: it passes within the margin of the cell.
+    #[inline]
+    fn lists(&self, w: &Wall, c: usize, r: usize) -> bool {
+        let centre = centre_of(self.origin, self.cell, c, r);
+        let near = w.closest(centre).0;
+        let (margin, half) = (self.margin, 0.5 * self.cell);
+        // within the circle round the cell; then exactly, for those it may miss
+        near <= margin + self.cell * std::f64::consts::FRAC_1_SQRT_2
+            && (near <= margin + half || distance_to_square(w, centre, half) <= margin)
+    }
+
+    /// Writes into `out` the walls cell (c, r) lists, in the order of `walls`.
+    pub fn list_of(&self, walls: &[Wall], c: usize, r: usize, out: &mut Vec<u32>) {
+        out.clear();
+        if self.every_cell {
+            out.extend(0..walls.len() as u32);
+        } else {
+            out.extend((0..walls.len() as u32).filter(|&k| self.lists(&walls[k as usize], c, r)));
+        }
+    }
+
+    /// The cell holding `p`, if inside the grid.
+    #[inline]
+    pub fn cell_of(&self, p: Point2<f64>) -> Option<(usize, usize)> {
+        cell_holding(self.origin, self.cell, (self.cols, self.rows), p)
+    }
+
+    pub fn cell_count(&self) -> usize {
+        self.cols * self.rows
+    }
+
+    #[inline]
+    pub fn cell_index(&self, c: usize, r: usize) -> usize {
+        r * self.cols + c
+    }
+
+    pub fn cols(&self) -> usize {
+        self.cols
+    }
+
+    pub fn rows(&self) -> usize {
+        self.rows
+    }
+
+    /// Corners of cell (c, r), counter-clockwise from its lowest x and y.
+    pub fn cell_corners(&self, c: usize, r: usize) -> [Point2<f64>; 4] {
+        let (x, y) = (self.origin.x + c as f64 * self.cell, self.origin.y + r as f64 * self.cell);
+        [
+            Point2::new(x, y),
+            Point2::new(x + self.cell, y),
+            Point2::new(x + self.cell, y + self.cell),
+            Point2::new(x, y + self.cell),
+        ]
+    }
+}
+
 /// Distance from wall `w` to the square of centre `centre` and half side `half`: 0 when they
 /// meet.
 fn distance_to_square(w: &Wall, centre: Point2<f64>, half: f64) -> f64 {
@@ -375,6 +449,26 @@ mod tests {
     }
 
     proptest! {
+        /// A frame's lists, made one cell at a time, are the lists of the grid kept whole.
+        #[test]
+        fn a_frame_lists_what_the_whole_grid_lists(
+            seed in proptest::collection::vec((-5.0f64..5.0, -5.0f64..5.0, -3.2f64..3.2, 0.01f64..4.0), 1..12),
+            cell in 0.3f64..1.5, margin in prop_oneof![Just(0.0), 0.0f64..3.0, 20.0f64..40.0],
+        ) {
+            let walls = walls_of(&seed);
+            let grid = WallGrid::covering(&walls, cell, margin, cell);
+            let frame = ReachFrame::covering(&walls, cell, margin, cell);
+            prop_assert_eq!((frame.cols(), frame.rows()), (grid.cols(), grid.rows()));
+            let mut list = Vec::new();
+            for r in 0..grid.rows() {
+                for c in 0..grid.cols() {
+                    frame.list_of(&walls, c, r, &mut list);
+                    prop_assert_eq!(&list[..], grid.walls_in(c, r));
+                    prop_assert_eq!(frame.cell_corners(c, r), grid.cell_corners(c, r));
+                }
+            }
+        }
+
         /// The cell of a point is the floor of its offset in cells, outside the grid none;
         /// the march starts in that cell, clamped.
         #[test]
