@@ -646,6 +646,39 @@ fn a_localizer_started_late_receives_the_map() {
     map.stop();
 }
 
+/// A new map version reaches a localizer that is locating: it switches between two scans, and
+/// no scan is lost or located twice on the way.
+#[test]
+fn a_new_map_version_is_taken_up_between_two_scans_and_loses_none() {
+    let dir = tempfile::tempdir().unwrap();
+    let map = dir.path().join("office.json");
+    std::fs::write(&map, include_str!("../maps/office.json")).unwrap();
+    let log = dir.path().join("scans.log");
+    let made = gema2(&["sim", "--map", "office", "--scans", "200", "--seed", "5", "--out", log.to_str().unwrap()]);
+    assert!(made.status.success());
+    let pipeline = common::write_pipeline(
+        dir.path(),
+        "pipeline.toml",
+        map.to_str().unwrap(),
+        &["--log", log.to_str().unwrap(), "--rate", "40"],
+    );
+    let (p, csv) = (prefix("version"), dir.path().join("poses.csv"));
+    let run = run_in_background(&pipeline, &p, 200, &csv);
+    wait_for("the source", Duration::from_secs(30), || !stage_pids("acquire", &p).is_empty());
+    std::thread::sleep(Duration::from_millis(1500));
+    for pid in stage_pids("mapserver", &p) {
+        // SAFETY: kill(2) on a stage of this test's pipeline.
+        unsafe { libc::kill(pid as i32, libc::SIGHUP) };
+    }
+    let out = run.wait_with_output().unwrap();
+    let said = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{said}");
+    assert!(said.contains("localize: map version 2 ("), "the localizer never took version 2: {said}");
+    let seqs: Vec<u64> = rows(&csv).iter().map(|r| r[0].parse().unwrap()).collect();
+    let distinct: BTreeSet<u64> = seqs.iter().copied().collect();
+    assert_eq!((seqs.len(), distinct.len()), (200, 200), "poses lost or repeated");
+}
+
 /// Memory of the process `pid` of its own (not shared), kB: what it adds to the machine.
 fn private_kb(pid: u32) -> u64 {
     let text = std::fs::read_to_string(format!("/proc/{pid}/smaps_rollup")).unwrap_or_default();
