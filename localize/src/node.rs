@@ -8,7 +8,7 @@
 
 use crate::slide::SlideLine;
 use crate::{Gema2Config, Localization, Localizer, MapModel, Status};
-use anyhow::{anyhow, Context, Result};
+use anyhow::{anyhow, bail, Context, Result};
 use clap::Args;
 use laser::{pose_theta, ScanView};
 use map::flat::FlatReader;
@@ -174,28 +174,7 @@ impl Located {
         }
         let started = std::time::Instant::now();
         let lease = Arc::new(Lease);
-        let read = (header.layout == MODEL_LAYOUT)
-            .then_some(())
-            .ok_or_else(|| {
-                anyhow!("the map server's model has layout {}, this localizer reads {MODEL_LAYOUT}: rebuild both from the same sources", header.layout)
-            })
-            .and_then(|()| {
-                let bytes: &[u8] = sample.payload();
-                let owner: map::slab::Owner = lease.clone();
-                // SAFETY: the block lies in the sample, which `blocks` keeps (unchanged: the
-                // publisher never writes a sent sample) until nothing holds `lease`, the owner
-                // of every view read from it; the subscriber outlives the stage's state
-                let mut r = unsafe { FlatReader::new(std::slice::from_raw_parts(bytes.as_ptr(), bytes.len()), owner) }?;
-                let model = MapModel::from_block(&mut r)?;
-                Ok((model, r.copied()))
-            })
-            .and_then(|(model, copied)| match self.config.model_disagreement(&model.corner_config) {
-                None => Ok((model, copied)),
-                Some(d) => Err(anyhow!(
-                    "the map server's model was built for other corner settings ({d}): give the map server \
-                     and the localizer the same --set, or put it in the pipeline file's top-level settings"
-                )),
-            });
+        let read = self.read_model(&sample, &lease);
         let (model, copied) = match read {
             Ok(m) => m,
             Err(e) if self.localizer.is_some() => {
@@ -237,6 +216,37 @@ impl Located {
         // the blocks no model views any more go back to the map server
         self.blocks.retain(|b| Arc::strong_count(&b.lease) > 1);
         Ok(first)
+    }
+
+    /// The model in the block `sample` holds, its views owned by `lease`, with the bytes it
+    /// copied out; an error for a block of another layout, a damaged one, or a model built for
+    /// other corner settings than this stage's.
+    fn read_model(
+        &self,
+        sample: &Sample<ipc::Service, [u8], ModelHeader>,
+        lease: &Arc<Lease>,
+    ) -> Result<(MapModel, usize)> {
+        let layout = sample.user_header().layout;
+        if layout != MODEL_LAYOUT {
+            bail!(
+                "the map server's model has layout {layout}, this localizer reads {MODEL_LAYOUT}: rebuild both \
+                 from the same sources"
+            );
+        }
+        let bytes: &[u8] = sample.payload();
+        let owner: map::slab::Owner = lease.clone();
+        // SAFETY: the block lies in the sample, which `blocks` keeps (unchanged: the publisher
+        // never writes a sent sample) until nothing holds `lease`, the owner of every view read
+        // from it; the subscriber outlives the stage's state
+        let mut r = unsafe { FlatReader::new(std::slice::from_raw_parts(bytes.as_ptr(), bytes.len()), owner) }?;
+        let model = MapModel::from_block(&mut r)?;
+        if let Some(d) = self.config.model_disagreement(&model.corner_config) {
+            bail!(
+                "the map server's model was built for other corner settings ({d}): give the map server and \
+                 the localizer the same --set, or put it in the pipeline file's top-level settings"
+            );
+        }
+        Ok((model, r.copied()))
     }
 
     /// The map version located with; 0 before any.

@@ -6,7 +6,7 @@
 //! stop. That set-up is written once here, with errors that name what failed.
 
 use crate::topic::{open_topic, OpenError, Topic};
-use crate::waiting::run_waitset;
+use crate::waiting::{run_waitset, termination_requested};
 use iceoryx2::port::listener::Listener;
 use iceoryx2::port::subscriber::Subscriber;
 use iceoryx2::prelude::*;
@@ -71,8 +71,10 @@ where
     let _poll = waitset.attach_interval(poll).map_err(|e| attach("the poll", &e))?;
     let mut woken = [false; MAX_LISTENERS];
     // a look before the first wait: what a service's history holds (the map model) came with
-    // no wake-up, and would otherwise wait for the first poll
-    if on_event(&woken[..guards.len()]) == CallbackProgression::Stop {
+    // no wake-up, and would otherwise wait for the first poll. Asking about termination first
+    // installs iceoryx2's handlers, which it otherwise does at the first wait: a SIGTERM during
+    // this look would kill the stage instead of stopping it
+    if termination_requested(node) || on_event(&woken[..guards.len()]) == CallbackProgression::Stop {
         return Ok(());
     }
     run_waitset(node, &waitset, |id| {
