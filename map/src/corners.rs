@@ -103,9 +103,10 @@ pub fn extract_map_corners_where(
     mut keep: impl FnMut(&MapCorner) -> bool,
 ) -> Vec<MapCorner> {
     let junctions = junctions(walls, cfg);
-    let lines = CollinearWalls::new(walls);
+    let mut lines = CollinearWalls::new(walls);
     let mut corners = Vec::new();
     let mut arms: Vec<MapArm> = Vec::new();
+    let mut angles: Vec<f64> = Vec::new();
     for (x, members) in junctions {
         arms.clear();
         for &w in &members {
@@ -121,21 +122,18 @@ pub fn extract_map_corners_where(
         // every ordered pair of arms is a corner: an arm that starts after a gap (a door next
         // to the junction) does not hide the region it splits from a sensor looking through
         // the gap
+        angles.clear();
+        angles.extend(arms.iter().map(|a| angle_of(a.direction)));
         for (i, right) in arms.iter().enumerate() {
             for (j, left) in arms.iter().enumerate() {
                 if i == j {
                     continue;
                 }
-                let beta = (angle_of(left.direction) - angle_of(right.direction)).rem_euclid(TAU);
+                let beta = (angles[j] - angles[i]).rem_euclid(TAU);
                 if beta < cfg.min_angle || beta > TAU - cfg.min_angle || (beta - PI).abs() < cfg.min_angle {
                     continue;
                 }
-                let c = MapCorner {
-                    position: x,
-                    inner_angle: beta,
-                    orientation: angle_of(right.direction),
-                    arms: [*right, *left],
-                };
+                let c = MapCorner { position: x, inner_angle: beta, orientation: angles[i], arms: [*right, *left] };
                 if keep(&c) {
                     corners.push(c);
                 }
@@ -143,7 +141,7 @@ pub fn extract_map_corners_where(
         }
     }
     if cfg.wall_ends {
-        wall_ends(walls, &lines, cfg, &mut keep, &mut corners);
+        wall_ends(walls, &mut lines, cfg, &mut keep, &mut corners);
     }
     corners
 }
@@ -155,7 +153,7 @@ pub fn extract_map_corners_where(
 /// keeping only free ends left 45 of 300 scans with no candidate near the truth.
 fn wall_ends(
     walls: &[Wall],
-    lines: &CollinearWalls,
+    lines: &mut CollinearWalls,
     cfg: &MapCornerConfig,
     keep: &mut impl FnMut(&MapCorner) -> bool,
     out: &mut Vec<MapCorner>,
@@ -262,7 +260,11 @@ fn arms_of(w: &Wall, index: u32, x: Point2<f64>, cfg: &MapCornerConfig, out: &mu
 /// Walls grouped by the line they lie on (direction within about a degree, offset within a
 /// few centimetres), to follow an arm across door gaps.
 struct CollinearWalls {
-    groups: std::collections::HashMap<(i64, i64), Vec<u32>>,
+    groups: HashMap<(i64, i64), Vec<u32>, BuildMix>,
+    /// Each wall's group.
+    keys: Vec<(i64, i64)>,
+    /// Room for the spans [`extent`](Self::extent) sorts.
+    spans: Vec<(f64, f64)>,
 }
 
 const ANGLE_BUCKET: f64 = 0.02;
@@ -279,19 +281,21 @@ impl CollinearWalls {
     }
 
     fn new(walls: &[Wall]) -> Self {
-        let mut groups: std::collections::HashMap<(i64, i64), Vec<u32>> = std::collections::HashMap::new();
-        for (k, w) in walls.iter().enumerate() {
-            groups.entry(Self::key(w)).or_default().push(k as u32);
+        let mut groups: HashMap<(i64, i64), Vec<u32>, BuildMix> = HashMap::default();
+        let keys: Vec<(i64, i64)> = walls.iter().map(Self::key).collect();
+        for (k, &key) in keys.iter().enumerate() {
+            groups.entry(key).or_default().push(k as u32);
         }
-        CollinearWalls { groups }
+        CollinearWalls { groups, keys, spans: Vec::new() }
     }
 
     /// How far wall material runs from `x` along `arm`, bridging gaps up to `max_gap`.
-    fn extent(&self, walls: &[Wall], arm: &MapArm, x: Point2<f64>, max_gap: f64) -> f64 {
-        let (ka, ko) = Self::key(&walls[arm.wall as usize]);
+    fn extent(&mut self, walls: &[Wall], arm: &MapArm, x: Point2<f64>, max_gap: f64) -> f64 {
+        let (ka, ko) = self.keys[arm.wall as usize];
         let u = arm.direction;
         let n = Vector2::new(-u.y, u.x);
-        let mut spans: Vec<(f64, f64)> = Vec::new();
+        let spans = &mut self.spans;
+        spans.clear();
         for da in -1..=1 {
             for dof in -1..=1 {
                 for &k in self.groups.get(&(ka + da, ko + dof)).map(Vec::as_slice).unwrap_or(&[]) {
@@ -304,9 +308,10 @@ impl CollinearWalls {
                 }
             }
         }
-        spans.sort_by(|a, b| a.0.total_cmp(&b.0));
+        // spans starting together are taken either both or neither, in any order
+        spans.sort_unstable_by(|a, b| a.0.total_cmp(&b.0));
         let mut reach = arm.gap + arm.length;
-        for (s0, s1) in spans {
+        for &(s0, s1) in spans.iter() {
             if s0 <= reach + max_gap {
                 reach = reach.max(s1);
             }
