@@ -18,18 +18,12 @@ pub fn coarsened(cell: f64, width: f64, height: f64, max_cells: f64) -> f64 {
 
 #[derive(Clone, Debug)]
 pub struct WallGrid {
-    origin: Point2<f64>,
-    cell: f64,
-    cols: usize,
-    rows: usize,
-    /// Start of each cell's run in `items` (CSR layout, `cols * rows + 1` entries); for an
-    /// `every_cell` grid, just `[0, items.len()]`.
+    /// The cells, and the margin they list walls within.
+    frame: ReachFrame,
+    /// Start of each cell's run in `items` (CSR layout, `cols * rows + 1` entries); for a
+    /// grid whose every cell lists every wall, just `[0, items.len()]`.
     starts: Slab<u32>,
     items: Slab<u32>,
-    /// Whether every cell lists every wall, `items` once for all: a margin that reaches across
-    /// the whole grid (a sensor's range over a map smaller than it), whose lists would
-    /// otherwise repeat the whole map in every cell.
-    every_cell: bool,
 }
 
 impl WallGrid {
@@ -48,7 +42,7 @@ impl WallGrid {
         if every_cell {
             let items: Vec<u32> = (0..walls.len() as u32).collect();
             let starts = vec![0, items.len() as u32];
-            return WallGrid { origin, cell, cols, rows, starts: starts.into(), items: items.into(), every_cell: true };
+            return WallGrid { frame, starts: starts.into(), items: items.into() };
         }
         let mut per_cell: Vec<Vec<u32>> = vec![Vec::new(); cols * rows];
         for (k, w) in walls.iter().enumerate() {
@@ -82,7 +76,7 @@ impl WallGrid {
             items.extend_from_slice(list);
         }
         starts.push(items.len() as u32);
-        WallGrid { origin, cell, cols, rows, starts: starts.into(), items: items.into(), every_cell: false }
+        WallGrid { frame, starts: starts.into(), items: items.into() }
     }
 
     fn clamp_cell(origin: Point2<f64>, cell: f64, cols: usize, rows: usize, p: Point2<f64>) -> (usize, usize) {
@@ -96,16 +90,16 @@ impl WallGrid {
     /// The cell holding `p`, if inside the grid.
     #[inline]
     pub fn cell_of(&self, p: Point2<f64>) -> Option<(usize, usize)> {
-        cell_holding(self.origin, self.cell, (self.cols, self.rows), p)
+        self.frame.cell_of(p)
     }
 
     /// Walls listed in cell (c, r).
     #[inline]
     pub fn walls_in(&self, c: usize, r: usize) -> &[u32] {
-        if self.every_cell {
+        if self.frame.every_cell {
             return &self.items;
         }
-        let k = r * self.cols + c;
+        let k = r * self.frame.cols + c;
         &self.items[self.starts[k] as usize..self.starts[k + 1] as usize]
     }
 
@@ -121,48 +115,46 @@ impl WallGrid {
     /// Inclusive cell range covering the box [lo, hi], clamped to the grid.
     pub fn cell_range(&self, lo: Point2<f64>, hi: Point2<f64>) -> ((usize, usize), (usize, usize)) {
         (
-            Self::clamp_cell(self.origin, self.cell, self.cols, self.rows, lo),
-            Self::clamp_cell(self.origin, self.cell, self.cols, self.rows, hi),
+            Self::clamp_cell(self.frame.origin, self.frame.cell, self.frame.cols, self.frame.rows, lo),
+            Self::clamp_cell(self.frame.origin, self.frame.cell, self.frame.cols, self.frame.rows, hi),
         )
     }
 
-    pub fn cell_count(&self) -> usize {
-        self.cols * self.rows
+    /// The grid's cells ([`ReachFrame`]: count, index, columns and rows, corners).
+    pub fn frame(&self) -> &ReachFrame {
+        &self.frame
     }
 
-    /// Index of cell (c, r) among the grid's `cell_count()` cells.
+    pub fn cell_count(&self) -> usize {
+        self.frame.cell_count()
+    }
+
     #[inline]
     pub fn cell_index(&self, c: usize, r: usize) -> usize {
-        r * self.cols + c
+        self.frame.cell_index(c, r)
     }
 
     pub fn cols(&self) -> usize {
-        self.cols
+        self.frame.cols
     }
 
     pub fn rows(&self) -> usize {
-        self.rows
+        self.frame.rows
     }
 
     /// Centre of cell (c, r).
     pub fn cell_centre(&self, c: usize, r: usize) -> Point2<f64> {
-        centre_of(self.origin, self.cell, c, r)
+        centre_of(self.frame.origin, self.frame.cell, c, r)
     }
 
     /// Corners of cell (c, r), counter-clockwise from its lowest x and y.
     pub fn cell_corners(&self, c: usize, r: usize) -> [Point2<f64>; 4] {
-        let (x, y) = (self.origin.x + c as f64 * self.cell, self.origin.y + r as f64 * self.cell);
-        [
-            Point2::new(x, y),
-            Point2::new(x + self.cell, y),
-            Point2::new(x + self.cell, y + self.cell),
-            Point2::new(x, y + self.cell),
-        ]
+        self.frame.cell_corners(c, r)
     }
 
     /// Total length of the cells' lists.
     pub fn entries(&self) -> usize {
-        if self.every_cell {
+        if self.frame.every_cell {
             self.items.len() * self.cell_count()
         } else {
             self.items.len()
@@ -172,7 +164,7 @@ impl WallGrid {
     /// Total length of the lists of the cells from `(c0, r0)` to `(c1, r1)` inclusive: a wall
     /// in several of them counts in each.
     pub fn entries_within(&self, (c0, r0): (usize, usize), (c1, r1): (usize, usize)) -> usize {
-        if self.every_cell {
+        if self.frame.every_cell {
             return self.items.len() * (c1 + 1 - c0) * (r1 + 1 - r0);
         }
         (r0..=r1)
@@ -190,11 +182,11 @@ impl WallGrid {
         max_t: f64,
         mut visit: impl FnMut(usize, usize, f64) -> bool,
     ) {
-        let size = Vector2::new(self.cols as f64, self.rows as f64) * self.cell;
+        let size = Vector2::new(self.frame.cols as f64, self.frame.rows as f64) * self.frame.cell;
         // where the ray is inside the grid's box: [enter, leave]
         let (mut enter, mut leave) = (0.0f64, max_t);
         for axis in 0..2 {
-            let (o, d, lo) = (from[axis], dir[axis], self.origin[axis]);
+            let (o, d, lo) = (from[axis], dir[axis], self.frame.origin[axis]);
             if d == 0.0 {
                 if o < lo || o >= lo + size[axis] {
                     return;
@@ -211,9 +203,10 @@ impl WallGrid {
         }
         let start = from + dir * enter;
         // `as` saturates and truncates: the floor, clamped to the grid
-        let cell_at =
-            |axis: usize, count: usize| (((start[axis] - self.origin[axis]) / self.cell) as usize).min(count - 1);
-        let at = [cell_at(0, self.cols), cell_at(1, self.rows)];
+        let cell_at = |axis: usize, count: usize| {
+            (((start[axis] - self.frame.origin[axis]) / self.frame.cell) as usize).min(count - 1)
+        };
+        let at = [cell_at(0, self.frame.cols), cell_at(1, self.frame.rows)];
         // per axis: the t of the next cell boundary, the t between boundaries, and the cell
         // index (as a signed number) and its step; the ray leaves the grid at index `end`
         let axis = |k: usize, count: usize| {
@@ -222,12 +215,12 @@ impl WallGrid {
                 // never crossed, unless neither is: then the ray steps back out of the grid
                 return (f64::INFINITY, f64::INFINITY, at[k] as isize, -1, -1);
             }
-            let boundary = self.origin[k] + (at[k] as f64 + if d > 0.0 { 1.0 } else { 0.0 }) * self.cell;
+            let boundary = self.frame.origin[k] + (at[k] as f64 + if d > 0.0 { 1.0 } else { 0.0 }) * self.frame.cell;
             let (step, end) = if d > 0.0 { (1, count as isize) } else { (-1, -1) };
-            ((boundary - from[k]) / d, self.cell / d.abs(), at[k] as isize, step, end)
+            ((boundary - from[k]) / d, self.frame.cell / d.abs(), at[k] as isize, step, end)
         };
-        let (mut next_x, delta_x, mut c, step_c, end_c) = axis(0, self.cols);
-        let (mut next_y, delta_y, mut r, step_r, end_r) = axis(1, self.rows);
+        let (mut next_x, delta_x, mut c, step_c, end_c) = axis(0, self.frame.cols);
+        let (mut next_y, delta_y, mut r, step_r, end_r) = axis(1, self.frame.rows);
         loop {
             // the boundary crossed first: x on a tie
             let across_y = next_y < next_x;
@@ -403,13 +396,16 @@ impl WallGrid {
 
 impl Flat for WallGrid {
     fn put(&self, w: &mut FlatWriter) {
-        crate::bitgrid::Grid { origin: self.origin, cell: self.cell, cols: self.cols, rows: self.rows }.put(w);
-        w.put_bool(self.every_cell);
+        let ReachFrame { origin, cell, cols, rows, margin, every_cell } = self.frame;
+        crate::bitgrid::Grid { origin, cell, cols, rows }.put(w);
+        w.put_f64(margin);
+        w.put_bool(every_cell);
         self.starts.put(w);
         self.items.put(w);
     }
     fn take(r: &mut FlatReader<'_>) -> Result<Self, FlatError> {
         let crate::bitgrid::Grid { origin, cell, cols, rows } = crate::bitgrid::Grid::take(r)?;
+        let margin = r.take_f64("wall grid margin")?;
         let every_cell = r.take_bool("wall grid lists every wall")?;
         let starts: Slab<u32> = Slab::take(r)?;
         let items: Slab<u32> = Slab::take(r)?;
@@ -419,7 +415,7 @@ impl Flat for WallGrid {
         if !ordered || starts.last().map(|&e| e as usize) != Some(items.len()) {
             return Err(FlatError::new("wall grid: its cells' runs do not tile its items"));
         }
-        Ok(WallGrid { origin, cell, cols, rows, starts, items, every_cell })
+        Ok(WallGrid { frame: ReachFrame { origin, cell, cols, rows, margin, every_cell }, starts, items })
     }
 }
 
@@ -436,7 +432,7 @@ mod tests {
     fn a_reach_across_the_whole_grid_lists_every_wall_everywhere_once() {
         let walls = [Wall::new(0.0, 0.0, 10.0, 0.0), Wall::new(10.0, 0.0, 10.0, 6.0), Wall::new(3.0, 3.0, 4.0, 5.0)];
         let grid = WallGrid::covering(&walls, 1.0, 50.0, 1.0);
-        assert!(grid.every_cell && grid.items.len() == 3);
+        assert!(grid.frame.every_cell && grid.items.len() == 3);
         assert_eq!(grid.entries(), 3 * grid.cell_count());
         for r in 0..grid.rows() {
             for c in 0..grid.cols() {
@@ -445,7 +441,7 @@ mod tests {
         }
         // a reach short of the diagonal lists by cell as before
         let near = WallGrid::covering(&walls, 1.0, 2.0, 1.0);
-        assert!(!near.every_cell && near.walls_in(0, 0) == [0]);
+        assert!(!near.frame.every_cell && near.walls_in(0, 0) == [0]);
     }
 
     proptest! {
@@ -477,9 +473,9 @@ mod tests {
         ) {
             let grid = WallGrid::new(&[Wall::new(-4.0, -3.0, 5.0, 2.0)], 0.7, 0.0);
             let p = Point2::new(x, y);
-            let c = ((x - grid.origin.x) / grid.cell).floor();
-            let r = ((y - grid.origin.y) / grid.cell).floor();
-            let inside = c >= 0.0 && r >= 0.0 && c < grid.cols as f64 && r < grid.rows as f64;
+            let c = ((x - grid.frame.origin.x) / grid.frame.cell).floor();
+            let r = ((y - grid.frame.origin.y) / grid.frame.cell).floor();
+            let inside = c >= 0.0 && r >= 0.0 && c < grid.cols() as f64 && r < grid.rows() as f64;
             prop_assert_eq!(grid.cell_of(p), inside.then_some((c as usize, r as usize)));
             let mut first = None;
             grid.march(p, Vector2::new(1.0, 0.0), 100.0, |c, r, _| {
