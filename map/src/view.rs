@@ -165,8 +165,7 @@ const SIDE_SAMPLES: [f64; 3] = [0.25, 0.5, 0.75];
 /// narrow wedge opens away from its corner rather than straight across from the wall.
 fn faces_standing_space(on_line: Point2<f64>, along: Vector2<f64>, side: Vector2<f64>, sight: &SightLines) -> bool {
     let ahead = on_line + side * ON_LINE;
-    // only whether a wall lies within 2 ON_LINE matters, and where when one does
-    let back = sight.free_run_within(ahead, -side, 3.0 * ON_LINE);
+    let back = sight.free_run(ahead, -side);
     if back > 2.0 * ON_LINE {
         // no wall here: a gap (a door) along the arm's line, which faces nothing
         return false;
