@@ -20,8 +20,7 @@ pub fn coarsened(cell: f64, width: f64, height: f64, max_cells: f64) -> f64 {
 pub struct WallGrid {
     /// The cells, and the margin they list walls within.
     frame: ReachFrame,
-    /// Start of each cell's run in `items` (CSR layout, `cols * rows + 1` entries); for a
-    /// grid whose every cell lists every wall, just `[0, items.len()]`.
+    /// Start of each cell's run in `items` (CSR layout, `cols * rows + 1` entries).
     starts: Slab<u32>,
     items: Slab<u32>,
 }
@@ -37,13 +36,7 @@ impl WallGrid {
     /// beyond: lists of a long reach for points that lie among the walls.
     pub fn covering(walls: &[Wall], cell: f64, margin: f64, pad: f64) -> Self {
         let frame = ReachFrame::covering(walls, cell, margin, pad);
-        let ReachFrame { origin, cell, cols, rows, every_cell, .. } = frame;
-        // a margin past the grid's diagonal lists every wall in every cell: keep the list once
-        if every_cell {
-            let items: Vec<u32> = (0..walls.len() as u32).collect();
-            let starts = vec![0, items.len() as u32];
-            return WallGrid { frame, starts: starts.into(), items: items.into() };
-        }
+        let ReachFrame { origin, cell, cols, rows, .. } = frame;
         let mut per_cell: Vec<Vec<u32>> = vec![Vec::new(); cols * rows];
         for (k, w) in walls.iter().enumerate() {
             let reach = margin + cell;
@@ -96,9 +89,6 @@ impl WallGrid {
     /// Walls listed in cell (c, r).
     #[inline]
     pub fn walls_in(&self, c: usize, r: usize) -> &[u32] {
-        if self.frame.every_cell {
-            return &self.items;
-        }
         let k = r * self.frame.cols + c;
         &self.items[self.starts[k] as usize..self.starts[k + 1] as usize]
     }
@@ -120,15 +110,11 @@ impl WallGrid {
         )
     }
 
-    /// The grid's cells ([`ReachFrame`]: count, index, columns and rows, corners).
-    pub fn frame(&self) -> &ReachFrame {
-        &self.frame
-    }
-
     pub fn cell_count(&self) -> usize {
         self.frame.cell_count()
     }
 
+    /// Index of cell (c, r) among the grid's `cell_count()` cells.
     #[inline]
     pub fn cell_index(&self, c: usize, r: usize) -> usize {
         self.frame.cell_index(c, r)
@@ -154,19 +140,12 @@ impl WallGrid {
 
     /// Total length of the cells' lists.
     pub fn entries(&self) -> usize {
-        if self.frame.every_cell {
-            self.items.len() * self.cell_count()
-        } else {
-            self.items.len()
-        }
+        self.items.len()
     }
 
     /// Total length of the lists of the cells from `(c0, r0)` to `(c1, r1)` inclusive: a wall
     /// in several of them counts in each.
     pub fn entries_within(&self, (c0, r0): (usize, usize), (c1, r1): (usize, usize)) -> usize {
-        if self.frame.every_cell {
-            return self.items.len() * (c1 + 1 - c0) * (r1 + 1 - r0);
-        }
         (r0..=r1)
             .map(|r| (self.starts[self.cell_index(c1, r) + 1] - self.starts[self.cell_index(c0, r)]) as usize)
             .sum()
@@ -269,8 +248,13 @@ impl ReachFrame {
         let origin = Point2::new(lo.x - pad, lo.y - pad);
         let cols = (((hi.x - lo.x) + 2.0 * pad) / cell).ceil().max(1.0) as usize;
         let rows = (((hi.y - lo.y) + 2.0 * pad) / cell).ceil().max(1.0) as usize;
+        ReachFrame::of(origin, cell, (cols, rows), margin)
+    }
+
+    /// `cols` x `rows` cells of side `cell` from `origin` listing the walls within `margin`.
+    fn of(origin: Point2<f64>, cell: f64, (cols, rows): (usize, usize), margin: f64) -> Self {
         // every wall lies within the grid, so within its diagonal of any point of it
-        let every_cell = margin >= (cols as f64 * cell).hypot(rows as f64 * cell) && walls.len() < u32::MAX as usize;
+        let every_cell = margin >= (cols as f64 * cell).hypot(rows as f64 * cell);
         ReachFrame { origin, cell, cols, rows, margin, every_cell }
     }
 
@@ -285,14 +269,20 @@ impl ReachFrame {
             && (near <= margin + half || distance_to_square(w, centre, half) <= margin)
     }
 
+    /// The walls cell (c, r) lists, in the order of `walls`.
+    fn listed<'w>(&'w self, walls: &'w [Wall], c: usize, r: usize) -> impl Iterator<Item = u32> + 'w {
+        (0..walls.len() as u32).filter(move |&k| self.every_cell || self.lists(&walls[k as usize], c, r))
+    }
+
     /// Writes into `out` the walls cell (c, r) lists, in the order of `walls`.
     pub fn list_of(&self, walls: &[Wall], c: usize, r: usize, out: &mut Vec<u32>) {
         out.clear();
-        if self.every_cell {
-            out.extend(0..walls.len() as u32);
-        } else {
-            out.extend((0..walls.len() as u32).filter(|&k| self.lists(&walls[k as usize], c, r)));
-        }
+        out.extend(self.listed(walls, c, r));
+    }
+
+    /// How many walls cell (c, r) lists.
+    pub fn count_of(&self, walls: &[Wall], c: usize, r: usize) -> usize {
+        self.listed(walls, c, r).count()
     }
 
     /// The cell holding `p`, if inside the grid.
@@ -396,26 +386,24 @@ impl WallGrid {
 
 impl Flat for WallGrid {
     fn put(&self, w: &mut FlatWriter) {
-        let ReachFrame { origin, cell, cols, rows, margin, every_cell } = self.frame;
+        let ReachFrame { origin, cell, cols, rows, margin, .. } = self.frame;
         crate::bitgrid::Grid { origin, cell, cols, rows }.put(w);
         w.put_f64(margin);
-        w.put_bool(every_cell);
         self.starts.put(w);
         self.items.put(w);
     }
     fn take(r: &mut FlatReader<'_>) -> Result<Self, FlatError> {
         let crate::bitgrid::Grid { origin, cell, cols, rows } = crate::bitgrid::Grid::take(r)?;
         let margin = r.take_f64("wall grid margin")?;
-        let every_cell = r.take_bool("wall grid lists every wall")?;
         let starts: Slab<u32> = Slab::take(r)?;
         let items: Slab<u32> = Slab::take(r)?;
-        crate::flat::check_len("wall grid starts", starts.len(), if every_cell { 2 } else { cols * rows + 1 })?;
+        crate::flat::check_len("wall grid starts", starts.len(), cols * rows + 1)?;
         // each cell's run lies within the items, in order: [starts[k], starts[k + 1])
         let ordered = starts.windows(2).all(|p| p[0] <= p[1]) && starts.first() == Some(&0);
         if !ordered || starts.last().map(|&e| e as usize) != Some(items.len()) {
             return Err(FlatError::new("wall grid: its cells' runs do not tile its items"));
         }
-        Ok(WallGrid { frame: ReachFrame { origin, cell, cols, rows, margin, every_cell }, starts, items })
+        Ok(WallGrid { frame: ReachFrame::of(origin, cell, (cols, rows), margin), starts, items })
     }
 }
 
@@ -426,22 +414,24 @@ mod tests {
     use crate::wall::walls_from_seed as walls_of;
     use proptest::prelude::*;
 
-    /// Lists of a reach past the grid's diagonal (a long-range sensor over a small map) hold
-    /// every wall in every cell, kept once.
+    /// A frame whose reach spans the grid (a long-range sensor over a small map) lists every
+    /// wall in every cell without testing each.
     #[test]
-    fn a_reach_across_the_whole_grid_lists_every_wall_everywhere_once() {
+    fn a_reach_across_the_whole_grid_lists_every_wall_everywhere() {
         let walls = [Wall::new(0.0, 0.0, 10.0, 0.0), Wall::new(10.0, 0.0, 10.0, 6.0), Wall::new(3.0, 3.0, 4.0, 5.0)];
-        let grid = WallGrid::covering(&walls, 1.0, 50.0, 1.0);
-        assert!(grid.frame.every_cell && grid.items.len() == 3);
-        assert_eq!(grid.entries(), 3 * grid.cell_count());
-        for r in 0..grid.rows() {
-            for c in 0..grid.cols() {
-                assert_eq!(grid.walls_in(c, r), &[0, 1, 2]);
+        let frame = ReachFrame::covering(&walls, 1.0, 50.0, 1.0);
+        assert!(frame.every_cell);
+        let mut list = Vec::new();
+        for r in 0..frame.rows() {
+            for c in 0..frame.cols() {
+                frame.list_of(&walls, c, r, &mut list);
+                assert_eq!(list, [0, 1, 2]);
             }
         }
-        // a reach short of the diagonal lists by cell as before
-        let near = WallGrid::covering(&walls, 1.0, 2.0, 1.0);
-        assert!(!near.frame.every_cell && near.walls_in(0, 0) == [0]);
+        // a reach short of the diagonal lists by cell
+        let near = ReachFrame::covering(&walls, 1.0, 2.0, 1.0);
+        near.list_of(&walls, 0, 0, &mut list);
+        assert!(!near.every_cell && list == [0]);
     }
 
     proptest! {

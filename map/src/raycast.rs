@@ -113,11 +113,7 @@ impl ReachLists {
 
     /// How many walls lie within reach of cell (c, r), counted on the first call.
     fn count(&self, walls: &[Wall], c: usize, r: usize) -> usize {
-        *self.counts[self.within.cell_index(c, r)].get_or_init(|| {
-            let mut list = Vec::new();
-            self.within.list_of(walls, c, r, &mut list);
-            list.len() as u32
-        }) as usize
+        *self.counts[self.within.cell_index(c, r)].get_or_init(|| self.within.count_of(walls, c, r) as u32) as usize
     }
 
     /// The walls of cell (c, r) not hidden from it, filtered on the first call.
