@@ -66,6 +66,16 @@ fn tile_index(c: usize, r: usize, tile_cols: usize) -> usize {
     (((r / TILE) * tile_cols + c / TILE) * TILE + r % TILE) * TILE + c % TILE
 }
 
+/// How many cells a field of `cols` x `rows` stores: whole tiles (see [`tile_index`]).
+fn stored_cells(cols: usize, rows: usize) -> usize {
+    cols.div_ceil(TILE) * rows.div_ceil(TILE) * TILE * TILE
+}
+
+/// How many blocks of [`POOL`] x [`POOL`] cells a field of `cols` x `rows` pools.
+fn pooled_blocks(cols: usize, rows: usize) -> usize {
+    cols.div_ceil(POOL) * rows.div_ceil(POOL)
+}
+
 /// Largest number of cells a field may have before its resolution is coarsened.
 const MAX_CELLS: f64 = crate::limits::FIELD_CELLS as f64;
 
@@ -82,7 +92,7 @@ impl DistanceField {
         let tile_cols = cols.div_ceil(TILE);
         // whole tiles: the cells past the last row and column are never read (`cell` says
         // they lie outside) and say no wall is near
-        let stored = tile_cols * rows.div_ceil(TILE) * TILE * TILE;
+        let stored = stored_cells(cols, rows);
         let mut cells = vec![u8::MAX; stored];
         let mut nearest = vec![u32::MAX; stored];
         let scale = 255.0 / cap;
@@ -113,7 +123,7 @@ impl DistanceField {
             NearestWalls::Wide(nearest.into())
         };
         let pooled_cols = cols.div_ceil(POOL);
-        let mut pooled = vec![u8::MAX; pooled_cols * rows.div_ceil(POOL)];
+        let mut pooled = vec![u8::MAX; pooled_blocks(cols, rows)];
         for r in 0..rows {
             for c in 0..cols {
                 let b = (r / POOL) * pooled_cols + c / POOL;
@@ -287,13 +297,11 @@ impl Flat for DistanceField {
         if cap <= 0.0 {
             return Err(FlatError::new(format!("distance field cap {cap}")));
         }
-        let tile_cols = cols.div_ceil(TILE);
-        let stored = tile_cols * rows.div_ceil(TILE) * TILE * TILE;
-        let pooled_cols = cols.div_ceil(POOL);
+        let stored = stored_cells(cols, rows);
         let cells: Slab<u8> = Slab::take(r)?;
         check_len("distance field cells", cells.len(), stored)?;
         let pooled: Slab<u8> = Slab::take(r)?;
-        check_len("distance field blocks", pooled.len(), pooled_cols * rows.div_ceil(POOL))?;
+        check_len("distance field blocks", pooled.len(), pooled_blocks(cols, rows))?;
         let marked: Slab<u64> = Slab::take(r)?;
         if !marked.is_empty() {
             check_len("distance field marks", marked.len(), stored.div_ceil(64))?;
@@ -322,7 +330,7 @@ mod tests {
     fn tiles_store_each_cell_once() {
         for (cols, rows) in [(1usize, 1usize), (7, 3), (8, 8), (9, 17), (30, 5)] {
             let tile_cols = cols.div_ceil(TILE);
-            let stored = tile_cols * rows.div_ceil(TILE) * TILE * TILE;
+            let stored = stored_cells(cols, rows);
             let mut seen = vec![false; stored];
             for r in 0..rows {
                 for c in 0..cols {
