@@ -225,6 +225,23 @@ impl<T: Plain> Flat for Slab<T> {
     }
 }
 
+/// A value or none: a yes/no, then the value when there is one.
+impl<T: Flat> Flat for Option<T> {
+    fn put(&self, w: &mut FlatWriter) {
+        w.put_bool(self.is_some());
+        if let Some(v) = self {
+            v.put(w);
+        }
+    }
+    fn take(r: &mut FlatReader<'_>) -> Result<Self, FlatError> {
+        if r.take_bool(std::any::type_name::<T>())? {
+            T::take(r).map(Some)
+        } else {
+            Ok(None)
+        }
+    }
+}
+
 /// Checks that every value of `items` is below `bound`: indices into an array of that length.
 pub fn check_indices(what: &str, items: &[u32], bound: usize) -> Result<(), FlatError> {
     match items.iter().position(|&i| i as usize >= bound) {

@@ -140,7 +140,7 @@ impl MapModel {
         self.corner_config.put(&mut w);
         w.put_slice(&self.map.walls);
         w.put_f64(self.map.sigma);
-        put_option(&mut w, self.map.seen_free.as_ref());
+        self.map.seen_free.put(&mut w);
         self.runs.put(&mut w);
         w.put_slice(&self.wall_directions);
         w.put_usize(self.bends.len());
@@ -159,8 +159,8 @@ impl MapModel {
         if let Some(sides) = sides {
             w.put_slice(&sides);
         }
-        put_option(&mut w, self.outside.as_ref());
-        put_option(&mut w, self.unseen.as_ref());
+        self.outside.put(&mut w);
+        self.unseen.put(&mut w);
         w
     }
 
@@ -180,7 +180,7 @@ impl MapModel {
         let corner_config = MapCornerConfig::take(r)?;
         let walls = r.take_vec::<Wall>("walls")?;
         let sigma = r.take_finite("sigma")?;
-        let seen_free = take_option::<SeenFree>(r)?;
+        let seen_free = <Option<SeenFree> as Flat>::take(r)?;
         let map = WallMap { walls, sigma, seen_free };
         let runs: Slab<Wall> = Slab::take(r)?;
         let wall_directions = r.take_vec::<f64>("wall directions")?;
@@ -206,8 +206,8 @@ impl MapModel {
         } else {
             None
         };
-        let outside = take_option::<Outside>(r)?;
-        let unseen = take_option::<Outside>(r)?;
+        let outside = <Option<Outside> as Flat>::take(r)?;
+        let unseen = <Option<Outside> as Flat>::take(r)?;
         r.finish()?;
         Ok(MapModel {
             map,
@@ -224,21 +224,6 @@ impl MapModel {
             unseen,
             corner_config,
         })
-    }
-}
-
-fn put_option<T: Flat>(w: &mut FlatWriter, v: Option<&T>) {
-    w.put_bool(v.is_some());
-    if let Some(v) = v {
-        v.put(w);
-    }
-}
-
-fn take_option<T: Flat>(r: &mut FlatReader<'_>) -> Result<Option<T>, FlatError> {
-    if r.take_bool(std::any::type_name::<T>())? {
-        T::take(r).map(Some)
-    } else {
-        Ok(None)
     }
 }
 
