@@ -82,16 +82,16 @@ impl Watched {
     }
 }
 
-/// A map version: the map and its model, built with `config`'s corner settings.
+/// A map version: the map and its model, built with `config`'s corner settings (the model
+/// answers the corner queries), and what its block and build took.
 struct Version {
     model: MapModel,
-    /// The model as one block, as published; dropped once sent (the model answers queries).
-    block: Option<map::flat::FlatWriter>,
     block_len: usize,
     built_in: Duration,
 }
 
-fn load(spec: &str, config: &localize::Gema2Config) -> Result<Version> {
+/// The map version `spec` names, and its model as the block to publish once.
+fn load(spec: &str, config: &localize::Gema2Config) -> Result<(Version, map::flat::FlatWriter)> {
     let map = load_map(spec)?;
     if map.walls.len() > MAX_WALLS {
         bail!("{spec}: {} walls, at most {MAX_WALLS} can be published", map.walls.len());
@@ -99,7 +99,7 @@ fn load(spec: &str, config: &localize::Gema2Config) -> Result<Version> {
     let started = std::time::Instant::now();
     let model = MapModel::new(map, &config.map_corners);
     let block = model.to_block();
-    Ok(Version { model, block_len: block.len(), block: Some(block), built_in: started.elapsed() })
+    Ok((Version { model, block_len: block.len(), built_in: started.elapsed() }, block))
 }
 
 /// The answer to a corner query `q` from `index` (the map of `version`): the corners of
@@ -138,7 +138,7 @@ pub fn run(a: MapServerArgs) -> Result<()> {
     a.stage.place()?;
     // SAFETY: the handler only stores to an atomic.
     unsafe { libc::signal(libc::SIGHUP, on_sighup as *const () as libc::sighandler_t) };
-    let mut current = load(&a.map, &config)?;
+    let (mut current, block) = load(&a.map, &config)?;
     let mut watched = Watched::of(&a.map);
     let node = messages::create_node("mapserver")?;
     let topic = open_topic::<MapMsg>(&node, &a.stage.prefix, Topic::Map)?;
@@ -152,10 +152,8 @@ pub fn run(a: MapServerArgs) -> Result<()> {
     let server = queries.server_builder().create().context("corner queries: server")?;
     let mut version = 1u32;
     // the model first: a localizer that sees the walls' new version finds its model there
-    let send = |v: &mut Version, version: u32| -> Result<()> {
-        if let Some(block) = v.block.take() {
-            publish_model(&model_topic, &model_publisher, &model_notifier, version, MODEL_LAYOUT, block.bytes())?;
-        }
+    let send = |v: &Version, block: map::flat::FlatWriter, version: u32| -> Result<()> {
+        publish_model(&model_topic, &model_publisher, &model_notifier, version, MODEL_LAYOUT, block.bytes())?;
         let mut written = Ok(());
         let sent = publish(&publisher, &notifier, |m: &mut MapMsg| {
             written = crate::wire::map_to_msg(&v.model.map, version, m)
@@ -165,7 +163,7 @@ pub fn run(a: MapServerArgs) -> Result<()> {
             .and(sent.map(|_| ()).map_err(anyhow::Error::from))
             .with_context(|| topic.name.clone())
     };
-    send(&mut current, version)?;
+    send(&current, block, version)?;
     messages::announce_ready(&node, &a.stage.prefix)?;
     let said = |v: &Version, what: &str, version: u32| {
         eprintln!(
@@ -199,10 +197,10 @@ pub fn run(a: MapServerArgs) -> Result<()> {
             // the YAML may name another image now
             watched = Watched::of(&a.map);
             match load(&a.map, &config) {
-                Ok(v) => {
+                Ok((v, block)) => {
                     version += 1;
                     current = v;
-                    send(&mut current, version)?;
+                    send(&current, block, version)?;
                     said(&current, "reloaded", version);
                 }
                 Err(e) => eprintln!("mapserver: kept version {version}: {e:#}"),
