@@ -10,7 +10,7 @@
 //! overwrites a block a localizer still holds: the publisher takes a fresh chunk, and a chunk
 //! returns to it only when every reader has released it.
 
-use crate::topic::{parse_name, service_name, OpenError};
+use crate::topic::{open_event, parse_name, service_name, OpenError};
 use bytemuck::Zeroable;
 use iceoryx2::port::publisher::Publisher;
 use iceoryx2::port::subscriber::Subscriber;
@@ -66,14 +66,7 @@ pub fn open_model_topic(node: &Node<ipc::Service>, prefix: &str) -> Result<Model
         .max_nodes(32)
         .open_or_create()
         .map_err(|e| open(&e))?;
-    let event = node
-        .service_builder(&name)
-        .event()
-        .max_notifiers(4)
-        .max_listeners(16)
-        .max_nodes(32)
-        .open_or_create()
-        .map_err(|e| open(&e))?;
+    let event = open_event(node, &name, &service)?;
     Ok(ModelPorts { name: service, data, event })
 }
 

@@ -150,15 +150,24 @@ pub fn open_pubsub<T: Debug + ZeroCopySend + 'static>(
             };
             OpenError::Open { service: service.into(), message: format!("{e:?} (payload {payload}){hint}") }
         })?;
-    let event = node
-        .service_builder(&name)
+    let event = open_event(node, &name, service)?;
+    Ok(TopicPorts { name: service.into(), data, event })
+}
+
+/// Opens (or creates) the event service paired with the data service `name` (`service`):
+/// what wakes its subscribers.
+pub(crate) fn open_event(
+    node: &Node<ipc::Service>,
+    name: &ServiceName,
+    service: &str,
+) -> Result<event::PortFactory<ipc::Service>, OpenError> {
+    node.service_builder(name)
         .event()
         .max_notifiers(16)
         .max_listeners(16)
         .max_nodes(32)
         .open_or_create()
-        .map_err(|e| OpenError::Open { service: service.into(), message: format!("event: {e:?}") })?;
-    Ok(TopicPorts { name: service.into(), data, event })
+        .map_err(|e| OpenError::Open { service: service.into(), message: format!("event: {e:?}") })
 }
 
 /// The map server's corner query service, `<prefix>/map/corners`.
