@@ -225,6 +225,14 @@ fn signal(pid: u32, sig: i32) {
     unsafe { libc::kill(pid as i32, sig) };
 }
 
+/// Waits (a minute at most) until the recording `file` holds `bytes` bytes.
+fn wait_for_bytes(file: &Path, bytes: u64) {
+    let start = Instant::now();
+    while start.elapsed() < Duration::from_secs(60) && std::fs::metadata(file).map_or(0, |m| m.len()) < bytes {
+        std::thread::sleep(Duration::from_millis(20));
+    }
+}
+
 /// A recorder killed outright (kill -9: nothing of its own cleans up) reads every topic, and
 /// every stage that waits for room had it among its readers: the run must go on to its end as
 /// though it had never been there.
@@ -244,10 +252,7 @@ fn a_recorder_killed_outright_costs_the_run_nothing() {
         .spawn()
         .unwrap();
     // kill it once it has had some scans, while the source still publishes as fast as it may
-    let start = Instant::now();
-    while start.elapsed() < Duration::from_secs(60) && std::fs::metadata(&file).map_or(0, |m| m.len()) < 100_000 {
-        std::thread::sleep(Duration::from_millis(20));
-    }
+    wait_for_bytes(&file, 100_000);
     signal(recorder.id(), libc::SIGKILL);
     let _ = recorder.wait();
     let out = run.wait_with_output().unwrap();
@@ -272,10 +277,7 @@ fn sigint_mid_run_leaves_a_clean_file_with_every_scan_received() {
         .spawn()
         .unwrap();
     // stop the recorder mid-run, once it has had a second or two of scans
-    let start = Instant::now();
-    while start.elapsed() < Duration::from_secs(60) && std::fs::metadata(&file).map_or(0, |m| m.len()) < 200_000 {
-        std::thread::sleep(Duration::from_millis(100));
-    }
+    wait_for_bytes(&file, 200_000);
     signal(recorder.id(), libc::SIGINT);
     let out = recorder.wait_with_output().unwrap();
     let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
