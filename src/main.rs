@@ -42,7 +42,8 @@ enum Command {
     Inspect(cmd::inspect::InspectArgs),
     /// Replace a stage's implementation in a running pipeline.
     Swap(supervisor::swap::SwapArgs),
-    /// An emulated Hokuyo URG-04LX on a pseudo-terminal (prints its path).
+    /// An emulated Hokuyo lidar speaking SCIP 2.0: a URG-04LX on a pseudo-terminal (prints its
+    /// path), or a UST-10LX, UTM-30LX or URG-04LX on TCP (`--tcp`, prints its address).
     EmulateUrg(cmd::emulate::EmulateArgs),
     /// Segmentation alone over a log: lines and corners per scan, time per scan.
     Lines(cmd::lines::LinesArgs),
@@ -63,7 +64,7 @@ enum Command {
 #[derive(Subcommand)]
 enum StageCommand {
     #[command(about = acquire::node::ABOUT)]
-    Acquire(acquire::node::AcquireArgs),
+    Acquire(Box<acquire::node::AcquireArgs>),
     #[command(about = segment::node::ABOUT)]
     Segment(segment::node::SegmentArgs),
     #[command(about = localize::node::ABOUT)]
@@ -104,7 +105,7 @@ fn main() -> anyhow::Result<()> {
         Some(Command::Inspect(a)) => cmd::inspect::run(a),
         Some(Command::Swap(a)) => supervisor::swap::request(a),
         Some(Command::Stage(s)) => match s {
-            StageCommand::Acquire(a) => acquire::node::run(a),
+            StageCommand::Acquire(a) => acquire::node::run(*a),
             StageCommand::Segment(a) => segment::node::run(a),
             StageCommand::Localize(a) => localize::node::run(a),
             StageCommand::Mapserver(a) => mapserver::node::run(a),

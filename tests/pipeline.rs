@@ -839,6 +839,44 @@ fn the_whole_pipeline_runs_on_an_emulated_urg04lx() {
     assert!(text.lines().filter(|l| l.starts_with("ROBOTLASER1")).count() >= 20);
 }
 
+/// `pipelines/ust-tcp.toml` against an emulated UST-10LX on TCP: 1081-beam scans at 40 Hz, the
+/// sensor's own geometry, every scan located.
+#[test]
+fn the_whole_pipeline_runs_on_an_emulated_ust_10lx_over_tcp() {
+    let dir = tempfile::tempdir().unwrap();
+    let recorded = dir.path().join("recorded.log");
+    let mut emu = Command::new(exe())
+        .args(["emulate-urg", "--map", "office", "--model", "ust-10lx", "--tcp", "127.0.0.1:0"])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    let mut address = String::new();
+    std::io::BufRead::read_line(&mut std::io::BufReader::new(emu.stdout.take().unwrap()), &mut address).unwrap();
+    let pipeline = concat!(env!("CARGO_MANIFEST_DIR"), "/pipelines/ust-tcp.toml");
+    let p = prefix("ust");
+    let out = Command::new(exe())
+        .args(["run", "--pipeline", pipeline, "--prefix", &p, "--scans", "40", "--timeout", "60"])
+        .env("GEMA2_MAP", "office")
+        .env("GEMA2_LIDAR", address.trim())
+        .env("GEMA2_RECORD", &recorded)
+        .output()
+        .unwrap();
+    // SAFETY: kill(2) on a child of this test.
+    unsafe { libc::kill(emu.id() as i32, libc::SIGTERM) };
+    let _ = emu.wait();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let report = String::from_utf8_lossy(&out.stdout);
+    assert!(report.contains("poses received 40 of 40"), "{report}");
+    let text = std::fs::read_to_string(&recorded).unwrap();
+    let beams: Vec<usize> = text
+        .lines()
+        .filter(|l| l.starts_with("ROBOTLASER1"))
+        .map(|l| l.split_whitespace().nth(8).and_then(|n| n.parse().ok()).unwrap_or(0))
+        .collect();
+    assert!(beams.len() >= 40 && beams.iter().all(|&n| n == 1081), "{:?}", &beams[..beams.len().min(5)]);
+}
+
 /// `pipelines/replay.toml`, run as its comment says: a CARMEN log through every stage against
 /// a map, every scan located, the run ending with the log.
 #[test]

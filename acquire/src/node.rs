@@ -12,6 +12,13 @@ use messages::{monotonic_ns, Header, Outlet, PoseMsgXyt, ScanMsg, Stage, Topic, 
 use std::path::PathBuf;
 use std::time::Duration;
 
+impl AcquireArgs {
+    /// Whether scans come from a sensor, which paces itself and carries no truth.
+    fn is_sensor(&self) -> bool {
+        self.serial.is_some() || self.tcp.is_some()
+    }
+}
+
 /// What the stage is, for its `--help` (its own program's and `gema2 stage acquire`'s).
 pub const ABOUT: &str = "GEMA2 acquisition stage: a simulated laser or a log, published as scans";
 
@@ -29,8 +36,12 @@ pub struct AcquireArgs {
     #[arg(long)]
     pub urg_log: Option<PathBuf>,
     /// Read a real Hokuyo URG-04LX on this serial port (SCIP 2.0).
-    #[arg(long)]
+    #[arg(long, conflicts_with = "tcp")]
     pub serial: Option<String>,
+    /// Read a Hokuyo Ethernet lidar (UST-10LX/20LX, UTM-30LX-EW) at this HOST:PORT, SCIP 2.0
+    /// over TCP; the factory address is 192.168.0.10:10940.
+    #[arg(long)]
+    pub tcp: Option<String>,
     /// Baud rate of the serial port (ignored by USB models). An RS-232 sensor that does not
     /// answer at it is looked for at the other SCIP rates and switched to it.
     #[arg(long, default_value_t = 115_200)]
@@ -108,25 +119,31 @@ fn is_malformed_line(e: &anyhow::Error) -> bool {
 
 type Source = Box<dyn Iterator<Item = Result<LaserScan>>>;
 
-/// How often a serial source waiting to reconnect looks for SIGINT/SIGTERM.
+/// How often a sensor source waiting to reconnect looks for SIGINT/SIGTERM.
 const STOP_POLL: Duration = Duration::from_millis(20);
+
+/// A sensor's scans as a source that stops on SIGINT/SIGTERM, also in the middle of a wait
+/// for reconnection.
+fn sensor<C: crate::scip::source::Connector + 'static>(mut sensor: crate::scip::ScipSource<C>) -> Source {
+    Box::new(std::iter::from_fn(move || {
+        sensor
+            .next_scan(&mut |wait| {
+                let until = std::time::Instant::now() + wait;
+                while !stop_requested() && std::time::Instant::now() < until {
+                    std::thread::sleep(until.saturating_duration_since(std::time::Instant::now()).min(STOP_POLL));
+                }
+                !stop_requested()
+            })
+            .map(|r| r.map_err(anyhow::Error::from))
+    }))
+}
 
 fn source(a: &AcquireArgs) -> Result<(Source, &'static str)> {
     if let Some(port) = &a.serial {
-        let mut serial = crate::scip::SerialSource::new(port, a.baud);
-        let scans = std::iter::from_fn(move || {
-            // stops on SIGINT/SIGTERM, also in the middle of a wait for reconnection
-            serial
-                .next_scan(&mut |wait| {
-                    let until = std::time::Instant::now() + wait;
-                    while !stop_requested() && std::time::Instant::now() < until {
-                        std::thread::sleep(until.saturating_duration_since(std::time::Instant::now()).min(STOP_POLL));
-                    }
-                    !stop_requested()
-                })
-                .map(|r| r.map_err(anyhow::Error::from))
-        });
-        return Ok((Box::new(scans), "urg04lx-scip2"));
+        return Ok((sensor(crate::scip::SerialSource::new(port, a.baud)), "scip2-serial"));
+    }
+    if let Some(address) = &a.tcp {
+        return Ok((sensor(crate::scip::TcpSource::new(address)), "scip2-tcp"));
     }
     if let Some(path) = &a.urg_log {
         let reader = crate::urg_log::UrgLogReader::open(path)?;
@@ -200,7 +217,7 @@ pub fn run(a: AcquireArgs) -> Result<()> {
     a.stage.place()?;
     let period = period(&a)?;
     let node = messages::create_node("acquire")?;
-    if a.serial.is_some() {
+    if a.is_sensor() {
         // a sensor source can block on the port, away from the node's waits: notice SIGINT
         // and SIGTERM there too, after the node's own handler is in place (its first look
         // puts it there), so that both see them
@@ -306,9 +323,9 @@ impl Publishing {
 /// The time between published scans: `--rate` as a period, `None` for `max` and for a sensor,
 /// which paces itself.
 fn period(a: &AcquireArgs) -> Result<Option<Duration>> {
-    match a.serial {
-        Some(_) => Ok(None),
-        None => parse_rate(&a.rate).map_err(|e| anyhow!("--rate {e}")),
+    match a.is_sensor() {
+        true => Ok(None),
+        false => parse_rate(&a.rate).map_err(|e| anyhow!("--rate {e}")),
     }
 }
 
@@ -332,7 +349,7 @@ pub fn rate_arg(r: &str) -> Result<String, String> {
 fn carmen_out(a: &AcquireArgs) -> Result<Option<std::io::BufWriter<std::fs::File>>> {
     let Some(p) = &a.carmen_out else { return Ok(None) };
     let mut w = std::io::BufWriter::new(std::fs::File::create(p).with_context(|| format!("creating {}", p.display()))?);
-    if a.serial.is_some() || a.urg_log.is_some() {
+    if a.is_sensor() || a.urg_log.is_some() {
         std::io::Write::write_all(&mut w, format!("{}\n", crate::NO_TRUTH_MARKER).as_bytes())?;
     }
     Ok(Some(w))

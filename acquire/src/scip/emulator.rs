@@ -1,9 +1,12 @@
-//! An emulated URG-04LX: answers SCIP 2.0 commands on any byte transport (a pseudo-terminal in
-//! practice) with scans from any source, and can misbehave on purpose for tests.
+//! An emulated Hokuyo sensor (a URG-04LX, UST-10LX or UTM-30LX, [`ScipModel`]): answers SCIP 2.0
+//! commands on a pseudo-terminal or a TCP connection with scans from any source, and can
+//! misbehave on purpose for tests.
 
 use super::codec::{checksum, data_lines, encode};
-use serialport::SerialPort;
-use std::io::ErrorKind;
+use super::model::ScipModel;
+use serialport::{SerialPort, TTYPort};
+use std::io::{ErrorKind, Read, Write};
+use std::net::{TcpListener, TcpStream};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
@@ -40,15 +43,29 @@ pub enum ServeEnd {
     PortClosed,
 }
 
-/// Steps of a URG-04LX turn, first and last measurable step, front step.
-const ARES: u32 = 1024;
-const AMIN: u32 = 44;
-const AMAX: u32 = 725;
-const AFRT: u32 = 384;
+/// A byte link the emulator serves on, and the bit rate its host side set (a serial link's),
+/// which an RS-232 sensor must match to understand a command.
+pub trait Link: Read + Write {
+    fn host_bit_rate(&self) -> Option<u32>;
+}
+
+impl Link for TTYPort {
+    /// A pseudo-terminal's master side reads the rate its client set.
+    fn host_bit_rate(&self) -> Option<u32> {
+        self.baud_rate().ok()
+    }
+}
+
+impl Link for TcpStream {
+    fn host_bit_rate(&self) -> Option<u32> {
+        None
+    }
+}
 
 pub type ScanSource = Box<dyn FnMut() -> Vec<u32> + Send>;
 
 pub struct UrgEmulator {
+    pub model: ScipModel,
     source: ScanSource,
     pub period: Duration,
     pub faults: EmulatorFaults,
@@ -78,10 +95,17 @@ fn status(code: &str, out: &mut Vec<u8>) {
 }
 
 impl UrgEmulator {
-    /// An emulator whose scans come from `source` (682 readings in mm, steps 44..=725), one
-    /// every `period`.
+    /// An emulated URG-04LX whose scans come from `source` (682 readings in mm, steps
+    /// 44..=725), one every `period`.
     pub fn urg04lx(source: ScanSource, period: Duration, faults: EmulatorFaults) -> Self {
+        Self::new(ScipModel::URG_04LX, source, period, faults)
+    }
+
+    /// An emulated `model` whose scans come from `source` (a reading in mm for each measurable
+    /// step, [`ScipModel::readings`]), one every `period`.
+    pub fn new(model: ScipModel, source: ScanSource, period: Duration, faults: EmulatorFaults) -> Self {
         UrgEmulator {
+            model,
             source,
             period,
             faults,
@@ -100,9 +124,9 @@ impl UrgEmulator {
         (self.faults.start_time_ms as u64 + self.origin.elapsed().as_millis() as u64) as u32 & 0xFF_FFFF
     }
 
-    /// Serves until `stop`, a requested close, or the port closing. The port's own rate (a
-    /// pseudo-terminal's master side reads the rate its client set) stands for the host's.
-    pub fn serve<P: SerialPort>(&mut self, port: &mut P, stop: &AtomicBool) -> std::io::Result<ServeEnd> {
+    /// Serves until `stop`, a requested close, or the link closing. The link's own rate stands
+    /// for the host's ([`Link::host_bit_rate`]).
+    pub fn serve<L: Link>(&mut self, port: &mut L, stop: &AtomicBool) -> std::io::Result<ServeEnd> {
         let mut pending: Vec<u8> = Vec::new();
         let mut buf = [0u8; 512];
         loop {
@@ -118,7 +142,7 @@ impl UrgEmulator {
             while let Some(k) = pending.iter().position(|&b| b == b'\n' || b == b'\r') {
                 let line: Vec<u8> = pending.drain(..=k).collect();
                 let cmd = String::from_utf8_lossy(&line[..line.len() - 1]).trim().to_owned();
-                let garbled = self.bit_rate.is_some_and(|r| port.baud_rate().ok() != Some(r));
+                let garbled = self.bit_rate.is_some_and(|r| port.host_bit_rate() != Some(r));
                 if !cmd.is_empty() && !garbled {
                     let reply = self.answer(&cmd);
                     if port.write_all(&reply).is_err() {
@@ -138,6 +162,44 @@ impl UrgEmulator {
                 self.next_scan += self.period;
             }
         }
+    }
+
+    /// Serves one TCP client after another, as an Ethernet sensor does, until `stop`. A
+    /// requested close ([`EmulatorFaults::close_after_scans`]) drops that client's connection
+    /// once; the next client is served on.
+    pub fn serve_clients(&mut self, listener: &TcpListener, stop: &AtomicBool) -> std::io::Result<()> {
+        // accept without blocking, to notice a stop between clients
+        listener.set_nonblocking(true)?;
+        while !stop.load(Ordering::Relaxed) {
+            let mut client = match listener.accept() {
+                Ok((client, _)) => client,
+                Err(e) if matches!(e.kind(), ErrorKind::WouldBlock | ErrorKind::Interrupted) => {
+                    std::thread::sleep(Duration::from_millis(20));
+                    continue;
+                }
+                Err(e) => return Err(e),
+            };
+            client.set_nonblocking(false)?;
+            client.set_read_timeout(Some(Duration::from_millis(5)))?;
+            client.set_nodelay(true)?;
+            let end = self.serve(&mut client, stop)?;
+            drop(client);
+            self.disconnected();
+            match end {
+                ServeEnd::Stopped => break,
+                ServeEnd::CloseRequested => self.faults.close_after_scans = None,
+                ServeEnd::PortClosed => {}
+            }
+        }
+        Ok(())
+    }
+
+    /// What a sensor does when its client goes: an Ethernet sensor stops measuring when its
+    /// TCP connection closes, and the next client finds it idle.
+    pub fn disconnected(&mut self) {
+        self.stream = None;
+        self.laser_on = false;
+        self.time_adjust = false;
     }
 
     fn answer(&mut self, cmd: &str) -> Vec<u8> {
@@ -185,35 +247,36 @@ impl UrgEmulator {
 
     /// VV (version), PP (parameters) and II (state): a status, then `KEY:value;sum` lines.
     fn describe(&self, code: &str, out: &mut Vec<u8>) {
+        let m = &self.model;
         status("00", out);
         match code {
             "VV" => {
                 info_line("VEND", "Hokuyo Automatic Co.,Ltd.", out);
-                info_line("PROD", "SOKUIKI Sensor URG-04LX", out);
+                info_line("PROD", m.product, out);
                 info_line("FIRM", "3.4.03(gema2 emulator)", out);
                 info_line("PROT", "SCIP 2.0", out);
                 info_line("SERI", "H0000000", out);
             }
             "PP" => {
+                info_line("MODL", m.name, out);
                 for (k, v) in [
-                    ("MODL", "URG-04LX(Hokuyo Automatic Co.,Ltd.)"),
-                    ("DMIN", "20"),
-                    ("DMAX", "5600"),
-                    ("ARES", "1024"),
-                    ("AMIN", "44"),
-                    ("AMAX", "725"),
-                    ("AFRT", "384"),
-                    ("SCAN", "600"),
+                    ("DMIN", m.dmin),
+                    ("DMAX", m.dmax),
+                    ("ARES", m.ares),
+                    ("AMIN", m.amin),
+                    ("AMAX", m.amax),
+                    ("AFRT", m.afrt),
+                    ("SCAN", m.rpm),
                 ] {
-                    info_line(k, v, out);
+                    info_line(k, &v.to_string(), out);
                 }
             }
             _ => {
                 let mut t = Vec::new();
                 encode(self.now_ms(), 4, &mut t);
-                info_line("MODL", "URG-04LX(Hokuyo Automatic Co.,Ltd.)", out);
+                info_line("MODL", m.name, out);
                 info_line("LASR", if self.laser_on { "ON" } else { "OFF" }, out);
-                info_line("SCSP", "600", out);
+                info_line("SCSP", &m.rpm.to_string(), out);
                 info_line("MESM", "Measuring mode", out);
                 info_line("SBPS", "115200", out);
                 info_line("TIME", &String::from_utf8_lossy(&t), out);
@@ -246,9 +309,10 @@ impl UrgEmulator {
         }
     }
 
-    /// SSnnnnnn: the RS-232 bit rate from the next command on.
+    /// SSnnnnnn: the RS-232 bit rate from the next command on. An Ethernet model has none.
     fn switch_bit_rate(&mut self, cmd: &str, out: &mut Vec<u8>) {
         match cmd.get(2..).filter(|d| d.len() == 6).and_then(|d| d.parse::<u32>().ok()) {
+            _ if !self.model.serial => status("04", out),
             None => status("01", out),
             Some(r) if !super::BIT_RATES.contains(&r) => status("02", out),
             Some(r) if self.bit_rate == Some(r) => status("03", out),
@@ -266,7 +330,7 @@ impl UrgEmulator {
             status("01", out);
             return;
         };
-        if last > AMAX || first < AMIN.min(first) || last < first {
+        if last > self.model.amax || last < first {
             status("04", out);
             return;
         }
@@ -296,14 +360,15 @@ impl UrgEmulator {
         encode(self.now_ms(), 4, &mut t);
         data_lines(&t, out);
         let readings = (self.source)();
+        let (amin, amax) = (self.model.amin, self.model.amax);
         let mut data = Vec::new();
         let width = if three { 3 } else { 2 };
         let mut step = first;
         while step <= last {
             let group: Vec<u32> = (step..(step + cluster).min(last + 1))
                 .map(|s| {
-                    if (AMIN..=AMAX).contains(&s) {
-                        readings.get((s - AMIN) as usize).copied().unwrap_or(0)
+                    if (amin..=amax).contains(&s) {
+                        readings.get((s - amin) as usize).copied().unwrap_or(0)
                     } else {
                         0
                     }
@@ -350,7 +415,3 @@ impl UrgEmulator {
         out
     }
 }
-
-/// The URG-04LX's step of each of its 682 readings, and the front step (for callers building
-/// sources).
-pub const URG_STEPS: (u32, u32, u32, u32) = (ARES, AMIN, AMAX, AFRT);

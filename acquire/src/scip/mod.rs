@@ -1,22 +1,29 @@
-//! A Hokuyo URG-04LX driver speaking SCIP 2.0, generic over `Read + Write` so tests can script
-//! the transport, plus an emulated sensor that speaks SCIP 2.0 on a pseudo-terminal.
+//! A Hokuyo driver speaking SCIP 2.0 (URG-04LX on a serial port; UST-10LX/20LX and UTM-30LX-EW
+//! over TCP), generic over `Read + Write` so tests can script the transport, plus an emulated
+//! sensor that speaks SCIP 2.0 on a pseudo-terminal or TCP.
 
 pub mod codec;
 pub mod driver;
 pub mod emulator;
 pub mod frame;
+pub mod model;
+pub mod serial;
 pub mod source;
+pub mod tcp;
 
 use thiserror::Error;
 
 pub use driver::{Encoding, RawScan, SensorInfo, Urg};
 pub use emulator::{EmulatorFaults, UrgEmulator};
-pub use source::SerialSource;
+pub use model::ScipModel;
+pub use serial::SerialSource;
+pub use source::ScipSource;
+pub use tcp::TcpSource;
 
 #[derive(Debug, Error)]
 pub enum ScipError {
     // the cause in the message, not chained as a source too (it would print twice)
-    #[error("serial I/O: {0}")]
+    #[error("I/O: {0}")]
     Io(std::io::Error),
     #[error("no answer from the sensor in time")]
     Timeout,

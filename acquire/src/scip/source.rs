@@ -1,90 +1,57 @@
-//! Scans from a URG-04LX on a serial port, surviving what serial links do: a scan that fails
-//! its checksum is dropped and counted; garbage is skipped; a port that disappears (cable
-//! pulled, sensor reset) is reopened with backoff until it comes back. An RS-232 sensor that
-//! does not answer at the requested bit rate (it powers up at 19200) is looked for at the
-//! others and then switched to the requested one.
+//! Scans from a SCIP 2.0 sensor on any link ([`Connector`]: a serial port or a TCP
+//! connection), surviving what links do: a scan that fails its checksum is dropped and
+//! counted; garbage is skipped; a link that goes away (cable pulled, sensor reset, connection
+//! dropped) is opened again with backoff until it comes back. The scan area and geometry are
+//! those the sensor reports (`PP`), never a model's constants.
 
 use super::driver::{Encoding, LinkStats, Urg};
-use super::{ScipError, BIT_RATES};
+use super::ScipError;
 use laser::LaserScan;
-use serialport::{SerialPort, TTYPort};
+use std::io::{Read, Write};
 use std::time::Duration;
 
-pub struct SerialSource {
-    pub path: String,
-    pub baud: u32,
-    urg: Option<Urg<TTYPort>>,
+/// How a source reaches its sensor.
+pub trait Connector {
+    type Port: Read + Write;
+    /// The link's name in messages: a port's path, a host and port.
+    fn name(&self) -> &str;
+    /// Opens the link and brings the sensor to a known SCIP 2.0 state ([`Urg::connect`]).
+    fn open(&mut self) -> Result<Urg<Self::Port>, ScipError>;
+}
+
+/// A sensor on a link, reopened whenever it fails.
+pub struct ScipSource<C: Connector> {
+    pub link: C,
+    urg: Option<Urg<C::Port>>,
     backoff: Duration,
     /// Totals over every connection.
     pub stats: LinkStats,
     pub reconnects: u64,
 }
 
-/// Whether a failed connection may be a bit rate mismatch: no answer, or garbage.
-fn at_wrong_bit_rate(e: &ScipError) -> bool {
-    matches!(e, ScipError::Timeout | ScipError::Malformed(_) | ScipError::Checksum(_))
-}
+/// The first wait before opening a link again, and the longest.
+const FIRST_BACKOFF: Duration = Duration::from_millis(100);
+const LONGEST_BACKOFF: Duration = Duration::from_secs(2);
 
 /// Errors that reconnecting cannot fix.
 fn fatal(e: &ScipError) -> bool {
     matches!(e, ScipError::Status { .. })
 }
 
-impl SerialSource {
-    pub fn new(path: &str, baud: u32) -> Self {
-        SerialSource {
-            path: path.into(),
-            baud,
-            urg: None,
-            backoff: Duration::from_millis(100),
-            stats: LinkStats::default(),
-            reconnects: 0,
-        }
+impl<C: Connector> ScipSource<C> {
+    pub fn on(link: C) -> Self {
+        ScipSource { link, urg: None, backoff: FIRST_BACKOFF, stats: LinkStats::default(), reconnects: 0 }
     }
 
+    /// Opens the link, switches the laser on and starts streaming every measurable step.
     fn open(&mut self) -> Result<(), ScipError> {
-        let port = serialport::new(&self.path, self.baud)
-            .timeout(Duration::from_millis(500))
-            .open_native()
-            .map_err(|e| self.port_error(e))?;
-        let mut urg = Urg::new(port, Duration::from_secs(2));
-        let info = match urg.connect() {
-            Ok(info) => info.clone(),
-            Err(e) if at_wrong_bit_rate(&e) => self.find_bit_rate(&mut urg).ok_or(e)??,
-            Err(e) => return Err(e),
-        };
+        let mut urg = self.link.open()?;
         urg.laser_on()?;
-        urg.start(Encoding::Three, info.amin, info.amax, 1, 0)?;
+        let (amin, amax) = (urg.info.amin, urg.info.amax);
+        urg.start(Encoding::Three, amin, amax, 1, 0)?;
         self.urg = Some(urg);
-        self.backoff = Duration::from_millis(100);
+        self.backoff = FIRST_BACKOFF;
         Ok(())
-    }
-
-    /// Sets the port to `rate` and forgets what arrived at the old one.
-    fn retune(&self, urg: &mut Urg<TTYPort>, rate: u32) -> Result<(), ScipError> {
-        urg.port_mut().set_baud_rate(rate).map_err(|e| self.port_error(e))?;
-        urg.discard_input();
-        Ok(())
-    }
-
-    /// A serial port error, naming the port.
-    fn port_error(&self, e: serialport::Error) -> ScipError {
-        ScipError::Io(std::io::Error::other(format!("{}: {e}", self.path)))
-    }
-
-    /// Looks for the sensor at the other bit rates; where it answers, asks it to switch to
-    /// the requested rate and connects again at that. `None` when it answers at none.
-    fn find_bit_rate(&self, urg: &mut Urg<TTYPort>) -> Option<Result<super::SensorInfo, ScipError>> {
-        let found = BIT_RATES
-            .into_iter()
-            .filter(|&r| r != self.baud)
-            .find(|&r| self.retune(urg, r).is_ok() && urg.connect().is_ok())?;
-        eprintln!("acquire: {}: the sensor answers at {found} bit/s; switching it to {}", self.path, self.baud);
-        let switched = urg.set_bit_rate(self.baud).and_then(|()| {
-            self.retune(urg, self.baud)?;
-            urg.connect().cloned()
-        });
-        Some(switched)
     }
 
     fn retire(&mut self) {
@@ -113,15 +80,15 @@ impl SerialSource {
         loop {
             if self.urg.is_none() {
                 match self.open() {
-                    Ok(()) => eprintln!("acquire: {} connected", self.path),
+                    Ok(()) => eprintln!("acquire: {} connected", self.link.name()),
                     Err(e) if fatal(&e) => return Some(Err(e)),
                     Err(e) => {
-                        eprintln!("acquire: {}: {e}; retrying in {:?}", self.path, self.backoff);
+                        eprintln!("acquire: {}: {e}; retrying in {:?}", self.link.name(), self.backoff);
                         self.urg = None;
                         if !keep_going(self.backoff) {
                             return None;
                         }
-                        self.backoff = (self.backoff * 2).min(Duration::from_secs(2));
+                        self.backoff = (self.backoff * 2).min(LONGEST_BACKOFF);
                         self.reconnects += 1;
                         continue;
                     }
@@ -134,13 +101,12 @@ impl SerialSource {
             match urg.next_scan() {
                 Ok(raw) => {
                     let stamp = raw.timestamp_ms as f64 / 1000.0;
-                    let info = urg.info.clone();
-                    return Some(Ok(raw.to_laser_scan(&info, stamp)));
+                    return Some(Ok(raw.to_laser_scan(&urg.info, stamp)));
                 }
                 Err(ScipError::Checksum(_)) | Err(ScipError::Malformed(_)) => continue,
                 Err(e) if fatal(&e) => return Some(Err(e)),
                 Err(e) => {
-                    eprintln!("acquire: {}: {e}; reconnecting", self.path);
+                    eprintln!("acquire: {}: {e}; reconnecting", self.link.name());
                     self.retire();
                 }
             }
