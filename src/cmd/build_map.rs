@@ -7,8 +7,8 @@
 //! seen through and go; a door frame seen by one scan stays. Evaluate on scans the map was not
 //! built from (`--every 2` here, `locate --every 2 --offset 1` there).
 
+use super::scans::{Source, SourceError};
 use super::Malformed;
-use acquire::CarmenReader;
 use anyhow::{bail, Context, Result};
 use clap::Args;
 use laser::{LaserScan, Pose, Reading};
@@ -17,15 +17,18 @@ use mapio::Occupancy;
 use nalgebra::{Point2, Vector2};
 use segment::{LineVisibilitySegmenter, Segmenter, SegmenterConfig};
 use std::f64::consts::PI;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 #[derive(Args)]
 pub struct BuildArgs {
     /// A CARMEN log with true poses.
-    #[arg(long)]
-    pub log: PathBuf,
+    #[arg(long, required_unless_present = "bag")]
+    pub log: Option<PathBuf>,
     #[command(flatten)]
     pub flaser: acquire::FlaserArgs,
+    /// A ROS 2 bag with true poses on `--truth-topic`, instead of a log.
+    #[command(flatten)]
+    pub bag: super::scans::BagArgs,
     /// Use every K-th scan...
     #[arg(long, default_value_t = 2, value_parser = super::positive_count)]
     pub every: usize,
@@ -89,6 +92,11 @@ fn check_metres(flag: &str, value: f64) -> Result<()> {
 }
 
 impl BuildArgs {
+    /// The log or bag read, for messages.
+    fn source_path(&self) -> &Path {
+        self.bag.bag.as_deref().or(self.log.as_deref()).unwrap_or(Path::new("-"))
+    }
+
     /// `gema2 map build`'s defaults for every other scan of `log` from `offset` (its `out`
     /// is "-", unused: for a caller that keeps the map).
     pub fn every_other(log: &std::path::Path, offset: usize) -> Result<Self> {
@@ -145,7 +153,7 @@ pub fn build(a: &BuildArgs, malformed: &mut Malformed) -> Result<Built> {
     let mut seg = LineVisibilitySegmenter::new(SegmenterConfig::default());
     let mut seen = Vec::new();
     let mut scans = 0;
-    let progress = crate::progress::Progress::of_log("surveying ", &a.log, None);
+    let progress = crate::progress::Progress::of_log("surveying ", a.source_path(), None);
     for item in survey(a)? {
         progress.set(scans as u64, 0, 0);
         let (scan, truth) = match item? {
@@ -167,7 +175,7 @@ pub fn build(a: &BuildArgs, malformed: &mut Malformed) -> Result<Built> {
     let candidates = merge(&mut seen);
     let (walls, seen_free) = second_pass(a, &candidates)?;
     if walls.is_empty() {
-        bail!("{}: no wall was seen (seen twice, with --occupancy-cell 0)", a.log.display());
+        bail!("{}: no wall was seen (seen twice, with --occupancy-cell 0)", a.source_path().display());
     }
     // a map from scans is good to about a decimetre (pose corrections, merging)
     Ok(Built { map: WallMap { walls, sigma: a.sigma, seen_free }, scans, lines: seen.len() })
@@ -211,7 +219,7 @@ pub(crate) fn survey_grid(a: &BuildArgs) -> Result<mapio::OccupancyGrid> {
         }
     }
     let Some((lo, hi)) = bounds else {
-        bail!("{}: no beam to draw a grid from", a.log.display());
+        bail!("{}: no beam to draw a grid from", a.source_path().display());
     };
     let margin = Vector2::new(2.0 * a.grid_cell, 2.0 * a.grid_cell);
     let Some(mut grid) = mapio::SurveyGrid::covering(lo - margin, hi + margin, a.grid_cell) else {
@@ -230,24 +238,24 @@ pub(crate) fn survey_grid(a: &BuildArgs) -> Result<mapio::OccupancyGrid> {
 /// as one, which the map is built without.
 enum Surveyed {
     Scan(acquire::LogScan, Pose),
-    Malformed(acquire::LogError),
+    Malformed(String),
 }
 
 /// The scans the map is built from (every `every`-th from `offset`), each with its true pose.
 /// A malformed laser line is handed on as such, for the first pass to report; an unreadable
 /// log or a scan without a pose is an error.
 fn survey(a: &BuildArgs) -> Result<impl Iterator<Item = Result<Surveyed>> + '_> {
-    let reader = CarmenReader::open(&a.log, a.flaser.layout()?)?;
-    Ok(reader.enumerate().filter(move |(k, _)| super::selected(*k, a.every, a.offset)).map(move |(k, item)| {
+    let source = Source::open(a.log.as_deref(), &a.bag, &a.flaser)?;
+    let path = source.path;
+    Ok(source.scans.enumerate().filter(move |(k, _)| super::selected(*k, a.every, a.offset)).map(move |(k, item)| {
         let item = match item {
             Ok(item) => item,
-            Err(e @ acquire::LogError::Line { .. }) => return Ok(Surveyed::Malformed(e)),
-            Err(e) => return Err(e.into()),
+            Err(SourceError::Skip(e)) => return Ok(Surveyed::Malformed(e)),
+            Err(SourceError::Stop(e)) => return Err(e),
         };
-        let truth = item
-            .scan
-            .truth
-            .with_context(|| format!("{}: scan {k} has no pose: a map needs a corrected log", a.log.display()))?;
+        let truth = item.scan.truth.with_context(|| {
+            format!("{}: scan {k} has no pose: a map needs a corrected log, or a bag's --truth-topic", path.display())
+        })?;
         Ok(Surveyed::Scan(item, truth))
     }))
 }

@@ -1,9 +1,9 @@
 //! `gema2 locate`: the whole algorithm over a log, offline (no IPC). Writes the CSV of
 //! docs/design.md and prints timing and, when the log holds truth, accuracy.
 
+use super::scans::{BagArgs, Source, SourceError};
 use super::Malformed;
 use crate::report::{Outcome, Summary};
-use acquire::CarmenReader;
 use anyhow::{Context, Result};
 use clap::Args;
 use localize::{Gema2, Gema2Config, Hypothesis, Localization, MapModel, Status};
@@ -19,11 +19,13 @@ pub struct LocateArgs {
     #[arg(long, default_value = "office")]
     pub map: String,
     /// CARMEN log (ROBOTLASER1 or FLASER; .gz is fine).
-    #[arg(long)]
-    pub log: PathBuf,
+    #[arg(long, required_unless_present = "bag")]
+    pub log: Option<PathBuf>,
     #[command(flatten)]
     pub flaser: acquire::FlaserArgs,
-    /// Locate every K-th laser line...
+    #[command(flatten)]
+    pub bag: BagArgs,
+    /// Locate every K-th laser line (or LaserScan message)...
     #[arg(long, default_value_t = 1, value_parser = super::positive_count)]
     pub every: usize,
     /// ...starting at this one.
@@ -98,7 +100,7 @@ pub fn run(a: LocateArgs) -> Result<()> {
     let loc_cfg = config.localizer;
     let model = Arc::new(MapModel::new(map, &config.map_corners));
     let mut gema2 = Gema2::new(Arc::clone(&model), config.segmenter, config.localizer);
-    let reader = CarmenReader::open(&a.log, a.flaser.layout()?)?;
+    let source = Source::open(a.log.as_deref(), &a.bag, &a.flaser)?;
     let mut csv = a.out.as_deref().map(CsvOut::create).transpose()?;
     let dump = dump_request(&a)?;
     let mut run = Run {
@@ -106,17 +108,18 @@ pub fn run(a: LocateArgs) -> Result<()> {
         summary: Summary::default(),
         diagnosis: Default::default(),
         unreadable: None,
-        malformed: Malformed::default(),
+        malformed: Malformed::of(source.unit),
+        path: source.path.clone(),
     };
     let mut judge = None;
-    let mut progress = crate::progress::Progress::of_log("", &a.log, None);
+    let mut progress = crate::progress::Progress::of_log("", &source.path, source.total);
     // a malformed laser line keeps its index, so the scans after it keep theirs
-    for (index, item) in reader.enumerate() {
+    for (index, item) in source.scans.enumerate() {
         let item = match item {
             Ok(item) => item,
             // a line `--every` and `--offset` leave out is no concern of this run
-            Err(acquire::LogError::Line { .. }) if !super::selected(index, a.every, a.offset) => continue,
-            Err(e @ acquire::LogError::Line { .. }) => {
+            Err(SourceError::Skip(_)) if !super::selected(index, a.every, a.offset) => continue,
+            Err(SourceError::Skip(e)) => {
                 // one bad line loses its own scan only: the run goes on, and fails at the end.
                 // Its row says `failed`, so the CSV keeps one row per laser line (docs/design.md);
                 // the summary counts only the scans located.
@@ -126,7 +129,7 @@ pub fn run(a: LocateArgs) -> Result<()> {
                 run.malformed.add(e);
                 continue;
             }
-            Err(e) => {
+            Err(SourceError::Stop(e)) => {
                 // a log that cannot be read any further ends the run with its error, after the
                 // scans before it are written and summed up: they are not lost with it
                 run.unreadable = Some(e);
@@ -229,8 +232,10 @@ struct Run {
     dumped: bool,
     summary: Summary,
     diagnosis: crate::diagnose::Diagnosis,
-    unreadable: Option<acquire::LogError>,
+    unreadable: Option<anyhow::Error>,
     malformed: Malformed,
+    /// The log or bag read.
+    path: PathBuf,
 }
 
 impl Run {
@@ -254,7 +259,7 @@ impl Run {
             // an empty result is no answer: a script must not take it for one
             anyhow::bail!(
                 "{}: no laser scan located (no ROBOTLASER1 or FLASER line, or none that --every {} --offset {} selects)",
-                a.log.display(),
+                self.path.display(),
                 a.every,
                 a.offset
             );
@@ -267,7 +272,7 @@ impl Run {
             );
         }
         if a.diagnose && self.diagnosis.is_empty() {
-            anyhow::bail!("--diagnose: {} holds no true pose, so there is nothing to diagnose", a.log.display());
+            anyhow::bail!("--diagnose: {} holds no true pose, so there is nothing to diagnose", self.path.display());
         }
         Ok(())
     }

@@ -10,6 +10,7 @@ pub mod inspect;
 pub mod lines;
 pub mod locate;
 pub mod map;
+pub mod scans;
 pub mod settings;
 pub mod sim;
 
@@ -52,13 +53,20 @@ pub fn selected(index: usize, every: usize, offset: usize) -> bool {
 #[derive(Default)]
 pub struct Malformed {
     count: usize,
-    first: Option<acquire::LogError>,
+    first: Option<String>,
     /// Counts without reporting ([`Malformed::silent`]).
     silent: bool,
+    /// What a scan is in the source: "laser line" when not said.
+    unit: Option<&'static str>,
 }
 
 impl Malformed {
     const REPORTED: usize = 10;
+
+    /// One that calls the scans `unit` ("LaserScan message").
+    pub fn of(unit: &'static str) -> Self {
+        Malformed { unit: Some(unit), ..Malformed::default() }
+    }
 
     /// One that counts the lines without reporting them: for another pass over a log whose
     /// malformed lines were reported already.
@@ -66,16 +74,16 @@ impl Malformed {
         Malformed { silent: true, ..Malformed::default() }
     }
 
-    pub fn add(&mut self, e: acquire::LogError) {
+    pub fn add(&mut self, e: impl std::fmt::Display) {
         self.count += 1;
         if !self.silent {
             if self.count <= Self::REPORTED {
                 eprintln!("skipped {e}");
             } else if self.count == Self::REPORTED + 1 {
-                eprintln!("(more malformed lines: counted, not shown)");
+                eprintln!("(more malformed {}s: counted, not shown)", self.unit());
             }
         }
-        self.first.get_or_insert(e);
+        self.first.get_or_insert_with(|| e.to_string());
     }
 
     /// A reader's item as the run takes it: the scan, or `None` for a malformed line, added
@@ -91,13 +99,21 @@ impl Malformed {
         }
     }
 
+    fn unit(&self) -> &'static str {
+        self.unit.unwrap_or("laser line")
+    }
+
     /// An error when any line was skipped, saying how many and naming the first; what was
     /// done with them is `done` ("skipped").
     pub fn into_result(self, done: &str) -> anyhow::Result<()> {
-        match self.first {
+        match &self.first {
             Some(first) => {
                 let n = self.count;
-                anyhow::bail!("{n} malformed laser line{} {done}, the first {first}", if n == 1 { "" } else { "s" })
+                anyhow::bail!(
+                    "{n} malformed {}{} {done}, the first {first}",
+                    self.unit(),
+                    if n == 1 { "" } else { "s" }
+                )
             }
             None => Ok(()),
         }

@@ -27,3 +27,13 @@ pub fn write_pipeline(dir: &Path, name: &str, map: &str, acquire_args: &[&str]) 
     std::fs::write(&path, text).expect("the pipeline file is written");
     path
 }
+
+/// The project's Python, with scripts/requirements.txt installed (made on first use by
+/// scripts/python-env in target/).
+#[allow(dead_code)] // only the interop tests run Python
+pub fn python() -> PathBuf {
+    let script = concat!(env!("CARGO_MANIFEST_DIR"), "/scripts/python-env");
+    let out = std::process::Command::new(script).output().expect("scripts/python-env runs");
+    assert!(out.status.success(), "scripts/python-env: {}", String::from_utf8_lossy(&out.stderr));
+    PathBuf::from(String::from_utf8_lossy(&out.stdout).trim())
+}

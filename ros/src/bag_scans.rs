@@ -1,0 +1,261 @@
+//! The laser scans of a bag, numbered in bag order, each with its true pose when the bag has a
+//! pose topic to take it from: what `gema2 locate --bag` and `gema2 map build --bag` read.
+//!
+//! Truth comes from a `geometry_msgs/PoseStamped` or `nav_msgs/Odometry` topic, matched to
+//! each scan by header stamp: a pose with the scan's own stamp (when several scans and poses
+//! share a stamp, as in a log whose clock was written with 6 digits, the k-th scan takes the
+//! k-th pose, or the one nearest in bag order when there are fewer poses), else the pose interpolated between the two around the stamp when
+//! they are at most [`MAX_TRUTH_GAP_NS`] apart. A scan between poses further apart, or outside
+//! them, has no truth. With the laser's place on the robot (`laser_pose`), the truth is the
+//! robot's pose and the scan's is that composed with it.
+
+use crate::bag::{Bag, BagError, Messages};
+use crate::msg;
+use laser::{pose, pose_theta, wrap_angle, LaserScan, Pose};
+use thiserror::Error;
+
+/// The widest gap between two true poses that a scan's truth is interpolated across.
+pub const MAX_TRUTH_GAP_NS: i64 = 1_000_000_000;
+
+#[derive(Debug, Error)]
+pub enum BagScanError {
+    /// One message that does not decode: its scan is lost, the bag reads on.
+    #[error("{topic} message {index}: {cause}")]
+    Message { topic: String, index: usize, cause: String },
+    /// The bag cannot be read on.
+    #[error(transparent)]
+    Bag(#[from] BagError),
+    /// The topics asked for are not in the bag, or not of a type that can be read.
+    #[error("{0}")]
+    Topic(String),
+}
+
+impl BagScanError {
+    /// Whether the scans after it can still be read.
+    pub fn is_one_message(&self) -> bool {
+        matches!(self, BagScanError::Message { .. })
+    }
+}
+
+/// Which topics to read, and where the laser sits on the robot.
+#[derive(Clone, Debug, Default)]
+pub struct ScanTopics {
+    /// The LaserScan topic; `None`: the bag's only one.
+    pub scan: Option<String>,
+    /// A PoseStamped or Odometry topic holding the true pose.
+    pub truth: Option<String>,
+    /// The laser's pose in the frame of the truth's pose (x, y, yaw), when they differ.
+    pub laser_pose: Option<(f64, f64, f64)>,
+}
+
+/// One scan of the bag.
+#[derive(Clone, Debug)]
+pub struct BagScan {
+    /// Its number among the bag's LaserScan messages on its topic, from 0.
+    pub index: usize,
+    pub scan: LaserScan,
+}
+
+/// True poses by stamp.
+struct Truth {
+    /// (stamp ns, order in the bag, pose), sorted by stamp then order.
+    poses: Vec<(i64, usize, Pose)>,
+}
+
+impl Truth {
+    /// The true pose at `stamp` of the scan `order`-th in the bag and `rank`-th of those with
+    /// its stamp.
+    fn at(&self, stamp: i64, rank: usize, order: usize) -> Option<Pose> {
+        let from = self.poses.partition_point(|p| p.0 < stamp);
+        let to = self.poses.partition_point(|p| p.0 <= stamp);
+        if from < to {
+            let same = &self.poses[from..to];
+            return same.get(rank).or_else(|| same.iter().min_by_key(|p| p.1.abs_diff(order))).map(|p| p.2);
+        }
+        let (before, after) = (self.poses.get(from.checked_sub(1)?)?, self.poses.get(from)?);
+        if after.0 - before.0 > MAX_TRUTH_GAP_NS {
+            return None;
+        }
+        let s = (stamp - before.0) as f64 / (after.0 - before.0) as f64;
+        let (a, b) = (before.2.translation, after.2.translation);
+        let (ta, tb) = (pose_theta(&before.2), pose_theta(&after.2));
+        Some(pose(a.x + s * (b.x - a.x), a.y + s * (b.y - a.y), wrap_angle(ta + s * wrap_angle(tb - ta))))
+    }
+}
+
+/// A pose message's stamp and planar pose, by its type.
+fn stamped_pose(ros_type: &str, data: &[u8]) -> Result<(i64, Pose), String> {
+    let (header, p) = match ros_type {
+        msg::PoseStamped::TYPE => {
+            let m = msg::PoseStamped::decode(data).map_err(|e| e.to_string())?;
+            (m.header, m.pose)
+        }
+        msg::Odometry::TYPE => {
+            let m = msg::Odometry::decode(data).map_err(|e| e.to_string())?;
+            (m.header, m.pose.pose)
+        }
+        other => return Err(format!("a {other}, not a PoseStamped or Odometry")),
+    };
+    let (x, y, yaw) = p.planar();
+    if !(x.is_finite() && y.is_finite() && yaw.is_finite()) {
+        return Err("a pose that is not finite".into());
+    }
+    Ok((header.stamp.nanos(), pose(x, y, yaw)))
+}
+
+/// The scans of a bag, in bag order.
+pub struct BagScans {
+    messages: Messages,
+    topic: String,
+    truth: Option<Truth>,
+    laser_pose: Option<Pose>,
+    index: usize,
+    /// Messages of the bag read so far (scans and others), for matching truth.
+    order: usize,
+    /// Scans read so far with each stamp.
+    ranks: std::collections::HashMap<i64, usize>,
+    /// Scans the bag holds on the topic, when its summaries say.
+    pub total: Option<u64>,
+    /// Messages of the truth topic that did not decode.
+    pub bad_truth: usize,
+}
+
+impl BagScans {
+    /// The scans of `bag` on `topics.scan`, with truth from `topics.truth`. Reads the truth
+    /// topic through first.
+    pub fn open(bag: &Bag, topics: &ScanTopics) -> Result<Self, BagScanError> {
+        let all = bag.topics()?;
+        let listing = || all.iter().map(|t| format!("{} ({})", t.name, t.ros_type)).collect::<Vec<_>>().join(", ");
+        let scans: Vec<_> = all.iter().filter(|t| t.ros_type == msg::LaserScan::TYPE).collect();
+        let topic = match &topics.scan {
+            Some(name) => match all.iter().find(|t| &t.name == name) {
+                Some(t) if t.ros_type == msg::LaserScan::TYPE => t,
+                Some(t) => return Err(BagScanError::Topic(format!("{name} holds {}, not LaserScan", t.ros_type))),
+                None => return Err(BagScanError::Topic(format!("no topic {name} in the bag; it has {}", listing()))),
+            },
+            None => match scans.as_slice() {
+                [only] => only,
+                [] => return Err(BagScanError::Topic(format!("no LaserScan topic in the bag; it has {}", listing()))),
+                several => {
+                    let names: Vec<&str> = several.iter().map(|t| t.name.as_str()).collect();
+                    return Err(BagScanError::Topic(format!(
+                        "the bag has {} LaserScan topics ({}): say which with --scan-topic",
+                        names.len(),
+                        names.join(", ")
+                    )));
+                }
+            },
+        };
+        let mut bad_truth = 0;
+        let truth = match &topics.truth {
+            None => None,
+            Some(name) => {
+                let Some(t) = all.iter().find(|t| &t.name == name) else {
+                    return Err(BagScanError::Topic(format!("no truth topic {name} in the bag; it has {}", listing())));
+                };
+                if t.ros_type != msg::PoseStamped::TYPE && t.ros_type != msg::Odometry::TYPE {
+                    return Err(BagScanError::Topic(format!(
+                        "the truth topic {name} holds {}, not PoseStamped or Odometry",
+                        t.ros_type
+                    )));
+                }
+                let mut poses = Vec::new();
+                for (order, m) in bag.messages(&[&topic.name, name]).enumerate() {
+                    let m = m?;
+                    if *m.topic == **name {
+                        match stamped_pose(&m.ros_type, &m.data) {
+                            Ok((stamp, p)) => poses.push((stamp, order, p)),
+                            Err(_) => bad_truth += 1,
+                        }
+                    }
+                }
+                poses.sort_by_key(|p| (p.0, p.1));
+                Some(Truth { poses })
+            }
+        };
+        let wanted: Vec<&str> = [Some(topic.name.as_str()), topics.truth.as_deref()].into_iter().flatten().collect();
+        Ok(BagScans {
+            messages: bag.messages(&wanted),
+            topic: topic.name.clone(),
+            truth,
+            laser_pose: topics.laser_pose.map(|(x, y, t)| pose(x, y, t)),
+            index: 0,
+            order: 0,
+            ranks: Default::default(),
+            total: topic.messages,
+            bad_truth,
+        })
+    }
+
+    /// The topic read.
+    pub fn topic(&self) -> &str {
+        &self.topic
+    }
+}
+
+impl Iterator for BagScans {
+    type Item = Result<BagScan, BagScanError>;
+
+    fn next(&mut self) -> Option<Self::Item> {
+        loop {
+            let m = match self.messages.next()? {
+                Ok(m) => m,
+                Err(e) => return Some(Err(e.into())),
+            };
+            let order = self.order;
+            self.order += 1;
+            if *m.topic != *self.topic {
+                continue;
+            }
+            let index = self.index;
+            self.index += 1;
+            let lost = |cause: String| BagScanError::Message { topic: self.topic.clone(), index, cause };
+            let message = match msg::LaserScan::decode(&m.data) {
+                Ok(message) => message,
+                Err(e) => return Some(Err(lost(e.to_string()))),
+            };
+            let mut scan = match crate::scan::laser_scan(&message) {
+                Ok(scan) => scan,
+                Err(e) => return Some(Err(lost(e.to_string()))),
+            };
+            let stamp = message.header.stamp.nanos();
+            let rank = self.ranks.entry(stamp).or_default();
+            scan.truth = self.truth.as_ref().and_then(|t| t.at(stamp, *rank, order));
+            *rank += 1;
+            if let (Some(truth), Some(mount)) = (scan.truth.as_mut(), self.laser_pose) {
+                *truth *= mount;
+            }
+            return Some(Ok(BagScan { index, scan }));
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn truth(poses: &[(i64, f64)]) -> Truth {
+        Truth { poses: poses.iter().enumerate().map(|(k, &(t, x))| (t, 2 * k, pose(x, 0.0, 0.0))).collect() }
+    }
+
+    #[test]
+    fn truth_is_the_pose_at_the_stamp_or_between_the_two_around_it() {
+        let t = truth(&[(0, 0.0), (100_000_000, 1.0), (100_000_000, 5.0), (3_000_000_000, 9.0)]);
+        assert_eq!(t.at(0, 0, 0).unwrap().translation.x, 0.0);
+        // two poses share a stamp: the first scan with it takes the first, the second the second
+        assert_eq!(t.at(100_000_000, 0, 3).unwrap().translation.x, 1.0);
+        assert_eq!(t.at(100_000_000, 1, 3).unwrap().translation.x, 5.0);
+        // a third takes the one nearest in the bag
+        assert_eq!(t.at(100_000_000, 2, 5).unwrap().translation.x, 5.0);
+        assert!((t.at(50_000_000, 0, 1).unwrap().translation.x - 0.5).abs() < 1e-12);
+        assert!(t.at(2_000_000_000, 0, 6).is_none(), "poses 2.9 s apart");
+        assert!(t.at(-1, 0, 0).is_none() && t.at(4_000_000_000, 0, 9).is_none(), "outside the poses");
+    }
+
+    #[test]
+    fn headings_are_interpolated_the_short_way_round() {
+        let t = Truth { poses: vec![(0, 0, pose(0.0, 0.0, 3.0)), (10, 1, pose(0.0, 0.0, -3.0))] };
+        let mid = pose_theta(&t.at(5, 0, 0).unwrap());
+        assert!((mid.abs() - std::f64::consts::PI).abs() < 1e-9, "{mid}");
+    }
+}

@@ -1,0 +1,18 @@
+//! ROS 2 interop without a ROS installation: the messages gema2 reads and writes, in the CDR
+//! encoding ROS 2 puts on the wire and in bags ([`cdr`], [`msg`]); a `sensor_msgs/LaserScan` as
+//! the scan every stage sees, read as REP 117 says ([`scan`]); and rosbag2 bags in MCAP storage
+//! ([`bag`]).
+//!
+//! One job: ROS 2 bytes in and out. Depends on `laser` (what a scan and a pose are) and the
+//! `mcap` crate; nothing here knows the algorithm or the pipeline.
+
+pub mod bag;
+pub mod bag_scans;
+pub mod cdr;
+pub mod msg;
+pub mod scan;
+
+pub use bag::{Bag, BagError, BagMessage};
+pub use bag_scans::{BagScan, BagScanError, BagScans, ScanTopics};
+pub use cdr::CdrError;
+pub use scan::{laser_scan, ScanError};

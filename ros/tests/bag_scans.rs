@@ -1,0 +1,135 @@
+//! Bags as drivers in the wild leave them, written here with the `mcap` crate's writer (zstd
+//! chunks, as rosbag2's MCAP plugin writes by default): a message that does not decode costs
+//! its own scan only; two LaserScan topics need choosing; REP 117's readings and clockwise
+//! beams arrive as the stages expect them.
+
+use mcap::records::MessageHeader;
+use ros::msg::{self, Header, Time};
+use ros::{Bag, BagScanError, BagScans, ScanTopics};
+use std::collections::BTreeMap;
+use std::path::Path;
+
+/// Message k's stamp: 100 s, then 0.4 s apart.
+fn at(k: u32) -> Time {
+    Time::from_nanos(100_000_000_000 + k as u64 * 400_000_000)
+}
+
+fn scan(k: u32, increment: f32) -> msg::LaserScan {
+    msg::LaserScan {
+        header: Header { stamp: at(k), frame_id: "laser".into() },
+        angle_min: -increment * 2.0,
+        angle_max: increment * 2.0,
+        angle_increment: increment,
+        range_min: 0.05,
+        range_max: 10.0,
+        ranges: vec![1.0 + k as f32, f32::INFINITY, f32::NAN, 20.0, 0.01],
+        intensities: if k % 2 == 0 { vec![] } else { vec![100.0; 5] },
+        ..Default::default()
+    }
+}
+
+/// Writes `messages` (topic, type, CDR bytes) as one MCAP file.
+fn write_bag(path: &Path, messages: &[(&str, &str, Vec<u8>)]) {
+    let mut w = mcap::WriteOptions::new()
+        .compression(Some(mcap::Compression::Zstd))
+        .chunk_size(Some(256))
+        .create(std::io::BufWriter::new(std::fs::File::create(path).unwrap()))
+        .unwrap();
+    let mut channels = BTreeMap::new();
+    for (k, (topic, ros_type, data)) in messages.iter().enumerate() {
+        let id = *channels.entry(*topic).or_insert_with(|| {
+            let schema = w.add_schema(ros_type, "ros2msg", b"").unwrap();
+            w.add_channel(schema, topic, "cdr", &BTreeMap::new()).unwrap()
+        });
+        let header = MessageHeader { channel_id: id, sequence: k as u32, log_time: k as u64, publish_time: k as u64 };
+        w.write_to_known_channel(&header, data).unwrap();
+    }
+    w.finish().unwrap();
+}
+
+#[test]
+fn a_message_that_does_not_decode_costs_its_own_scan_only() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("scans.mcap");
+    let good = |k| (("/scan"), msg::LaserScan::TYPE, scan(k, 0.1).encode());
+    let mut cut = scan(1, 0.1).encode();
+    cut.truncate(cut.len() - 9);
+    let mut messages = vec![good(0), ("/scan", msg::LaserScan::TYPE, cut), good(2)];
+    // an unusable layout, and a message of another topic between
+    let mut bad_layout = scan(3, 0.1);
+    bad_layout.range_max = -1.0;
+    messages.push(("/scan", msg::LaserScan::TYPE, bad_layout.encode()));
+    messages.push(("/other", msg::PoseStamped::TYPE, msg::PoseStamped::default().encode()));
+    messages.push(good(4));
+    write_bag(&path, &messages);
+    let bag = Bag::open(&path).unwrap();
+    let got: Vec<Result<usize, String>> = BagScans::open(&bag, &ScanTopics::default())
+        .unwrap()
+        .map(|r| {
+            r.map(|s| s.index).map_err(|e| {
+                assert!(e.is_one_message(), "{e}");
+                e.to_string()
+            })
+        })
+        .collect();
+    assert_eq!(got.len(), 5);
+    assert_eq!(got[0], Ok(0));
+    assert!(got[1].as_ref().is_err_and(|e| e.contains("/scan message 1")), "{got:?}");
+    assert_eq!(got[2], Ok(2));
+    assert!(got[3].as_ref().is_err_and(|e| e.contains("layout")), "{got:?}");
+    assert_eq!(got[4], Ok(4));
+}
+
+#[test]
+fn readings_and_clockwise_beams_arrive_as_the_stages_expect_them() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("scans.mcap");
+    write_bag(&path, &[("/scan", msg::LaserScan::TYPE, scan(0, -0.1).encode())]);
+    let s = BagScans::open(&Bag::open(&path).unwrap(), &ScanTopics::default()).unwrap().next().unwrap().unwrap().scan;
+    assert_eq!(s.stamp, 100.0);
+    assert!((s.geometry.angle(0) - 0.2).abs() < 1e-6 && (s.geometry.angle(4) + 0.2).abs() < 1e-6, "clockwise");
+    let kinds: Vec<laser::Reading> = s.ranges.iter().map(|&r| s.geometry.classify(r as f64)).collect();
+    use laser::Reading::*;
+    assert_eq!(kinds, vec![Valid(1.0), NoReturn, Unknown, Unknown, Unknown]);
+}
+
+#[test]
+fn two_laser_topics_need_choosing_and_truth_comes_by_stamp() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("scans.mcap");
+    let truth = |k: u32, x: f64| msg::PoseStamped {
+        header: Header { stamp: at(k), frame_id: "map".into() },
+        pose: msg::Pose::from_planar(x, 0.0, 0.0),
+    };
+    let odom = |k: u32, x: f64| msg::Odometry {
+        header: truth(k, x).header,
+        child_frame_id: "base_link".into(),
+        pose: msg::PoseWithCovariance { pose: msg::Pose::from_planar(x, 1.0, 0.0), ..Default::default() },
+    };
+    write_bag(
+        &path,
+        &[
+            ("/front", msg::LaserScan::TYPE, scan(0, 0.1).encode()),
+            ("/rear", msg::LaserScan::TYPE, scan(0, 0.1).encode()),
+            ("/truth", msg::PoseStamped::TYPE, truth(0, 1.0).encode()),
+            ("/odom", msg::Odometry::TYPE, odom(0, 1.0).encode()),
+            ("/front", msg::LaserScan::TYPE, scan(1, 0.1).encode()),
+            ("/truth", msg::PoseStamped::TYPE, truth(2, 3.0).encode()),
+            ("/odom", msg::Odometry::TYPE, odom(2, 3.0).encode()),
+        ],
+    );
+    let bag = Bag::open(&path).unwrap();
+    match BagScans::open(&bag, &ScanTopics::default()) {
+        Err(BagScanError::Topic(e)) => assert!(e.contains("/front, /rear") && e.contains("--scan-topic"), "{e}"),
+        other => panic!("{:?}", other.map(|_| ())),
+    }
+    for (topic, y) in [("/truth", 0.0), ("/odom", 1.0)] {
+        let topics =
+            ScanTopics { scan: Some("/front".into()), truth: Some(topic.into()), laser_pose: Some((0.5, 0.0, 0.0)) };
+        let scans: Vec<_> = BagScans::open(&bag, &topics).unwrap().map(|s| s.unwrap().scan.truth.unwrap()).collect();
+        // at its own stamp, and halfway between two; the laser half a metre ahead of the robot
+        assert_eq!(scans.len(), 2);
+        assert!((scans[0].translation.x - 1.5).abs() < 1e-9 && (scans[0].translation.y - y).abs() < 1e-9);
+        assert!((scans[1].translation.x - 2.5).abs() < 1e-9, "{:?}", scans[1]);
+    }
+}

@@ -1,0 +1,93 @@
+//! Where a command reads its scans: a CARMEN log (`--log`) or a ROS 2 bag (`--bag`, MCAP
+//! storage, CDR), each scan numbered as it comes, malformed ones skipped and counted.
+
+use acquire::{CarmenReader, FlaserArgs, LogScan};
+use anyhow::{Context, Result};
+use clap::Args;
+use std::path::{Path, PathBuf};
+
+/// A ROS 2 bag as the source of scans.
+#[derive(Args, Clone, Debug, Default)]
+pub struct BagArgs {
+    /// A ROS 2 bag instead of a log: its directory (with metadata.yaml) or one .mcap file.
+    /// Scans are numbered by LaserScan message in bag order.
+    #[arg(long, conflicts_with = "log")]
+    pub bag: Option<PathBuf>,
+    /// The bag's sensor_msgs/LaserScan topic (default: its only one).
+    #[arg(long, requires = "bag")]
+    pub scan_topic: Option<String>,
+    /// A geometry_msgs/PoseStamped or nav_msgs/Odometry topic of the bag holding the true pose
+    /// (in the map's frame), matched to each scan by stamp; without it the bag has no truth.
+    #[arg(long, requires = "bag")]
+    pub truth_topic: Option<String>,
+    /// The laser's place on the robot, `x,y,yaw` (metres, radians), when the truth topic gives
+    /// the robot's pose rather than the laser's.
+    #[arg(long, requires = "truth_topic", value_parser = laser_pose_arg, allow_hyphen_values = true)]
+    pub laser_pose: Option<(f64, f64, f64)>,
+}
+
+/// `x,y,yaw`.
+pub fn laser_pose_arg(s: &str) -> Result<(f64, f64, f64), String> {
+    let v: Vec<f64> =
+        s.split(',').map(|t| t.trim().parse::<f64>()).collect::<Result<_, _>>().map_err(|e| format!("{s}: {e}"))?;
+    match v.as_slice() {
+        &[x, y, yaw] if v.iter().all(|c| c.is_finite()) => Ok((x, y, yaw)),
+        _ => Err(format!("{s}: three finite numbers x,y,yaw (metres, radians)")),
+    }
+}
+
+/// Why a scan was not read.
+#[derive(Debug)]
+pub enum SourceError {
+    /// This one scan: the ones after it can still be read.
+    Skip(String),
+    /// The source cannot be read on.
+    Stop(anyhow::Error),
+}
+
+/// The scans of a log or a bag.
+pub struct Source {
+    /// The log or bag, for messages.
+    pub path: PathBuf,
+    /// What the scans are called in messages: "laser line", "LaserScan message".
+    pub unit: &'static str,
+    /// How many scans it holds, when known beforehand.
+    pub total: Option<u64>,
+    pub scans: Box<dyn Iterator<Item = Result<LogScan, SourceError>>>,
+}
+
+impl Source {
+    /// The scans of `log` or of `bag.bag`.
+    pub fn open(log: Option<&Path>, bag: &BagArgs, flaser: &FlaserArgs) -> Result<Source> {
+        if let Some(path) = &bag.bag {
+            let opened = ros::Bag::open(path)?;
+            let topics = ros::ScanTopics {
+                scan: bag.scan_topic.clone(),
+                truth: bag.truth_topic.clone(),
+                laser_pose: bag.laser_pose,
+            };
+            let scans = ros::BagScans::open(&opened, &topics).map_err(|e| match e {
+                ros::BagScanError::Topic(_) => anyhow::anyhow!("{}: {e}", path.display()),
+                e => e.into(),
+            })?;
+            if scans.bad_truth > 0 {
+                eprintln!("{}: {} messages of the truth topic did not decode", path.display(), scans.bad_truth);
+            }
+            let total = scans.total;
+            let items = scans.map(|item| match item {
+                Ok(s) => Ok(LogScan { line: s.index, scan: s.scan, odometry: None }),
+                Err(e) if e.is_one_message() => Err(SourceError::Skip(e.to_string())),
+                Err(e) => Err(SourceError::Stop(e.into())),
+            });
+            return Ok(Source { path: path.clone(), unit: "LaserScan message", total, scans: Box::new(items) });
+        }
+        let path = log.context("no scans to read: give --log or --bag")?;
+        let reader = CarmenReader::open(path, flaser.layout()?)?;
+        let items = reader.map(|item| match item {
+            Ok(s) => Ok(s),
+            Err(e @ acquire::LogError::Line { .. }) => Err(SourceError::Skip(e.to_string())),
+            Err(e) => Err(SourceError::Stop(e.into())),
+        });
+        Ok(Source { path: path.to_owned(), unit: "laser line", total: None, scans: Box::new(items) })
+    }
+}

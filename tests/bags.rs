@@ -1,0 +1,221 @@
+//! ROS 2 bags written by an implementation that is not ours (the PyPI `rosbags` package, through
+//! scripts/carmen2bag.py): `gema2 locate --bag` gives the rows `--log` gives on the same scans.
+
+mod common;
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+const MAP: &str = "apartment";
+
+fn exe() -> &'static str {
+    env!("CARGO_BIN_EXE_gema2")
+}
+
+fn gema2(args: &[&str]) -> Output {
+    Command::new(exe()).args(args).output().expect("gema2 runs")
+}
+
+fn ok(out: Output) -> String {
+    assert!(out.status.success(), "{}\n{}", String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr));
+    String::from_utf8_lossy(&out.stdout).into_owned()
+}
+
+/// `scripts/carmen2bag.py LOG OUT extra...`.
+fn carmen2bag(log: &Path, out: &Path, extra: &[&str]) {
+    let script = concat!(env!("CARGO_MANIFEST_DIR"), "/scripts/carmen2bag.py");
+    let run = Command::new(common::python()).arg(script).arg(log).arg(out).args(extra).output().unwrap();
+    assert!(run.status.success(), "carmen2bag.py: {}", String::from_utf8_lossy(&run.stderr));
+}
+
+/// A CSV row: status, x, y, theta, score.
+type Row = (String, f64, f64, f64, f64);
+
+/// The CSV rows of `path`.
+fn rows(path: &Path) -> Vec<Row> {
+    std::fs::read_to_string(path)
+        .unwrap()
+        .lines()
+        .skip(1)
+        .map(|l| {
+            let f: Vec<&str> = l.split(',').collect();
+            let num = |k: usize| f[k].parse::<f64>().unwrap_or(f64::NAN);
+            (f[5].to_owned(), num(1), num(2), num(3), num(4))
+        })
+        .collect()
+}
+
+/// Locates `source` (`--log L` or `--bag B ...`) on `map` and returns the CSV rows and the report.
+fn locate(dir: &Path, name: &str, map: &str, source: &[&str], extra: &[&str]) -> (Vec<Row>, String) {
+    let csv = dir.join(format!("{name}.csv"));
+    let mut args = vec!["locate", "--map", map, "--out", csv.to_str().unwrap()];
+    args.extend_from_slice(source);
+    args.extend_from_slice(extra);
+    let report = ok(gema2(&args));
+    (rows(&csv), report)
+}
+
+/// How many rows agree (the same status, and the same pose within 1 cm and 0.5 degrees), and
+/// how many more are ties: ambiguous both ways, with the same score, the best of two equally good
+/// poses told apart by the last bits of a float. A bag carries a scan's angles as float32,
+/// a log as decimals, and a symmetric world's ties fall either way; so do they between a FLASER
+/// and a ROBOTLASER1 line of the same scan.
+fn agreeing(a: &[Row], b: &[Row]) -> (usize, usize) {
+    let same = |p: &Row, q: &Row| {
+        let turn = (p.3 - q.3 + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU) - std::f64::consts::PI;
+        p.0 == q.0 && (p.0 == "failed" || ((p.1 - q.1).hypot(p.2 - q.2) <= 0.01 && turn.abs().to_degrees() <= 0.5))
+    };
+    let tie = |p: &Row, q: &Row| p.0 == "ambiguous" && q.0 == "ambiguous" && (p.4 - q.4).abs() < 1e-3;
+    let agree = a.iter().zip(b).filter(|(p, q)| same(p, q)).count();
+    let ties = a.iter().zip(b).filter(|(p, q)| !same(p, q) && tie(p, q)).count();
+    (agree, ties)
+}
+
+/// A FLASER copy of a simulated SICK-like ROBOTLASER1 log: n readings from -90 degrees over
+/// 180, the laser pose and the odometry pose, and a time written with 6 digits, as in the
+/// CSAIL log: every scan has the same stamp, and the truth must still pair up.
+fn as_flaser(log: &Path, out: &Path) {
+    let text = std::fs::read_to_string(log).unwrap();
+    let mut lines = String::new();
+    for l in text.lines().filter(|l| l.starts_with("ROBOTLASER1")) {
+        let t: Vec<&str> = l.split_whitespace().collect();
+        let n: usize = t[8].parse().unwrap();
+        let ranges = &t[9..9 + n];
+        let p = 9 + n + 1; // after the remission count (0)
+        let (x, y, th, stamp) = (t[p], t[p + 1], t[p + 2], "1.13486e+09");
+        lines += &format!("FLASER {n} {} {x} {y} {th} {x} {y} {th} {stamp} sim {stamp}\n", ranges.join(" "));
+    }
+    std::fs::write(out, lines).unwrap();
+}
+
+/// A simulated log of `scans` scans in the apartment (a world with few symmetries).
+fn sim(dir: &Path, name: &str, scans: usize, extra: &[&str]) -> PathBuf {
+    let log = dir.join(name);
+    let scans = scans.to_string();
+    let mut args = vec!["sim", "--map", MAP, "--scans", &scans, "--seed", "4", "--out", log.to_str().unwrap()];
+    args.extend_from_slice(extra);
+    ok(gema2(&args));
+    log
+}
+
+#[test]
+fn a_bag_written_by_rosbags_locates_as_the_log_it_was_made_from() {
+    let dir = tempfile::tempdir().unwrap();
+    // a URG-04LX log (ROBOTLASER1), and a SICK-like one as FLASER lines with no-return readings
+    let urg = sim(dir.path(), "urg.log", 60, &[]);
+    let sick = sim(
+        dir.path(),
+        "sick.log",
+        60,
+        &["--beams", "181", "--fov", "180", "--range-max", "8", "--dropout-as-max-range"],
+    );
+    let flaser = dir.path().join("sick-flaser.log");
+    as_flaser(&sick, &flaser);
+    for (name, log, extra) in [("urg", &urg, &[][..]), ("flaser", &flaser, &["--flaser-range-max", "8"][..])] {
+        let bag = dir.path().join(format!("{name}-bag"));
+        carmen2bag(log, &bag, extra);
+        let log_s = log.to_str().unwrap();
+        let bag_s = bag.to_str().unwrap();
+        for selection in [&["--every", "1"][..], &["--every", "3", "--offset", "2"][..]] {
+            let (by_log, log_report) =
+                locate(dir.path(), &format!("{name}-log"), MAP, &["--log", log_s], &[extra, selection].concat());
+            let (by_bag, bag_report) = locate(
+                dir.path(),
+                &format!("{name}-bag"),
+                MAP,
+                &["--bag", bag_s, "--truth-topic", "/truth"],
+                selection,
+            );
+            assert_eq!(by_log.len(), by_bag.len(), "{name} {selection:?}: one row per scan");
+            assert!(by_log.len() >= 20, "{name}: {} rows", by_log.len());
+            let (agree, ties) = agreeing(&by_log, &by_bag);
+            assert!(agree * 100 >= by_log.len() * 99, "{name} {selection:?}: {agree} of {} rows agree", by_log.len());
+            assert_eq!(agree + ties, by_log.len(), "{name} {selection:?}: rows that neither agree nor tie");
+            // the truth topic gives the same success figures
+            let success = |r: &str| r.lines().find(|l| l.starts_with("success")).map(str::to_owned);
+            assert!(success(&log_report).is_some(), "{log_report}");
+            assert_eq!(success(&log_report), success(&bag_report), "{name} {selection:?}");
+        }
+        // the bag's single file reads as the bag
+        let file = std::fs::read_dir(&bag)
+            .unwrap()
+            .map(|e| e.unwrap().path())
+            .find(|p| p.extension().is_some_and(|e| e == "mcap"))
+            .unwrap();
+        let (by_file, _) = locate(dir.path(), &format!("{name}-file"), MAP, &["--bag", file.to_str().unwrap()], &[]);
+        let (by_log, _) = locate(dir.path(), &format!("{name}-log"), MAP, &["--log", log_s], extra);
+        assert!(agreeing(&by_log, &by_file).0 * 100 >= by_log.len() * 99);
+    }
+}
+
+#[test]
+fn bags_gema2_cannot_read_are_refused_in_words() {
+    let dir = tempfile::tempdir().unwrap();
+    let log = sim(dir.path(), "urg.log", 30, &[]);
+    // sqlite3 storage: the command that converts it
+    let db3 = dir.path().join("db3-bag");
+    carmen2bag(&log, &db3, &["--storage", "sqlite3"]);
+    let out = gema2(&["locate", "--bag", db3.to_str().unwrap()]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success() && err.contains("sqlite3") && err.contains("ros2 bag convert"), "{err}");
+    // a topic that is not there, and a truth topic that holds scans
+    let bag = dir.path().join("bag");
+    carmen2bag(&log, &bag, &[]);
+    let b = bag.to_str().unwrap();
+    let out = gema2(&["locate", "--bag", b, "--scan-topic", "/laser"]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success() && err.contains("no topic /laser") && err.contains("/scan"), "{err}");
+    let out = gema2(&["locate", "--bag", b, "--truth-topic", "/scan"]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success() && err.contains("not PoseStamped or Odometry"), "{err}");
+    // a directory that is no bag
+    let out = gema2(&["locate", "--bag", dir.path().to_str().unwrap()]);
+    assert!(String::from_utf8_lossy(&out.stderr).contains("not a bag"));
+}
+
+#[test]
+fn a_bag_cut_short_locates_the_scans_before_the_cut_and_fails() {
+    let dir = tempfile::tempdir().unwrap();
+    let log = sim(dir.path(), "urg.log", 40, &[]);
+    let bag = dir.path().join("bag");
+    carmen2bag(&log, &bag, &[]);
+    let file = std::fs::read_dir(&bag)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .find(|p| p.extension().is_some_and(|e| e == "mcap"))
+        .unwrap();
+    let bytes = std::fs::read(&file).unwrap();
+    let cut = dir.path().join("cut.mcap");
+    std::fs::write(&cut, &bytes[..bytes.len() / 2]).unwrap();
+    let csv = dir.path().join("cut.csv");
+    let out = gema2(&["locate", "--bag", cut.to_str().unwrap(), "--out", csv.to_str().unwrap()]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success() && err.contains("cut.mcap") && err.contains("stopped there"), "{err}");
+    let n = rows(&csv).len();
+    assert!((10..40).contains(&n), "{n} rows before the cut");
+}
+
+#[test]
+fn a_map_built_from_a_bag_is_the_map_built_from_its_log() {
+    let dir = tempfile::tempdir().unwrap();
+    let log = sim(dir.path(), "urg.log", 100, &[]);
+    let bag = dir.path().join("bag");
+    carmen2bag(&log, &bag, &[]);
+    let built = |name: &str, source: &[&str]| {
+        let out = dir.path().join(name);
+        let mut args = vec!["map", "build", "--out", out.to_str().unwrap()];
+        args.extend_from_slice(source);
+        let run = gema2(&args);
+        assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
+        let text = std::fs::read_to_string(&out).unwrap();
+        let walls = text.lines().filter(|l| l.trim_start().starts_with('[')).count();
+        (String::from_utf8_lossy(&run.stderr).lines().next().unwrap_or("").replace(name, ""), walls)
+    };
+    let from_log = built("log.json", &["--log", log.to_str().unwrap()]);
+    let from_bag = built("bag.json", &["--bag", bag.to_str().unwrap(), "--truth-topic", "/truth"]);
+    assert!(from_log.1 > 10, "{from_log:?}");
+    assert_eq!(from_log, from_bag);
+    // a bag without truth builds nothing, and says why
+    let out = gema2(&["map", "build", "--bag", bag.to_str().unwrap(), "--out", "/dev/null"]);
+    assert!(String::from_utf8_lossy(&out.stderr).contains("--truth-topic"));
+}
