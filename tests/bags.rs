@@ -219,3 +219,45 @@ fn a_map_built_from_a_bag_is_the_map_built_from_its_log() {
     let out = gema2(&["map", "build", "--bag", bag.to_str().unwrap(), "--out", "/dev/null"]);
     assert!(String::from_utf8_lossy(&out.stderr).contains("--truth-topic"));
 }
+
+/// The acquire stage replays a bag into the pipeline: every scan located, with the rows
+/// `locate --bag` computes offline; at `--rate recorded` at the pace of the stamps.
+#[test]
+fn the_pipeline_replays_a_bag_as_fast_as_it_goes_or_as_recorded() {
+    let dir = tempfile::tempdir().unwrap();
+    let log = sim(dir.path(), "urg.log", 40, &[]);
+    let bag = dir.path().join("bag");
+    carmen2bag(&log, &bag, &[]);
+    let bag_s = bag.to_str().unwrap();
+    let (offline, _) = locate(dir.path(), "offline", MAP, &["--bag", bag_s], &[]);
+    for rate in ["max", "recorded"] {
+        let pipeline = common::write_pipeline(dir.path(), "p.toml", MAP, &["--bag", bag_s, "--rate", rate]);
+        let online = dir.path().join(format!("online-{rate}.csv"));
+        let prefix = format!("tbag{rate}_{}", std::process::id());
+        let start = std::time::Instant::now();
+        let out = gema2(&[
+            "run",
+            "--pipeline",
+            pipeline.to_str().unwrap(),
+            "--prefix",
+            &prefix,
+            "--scans",
+            "40",
+            "--timeout",
+            "60",
+            "--out",
+            online.to_str().unwrap(),
+        ]);
+        let took = start.elapsed().as_secs_f64();
+        let report = String::from_utf8_lossy(&out.stdout);
+        assert!(out.status.success(), "{report}\n{}", String::from_utf8_lossy(&out.stderr));
+        assert!(report.contains("poses received 40 of 40"), "{rate}: {report}");
+        let online = rows(&online);
+        assert_eq!(online.len(), 40);
+        assert!(online.iter().zip(&offline).all(|(a, b)| a == b), "{rate}: the pipeline's rows are locate's");
+        if rate == "recorded" {
+            // 40 scans stamped 0.1 s apart
+            assert!(took > 3.8, "{rate}: {took} s");
+        }
+    }
+}

@@ -35,6 +35,14 @@ pub struct AcquireArgs {
     /// Replay a URG-04LX log (the format of datasets/urg04lx) instead of simulating.
     #[arg(long)]
     pub urg_log: Option<PathBuf>,
+    /// Replay the LaserScans of a ROS 2 bag (a bag directory or one .mcap file) instead of
+    /// simulating; `--rate recorded` keeps their recorded pace. A message that does not decode
+    /// is reported and skipped.
+    #[arg(long)]
+    pub bag: Option<PathBuf>,
+    /// The bag's LaserScan topic (default: its only one).
+    #[arg(long, requires = "bag")]
+    pub scan_topic: Option<String>,
     /// Read a real Hokuyo URG-04LX on this serial port (SCIP 2.0).
     #[arg(long, conflicts_with = "tcp")]
     pub serial: Option<String>,
@@ -61,7 +69,8 @@ pub struct AcquireArgs {
     /// Scans to publish (0: until the source ends or forever).
     #[arg(long, default_value_t = 0)]
     pub scans: u64,
-    /// Scans per second, or `max`.
+    /// Scans per second, `max`, or `recorded` (a log's or bag's scans at the pace of their
+    /// stamps).
     #[arg(long, default_value = "10", value_parser = rate_arg)]
     pub rate: String,
     /// Number of the first scan.
@@ -112,9 +121,16 @@ pub fn scan_to_msg(scan: &LaserScan, seq: u64, stamp_ns: u64, m: &mut ScanMsg) {
     }
 }
 
-/// A log line that does not parse: the lines after it can still be read.
+/// A scan of a source that could not be read, the ones after it still can: a bag message that
+/// does not decode.
+#[derive(Debug, thiserror::Error)]
+#[error("{0}")]
+struct Skipped(String);
+
+/// A log line that does not parse, or a bag message that does not decode: the scans after it
+/// can still be read.
 fn is_malformed_line(e: &anyhow::Error) -> bool {
-    matches!(e.downcast_ref::<crate::LogError>(), Some(crate::LogError::Line { .. }))
+    matches!(e.downcast_ref::<crate::LogError>(), Some(crate::LogError::Line { .. })) || e.is::<Skipped>()
 }
 
 type Source = Box<dyn Iterator<Item = Result<LaserScan>>>;
@@ -144,6 +160,18 @@ fn source(a: &AcquireArgs) -> Result<(Source, &'static str)> {
     }
     if let Some(address) = &a.tcp {
         return Ok((sensor(crate::scip::TcpSource::new(address)), "scip2-tcp"));
+    }
+    if let Some(path) = &a.bag {
+        let bag = ros::Bag::open(path)?;
+        let topics = ros::ScanTopics { scan: a.scan_topic.clone(), ..Default::default() };
+        let scans = ros::BagScans::open(&bag, &topics).map_err(|e| anyhow!("{}: {e}", path.display()))?;
+        let items = scans.map(|item| {
+            item.map(|s| s.scan).map_err(|e| match e.is_one_message() {
+                true => anyhow::Error::new(Skipped(e.to_string())),
+                false => e.into(),
+            })
+        });
+        return Ok((Box::new(items), "ros2-bag"));
     }
     if let Some(path) = &a.urg_log {
         let reader = crate::urg_log::UrgLogReader::open(path)?;
@@ -233,6 +261,7 @@ pub fn run(a: AcquireArgs) -> Result<()> {
         producer,
         thinned: false,
     };
+    let mut recorded = (a.rate == "recorded" && !a.is_sensor()).then(Pace::default);
     let mut seq = a.first_seq;
     let mut skipped = 0u64;
     let mut next = monotonic_ns();
@@ -252,7 +281,7 @@ pub fn run(a: AcquireArgs) -> Result<()> {
             signalled = true; // SIGINT or SIGTERM
             break;
         }
-        let enter = monotonic_ns();
+        let mut enter = monotonic_ns();
         let scan = match scans.next() {
             None => break,
             Some(Ok(scan)) => scan,
@@ -263,6 +292,13 @@ pub fn run(a: AcquireArgs) -> Result<()> {
             }
             Some(Err(e)) => return Err(e.context("acquire: reading the source")),
         };
+        if let Some(pace) = recorded.as_mut() {
+            if !pace.wait(&node, scan.stamp) {
+                signalled = true;
+                break;
+            }
+            enter = monotonic_ns();
+        }
         out.publish(&scan, seq, enter)?;
         seq += 1;
     }
@@ -281,6 +317,36 @@ pub fn run(a: AcquireArgs) -> Result<()> {
         eprintln!("acquire: {r}");
     }
     Ok(())
+}
+
+/// `--rate recorded`: scans published at the pace of their stamps, from the first one's
+/// publication on. A stamp that is not a number, goes back, or comes more than [`Pace::LONGEST`]
+/// after the one before starts the pace again from that scan, published at once.
+#[derive(Default)]
+struct Pace {
+    /// A scan's stamp, seconds, and when it was published (monotonic ns).
+    anchor: Option<(f64, u64)>,
+    last: f64,
+}
+
+impl Pace {
+    const LONGEST: f64 = 10.0;
+
+    /// Waits until the scan stamped `stamp` is due; `false` when SIGINT or SIGTERM came instead.
+    fn wait(&mut self, node: &Node<ipc::Service>, stamp: f64) -> bool {
+        let now = monotonic_ns();
+        let steady = stamp.is_finite() && stamp >= self.last && stamp - self.last <= Self::LONGEST;
+        self.last = if stamp.is_finite() { stamp } else { self.last };
+        let (t0, wall0) = match self.anchor {
+            Some(anchor) if steady => anchor,
+            _ => {
+                self.anchor = stamp.is_finite().then_some((stamp, now));
+                return true;
+            }
+        };
+        let due = wall0 + ((stamp - t0) * 1e9) as u64;
+        due <= now || messages::sleep(node, Duration::from_nanos(due - now))
+    }
 }
 
 /// Where the stage's scans go: the scan topic, and the `--carmen-out` log when given.
@@ -330,12 +396,13 @@ fn period(a: &AcquireArgs) -> Result<Option<Duration>> {
 }
 
 /// A `--rate`: scans per second as the time between them, or `max` (`None`: as fast as the
-/// pipeline takes them).
+/// pipeline takes them). `recorded` is `None` here too: the stage paces such scans by their
+/// stamps ([`Pace`]).
 pub fn parse_rate(r: &str) -> Result<Option<Duration>, String> {
     match (r, r.parse::<f64>()) {
-        ("max", _) => Ok(None),
+        ("max" | "recorded", _) => Ok(None),
         (_, Ok(hz)) if hz > 0.0 && hz.is_finite() => Ok(Some(Duration::from_secs_f64(1.0 / hz))),
-        _ => Err(format!("{r}: a positive number of scans per second, or max")),
+        _ => Err(format!("{r}: a positive number of scans per second, max, or recorded")),
     }
 }
 
@@ -349,7 +416,7 @@ pub fn rate_arg(r: &str) -> Result<String, String> {
 fn carmen_out(a: &AcquireArgs) -> Result<Option<std::io::BufWriter<std::fs::File>>> {
     let Some(p) = &a.carmen_out else { return Ok(None) };
     let mut w = std::io::BufWriter::new(std::fs::File::create(p).with_context(|| format!("creating {}", p.display()))?);
-    if a.is_sensor() || a.urg_log.is_some() {
+    if a.is_sensor() || a.urg_log.is_some() || a.bag.is_some() {
         std::io::Write::write_all(&mut w, format!("{}\n", crate::NO_TRUTH_MARKER).as_bytes())?;
     }
     Ok(Some(w))
