@@ -28,7 +28,7 @@ pub enum MapCommand {
         map: String,
     },
     /// Build a wall map from a log whose poses are true (a SLAM-corrected log).
-    Build(super::build_map::BuildArgs),
+    Build(Box<super::build_map::BuildArgs>),
     /// Trace a ROS map_server map (YAML naming a PGM occupancy grid) into a wall map: the
     /// occupied cells' faces become walls, the free cells the free space. Every command's
     /// --map also takes the .yaml directly, with these defaults.
@@ -86,7 +86,7 @@ pub fn run(c: MapCommand) -> Result<()> {
     match c {
         MapCommand::Corners(a) => super::corners::run(a),
         MapCommand::Generate { kind, seed, out } => generate(&kind, seed, &out),
-        MapCommand::Build(a) => super::build_map::run(a),
+        MapCommand::Build(a) => super::build_map::run(*a),
         MapCommand::Thicken { map, thickness, out } => thicken(&map, thickness, &out),
         MapCommand::ImportRos { yaml, tolerance, min_cells, face_depth, sigma, out } => {
             let trace = mapio::trace::TraceConfig { tolerance, min_cells, face_depth };
