@@ -121,8 +121,9 @@ def main():
 
     storage = StoragePlugin.MCAP if args.storage == "mcap" else StoragePlugin.SQLITE3
     truth = True
-    scans = skipped = 0
+    scans = skipped = replaced = 0
     last_time = 0
+    last_good = 0.0
     with Writer(Path(args.out), version=8, storage_plugin=storage) as w:
         scan_c = w.add_connection("/scan", LaserScan.__msgtype__, typestore=ts)
         truth_c = w.add_connection("/truth", PoseStamped.__msgtype__, typestore=ts)
@@ -140,8 +141,12 @@ def main():
                     print(f"{args.log}:{number}: skipped: {e}", file=sys.stderr)
                     skipped += 1
                     continue
-                if not math.isfinite(stamp):
-                    stamp = scans * 0.1
+                # a stamp ROS cannot carry (int32 seconds, none before 1970; the MIT log has
+                # wrapped ones) is replaced by the last good one: the scan still gets its truth
+                if not (math.isfinite(stamp) and 0 <= stamp < 2**31):
+                    stamp = last_good
+                    replaced += 1
+                last_good = stamp
                 sec, nanosec = stamp_of(stamp)
                 # the bag's receive time must not go back; the header keeps the log's time
                 log_time = max(sec * 1_000_000_000 + nanosec, last_time)
@@ -172,7 +177,11 @@ def main():
                     )
                     w.write(odom_c, log_time, ts.serialize_cdr(o, Odometry.__msgtype__))
                 scans += 1
-    print(f"{args.out}: {scans} scans{'' if truth else ', no truth'}; {skipped} lines skipped", file=sys.stderr)
+    print(
+        f"{args.out}: {scans} scans{'' if truth else ', no truth'}; {skipped} lines skipped; "
+        f"{replaced} stamps out of ROS's range replaced by the one before",
+        file=sys.stderr,
+    )
 
 
 if __name__ == "__main__":
