@@ -210,9 +210,11 @@ pub fn status_name(code: u32) -> &'static str {
     }
 }
 
-/// `gema2/pose`: ranked hypotheses of a scan.
+/// `gema2/pose`: ranked hypotheses of a scan. Its layout is a C struct's (docs/design.md,
+/// "Payloads as C structs"), read outside Rust by that name: `examples/pose_listener.py`.
 #[derive(Clone, Copy, Debug, ZeroCopySend, Zeroable)]
 #[repr(C)]
+#[type_name("gema2::PoseMsg")]
 pub struct PoseMsg {
     pub header: Header,
     /// [`STATUS_OK`], [`STATUS_AMBIGUOUS`] or [`STATUS_FAILED`].
@@ -310,6 +312,21 @@ mod tests {
         let cut = name_bytes(&long);
         assert!(name_str(&cut).chars().all(|c| c == 'é'));
         assert_eq!(name_str(&cut).len(), 32);
+    }
+
+    /// The C layout docs/design.md gives for `gema2/pose`, which readers in other languages
+    /// mirror (examples/pose_listener.py): a change here is a change of that contract.
+    #[test]
+    fn the_pose_message_has_its_documented_c_layout() {
+        use std::mem::{align_of, offset_of, size_of};
+        assert_eq!((size_of::<Header>(), offset_of!(Header, stages), offset_of!(Header, producer)), (96, 16, 64));
+        assert_eq!((size_of::<HypothesisMsg>(), offset_of!(HypothesisMsg, scan_corner)), (56, 48));
+        assert_eq!(offset_of!(PoseMsg, status), 96);
+        assert_eq!(offset_of!(PoseMsg, truth), 120);
+        assert_eq!(offset_of!(PoseMsg, hypotheses), 144);
+        assert_eq!((size_of::<PoseMsg>(), align_of::<PoseMsg>()), (1936, 8));
+        // SAFETY: type_name only returns the name the derive was given.
+        assert_eq!(unsafe { <PoseMsg as ZeroCopySend>::type_name() }, "gema2::PoseMsg");
     }
 
     #[test]
