@@ -71,6 +71,8 @@ enum StageCommand {
     Localize(localize::node::LocalizeArgs),
     #[command(about = mapserver::node::ABOUT)]
     Mapserver(mapserver::node::MapServerArgs),
+    #[command(about = ros2::node::ABOUT)]
+    Ros2(Box<ros2::node::Ros2Args>),
 }
 
 /// Lets a closed stdout end the process quietly, as it ends `ls` or `grep`: `gema2 map info M
@@ -106,6 +108,7 @@ fn main() -> anyhow::Result<()> {
         Some(Command::Swap(a)) => supervisor::swap::request(a),
         Some(Command::Stage(s)) => match s {
             StageCommand::Acquire(a) => acquire::node::run(*a),
+            StageCommand::Ros2(a) => ros2::node::run(*a),
             StageCommand::Segment(a) => segment::node::run(a),
             StageCommand::Localize(a) => localize::node::run(a),
             StageCommand::Mapserver(a) => mapserver::node::run(a),

@@ -16,3 +16,14 @@ pub use bag::{Bag, BagError, BagMessage};
 pub use bag_scans::{BagScan, BagScanError, BagScans, ScanTopics};
 pub use cdr::CdrError;
 pub use scan::{laser_scan, ScanError};
+
+/// A planar pose given on a command line, `x,y,yaw` (metres, radians): a laser's place on the
+/// robot.
+pub fn planar_pose_arg(s: &str) -> Result<(f64, f64, f64), String> {
+    let v: Vec<f64> =
+        s.split(',').map(|t| t.trim().parse::<f64>()).collect::<Result<_, _>>().map_err(|e| format!("{s}: {e}"))?;
+    match v.as_slice() {
+        &[x, y, yaw] if v.iter().all(|c| c.is_finite()) => Ok((x, y, yaw)),
+        _ => Err(format!("{s}: three finite numbers x,y,yaw (metres, radians)")),
+    }
+}

@@ -1,10 +1,13 @@
 //! The ROS 2 messages gema2 reads and writes, field for field as their `.msg` files define
-//! them, with their CDR encoding (`decode` / `encode`). Names are ROS's.
+//! them, with their CDR encoding (`decode` / `encode`, for bags). Names are ROS's. Each also
+//! derives serde in field order, which is how a serde CDR encoder (a DDS client's) lays out the
+//! same bytes: fixed arrays as tuples, vectors and strings with their lengths.
 
 use crate::cdr::{CdrError, CdrReader, CdrWriter};
+use serde::{Deserialize, Serialize};
 
 /// `builtin_interfaces/msg/Time`.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 pub struct Time {
     pub sec: i32,
     pub nanosec: u32,
@@ -35,7 +38,7 @@ impl Time {
 }
 
 /// `std_msgs/msg/Header`.
-#[derive(Clone, Debug, Default, PartialEq, Eq)]
+#[derive(Clone, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 pub struct Header {
     pub stamp: Time,
     pub frame_id: String,
@@ -53,7 +56,7 @@ impl Header {
 }
 
 /// `sensor_msgs/msg/LaserScan`.
-#[derive(Clone, Debug, Default, PartialEq)]
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct LaserScan {
     pub header: Header,
     pub angle_min: f32,
@@ -107,7 +110,7 @@ impl LaserScan {
 }
 
 /// `geometry_msgs/msg/Pose`: a position and an orientation quaternion (x, y, z, w).
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Pose {
     pub position: [f64; 3],
     pub orientation: [f64; 4],
@@ -143,7 +146,7 @@ impl Pose {
 }
 
 /// `geometry_msgs/msg/PoseStamped`.
-#[derive(Clone, Debug, Default, PartialEq)]
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct PoseStamped {
     pub header: Header,
     pub pose: Pose,
@@ -165,34 +168,69 @@ impl PoseStamped {
     }
 }
 
-/// `geometry_msgs/msg/PoseWithCovariance`: the covariance is row-major over x, y, z and the
-/// rotations about x, y and z.
+/// A 6x6 covariance, row-major over x, y, z and the rotations about x, y and z: 36 numbers
+/// with no length before them (serde's derive stops at arrays of 32).
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct PoseWithCovariance {
-    pub pose: Pose,
-    pub covariance: [f64; 36],
+pub struct Covariance(pub [f64; 36]);
+
+impl Default for Covariance {
+    fn default() -> Self {
+        Covariance([0.0; 36])
+    }
 }
 
-impl Default for PoseWithCovariance {
-    fn default() -> Self {
-        PoseWithCovariance { pose: Pose::default(), covariance: [0.0; 36] }
+impl Serialize for Covariance {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        use serde::ser::SerializeTuple;
+        let mut t = s.serialize_tuple(36)?;
+        for v in &self.0 {
+            t.serialize_element(v)?;
+        }
+        t.end()
     }
+}
+
+impl<'de> Deserialize<'de> for Covariance {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct Visit;
+        impl<'de> serde::de::Visitor<'de> for Visit {
+            type Value = Covariance;
+            fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+                f.write_str("36 numbers")
+            }
+            fn visit_seq<A: serde::de::SeqAccess<'de>>(self, mut seq: A) -> Result<Covariance, A::Error> {
+                let mut c = [0.0; 36];
+                for (k, v) in c.iter_mut().enumerate() {
+                    *v = seq.next_element()?.ok_or_else(|| serde::de::Error::invalid_length(k, &self))?;
+                }
+                Ok(Covariance(c))
+            }
+        }
+        d.deserialize_tuple(36, Visit)
+    }
+}
+
+/// `geometry_msgs/msg/PoseWithCovariance`.
+#[derive(Clone, Copy, Default, Debug, PartialEq, Serialize, Deserialize)]
+pub struct PoseWithCovariance {
+    pub pose: Pose,
+    pub covariance: Covariance,
 }
 
 impl PoseWithCovariance {
     fn decode(r: &mut CdrReader) -> Result<Self, CdrError> {
-        Ok(PoseWithCovariance { pose: Pose::decode(r)?, covariance: r.f64_array()? })
+        Ok(PoseWithCovariance { pose: Pose::decode(r)?, covariance: Covariance(r.f64_array()?) })
     }
 
     fn encode(&self, w: &mut CdrWriter) {
         self.pose.encode(w);
-        self.covariance.iter().for_each(|&v| w.f64(v));
+        self.covariance.0.iter().for_each(|&v| w.f64(v));
     }
 }
 
 /// `geometry_msgs/msg/PoseWithCovarianceStamped`: what gema2 publishes, and what Nav2's AMCL
 /// takes on `/initialpose`.
-#[derive(Clone, Debug, Default, PartialEq)]
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct PoseWithCovarianceStamped {
     pub header: Header,
     pub pose: PoseWithCovariance,
@@ -214,12 +252,27 @@ impl PoseWithCovarianceStamped {
     }
 }
 
-/// `nav_msgs/msg/Odometry` (its twist is read past, not kept).
-#[derive(Clone, Debug, Default, PartialEq)]
+/// `geometry_msgs/msg/Twist`: linear and angular velocity.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Twist {
+    pub linear: [f64; 3],
+    pub angular: [f64; 3],
+}
+
+/// `geometry_msgs/msg/TwistWithCovariance`.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct TwistWithCovariance {
+    pub twist: Twist,
+    pub covariance: Covariance,
+}
+
+/// `nav_msgs/msg/Odometry` (the bag reader reads past its twist).
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct Odometry {
     pub header: Header,
     pub child_frame_id: String,
     pub pose: PoseWithCovariance,
+    pub twist: TwistWithCovariance,
 }
 
 impl Odometry {
@@ -227,10 +280,15 @@ impl Odometry {
 
     pub fn decode(bytes: &[u8]) -> Result<Self, CdrError> {
         let r = &mut CdrReader::new(bytes)?;
-        Ok(Odometry { header: Header::decode(r)?, child_frame_id: r.string()?, pose: PoseWithCovariance::decode(r)? })
+        Ok(Odometry {
+            header: Header::decode(r)?,
+            child_frame_id: r.string()?,
+            pose: PoseWithCovariance::decode(r)?,
+            twist: TwistWithCovariance::default(),
+        })
     }
 
-    /// With a zero twist.
+    /// The twist is written as zero.
     pub fn encode(&self) -> Vec<u8> {
         let mut w = CdrWriter::new();
         self.header.encode(&mut w);
@@ -239,6 +297,38 @@ impl Odometry {
         (0..6 + 36).for_each(|_| w.f64(0.0));
         w.finish()
     }
+}
+
+/// `geometry_msgs/msg/Transform`: a translation and a rotation quaternion (x, y, z, w).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Transform {
+    pub translation: [f64; 3],
+    pub rotation: [f64; 4],
+}
+
+impl Transform {
+    /// As a planar pose (x, y, yaw): what a laser's mounting is to a 2D localizer.
+    pub fn planar(&self) -> (f64, f64, f64) {
+        Pose { position: self.translation, orientation: self.rotation }.planar()
+    }
+}
+
+/// `geometry_msgs/msg/TransformStamped`: `child_frame_id`'s pose in `header.frame_id`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct TransformStamped {
+    pub header: Header,
+    pub child_frame_id: String,
+    pub transform: Transform,
+}
+
+/// `tf2_msgs/msg/TFMessage`, as on `/tf_static`.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct TfMessage {
+    pub transforms: Vec<TransformStamped>,
+}
+
+impl TfMessage {
+    pub const TYPE: &'static str = "tf2_msgs/msg/TFMessage";
 }
 
 #[cfg(test)]
@@ -269,10 +359,11 @@ mod tests {
         covariance[35] = 0.01;
         let with = PoseWithCovarianceStamped {
             header: header(),
-            pose: PoseWithCovariance { pose: Pose::from_planar(4.0, 5.0, -1.0), covariance },
+            pose: PoseWithCovariance { pose: Pose::from_planar(4.0, 5.0, -1.0), covariance: Covariance(covariance) },
         };
         assert_eq!(PoseWithCovarianceStamped::decode(&with.encode()).unwrap(), with);
-        let odom = Odometry { header: header(), child_frame_id: "base_link".into(), pose: with.pose };
+        let odom =
+            Odometry { header: header(), child_frame_id: "base_link".into(), pose: with.pose, ..Default::default() };
         assert_eq!(Odometry::decode(&odom.encode()).unwrap(), odom);
     }
 

@@ -105,6 +105,7 @@ fn two_laser_topics_need_choosing_and_truth_comes_by_stamp() {
         header: truth(k, x).header,
         child_frame_id: "base_link".into(),
         pose: msg::PoseWithCovariance { pose: msg::Pose::from_planar(x, 1.0, 0.0), ..Default::default() },
+        twist: Default::default(),
     };
     write_bag(
         &path,

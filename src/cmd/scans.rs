@@ -22,18 +22,8 @@ pub struct BagArgs {
     pub truth_topic: Option<String>,
     /// The laser's place on the robot, `x,y,yaw` (metres, radians), when the truth topic gives
     /// the robot's pose rather than the laser's.
-    #[arg(long, requires = "truth_topic", value_parser = laser_pose_arg, allow_hyphen_values = true)]
+    #[arg(long, requires = "truth_topic", value_parser = ros::planar_pose_arg, allow_hyphen_values = true)]
     pub laser_pose: Option<(f64, f64, f64)>,
-}
-
-/// `x,y,yaw`.
-pub fn laser_pose_arg(s: &str) -> Result<(f64, f64, f64), String> {
-    let v: Vec<f64> =
-        s.split(',').map(|t| t.trim().parse::<f64>()).collect::<Result<_, _>>().map_err(|e| format!("{s}: {e}"))?;
-    match v.as_slice() {
-        &[x, y, yaw] if v.iter().all(|c| c.is_finite()) => Ok((x, y, yaw)),
-        _ => Err(format!("{s}: three finite numbers x,y,yaw (metres, radians)")),
-    }
 }
 
 /// Why a scan was not read.

@@ -36,6 +36,8 @@ pub enum Kind {
     Mapserver,
     /// The recorder (`viewer` binary): every message to a rerun recording.
     Viewer,
+    /// The ROS 2 bridge: scans in from DDS (a source, as `acquire` is), poses out.
+    Ros2,
 }
 
 impl Kind {
@@ -46,6 +48,7 @@ impl Kind {
             Kind::Localize => "localize",
             Kind::Mapserver => "mapserver",
             Kind::Viewer => "viewer",
+            Kind::Ros2 => "ros2",
         }
     }
 
@@ -59,8 +62,13 @@ impl Kind {
             Kind::Mapserver => 1,
             Kind::Localize => 2,
             Kind::Segment => 3,
-            Kind::Acquire => 4,
+            Kind::Acquire | Kind::Ros2 => 4,
         }
+    }
+
+    /// Whether stages of this kind publish scans: the pipeline's sources.
+    pub fn is_source(self) -> bool {
+        matches!(self, Kind::Acquire | Kind::Ros2)
     }
 }
 
@@ -149,8 +157,8 @@ impl Pipeline {
         if let Some(q) = p.supervisor.priority.filter(|q| !priorities.contains(q)) {
             bail!("{}: [supervisor] priority {q} is not in 1..=99", origin.display());
         }
-        if !p.stages.iter().any(|s| s.kind == Kind::Acquire) {
-            bail!("{}: no acquire stage: nothing would produce scans", origin.display());
+        if !p.stages.iter().any(|s| s.kind.is_source()) {
+            bail!("{}: no acquire or ros2 stage: nothing would produce scans", origin.display());
         }
         Ok(p)
     }

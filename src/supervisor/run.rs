@@ -150,7 +150,7 @@ pub fn run(a: RunArgs) -> Result<()> {
         }
         hot_swap(&mut swap, &server, &mut stages, &a.prefix, &seen, &mut instances);
         // done?
-        let sources_done = stages.iter().filter(|s| s.spec.kind == Kind::Acquire).all(|s| s.finished);
+        let sources_done = stages.iter().filter(|s| s.spec.kind.is_source()).all(|s| s.finished);
         let all_in = scans.is_some_and(|n| monitor.received >= n);
         let quiet = sources_done && last_pose.elapsed() > Duration::from_secs(2);
         let timed_out = a.timeout.is_some_and(|t| started.elapsed().as_secs_f64() > t);
@@ -261,8 +261,7 @@ fn start_all(
 ) -> Result<()> {
     let mut order: Vec<usize> = (0..stages.len()).collect();
     order.sort_by_key(|&i| stages[i].spec.kind.start_rank());
-    let (sources, others): (Vec<usize>, Vec<usize>) =
-        order.into_iter().partition(|&i| stages[i].spec.kind == Kind::Acquire);
+    let (sources, others): (Vec<usize>, Vec<usize>) = order.into_iter().partition(|&i| stages[i].spec.kind.is_source());
     let has_mapserver = stages.iter().any(|s| s.spec.kind == Kind::Mapserver);
     for i in others {
         let (k, st) = (instances.next(), &mut stages[i]);

@@ -1,0 +1,351 @@
+//! The ROS 2 bridge process. Two threads, each with its own iceoryx2 node:
+//! - scans in: waits on the DDS LaserScan subscription (and `/tf_static`), turns each scan
+//!   into a `gema2/scan` message (numbered as it came), and remembers its ROS stamp and frame;
+//! - poses out (the main thread): waits on `gema2/pose` as every stage waits, and publishes
+//!   each located scan's robot pose with the scan's stamp, and, with `--initialpose`, seeds
+//!   Nav2.
+//!
+//! Bad input loses only itself: a LaserScan that does not decode or describes no usable scan
+//! is counted and reported, never published; a pose whose scan's stamp is no longer known is
+//! stamped with the time it was published.
+
+use crate::covariance::covariance;
+use crate::frames::StaticFrames;
+use crate::seeding::Seeding;
+use anyhow::{anyhow, Context as _, Result};
+use clap::Args;
+use laser::{pose, pose_theta, Pose};
+use messages::iceoryx2::prelude::*;
+use messages::{monotonic_ns, Look, Outlet, PoseMsg, ScanMsg, Stage, Topic, STATUS_FAILED, STATUS_OK};
+use ros::msg;
+use ros2_client::dds::rustdds::mio1::{Events, Interest, Poll, Token};
+use ros2_client::dds::{Context, ContextOptions, Publisher, Subscription};
+use ros2_client::qos::{Durability, History, WhenFull};
+use ros2_client::{MessageTypeName, Name, NodeName, NodeOptions, QosProfile};
+use std::collections::VecDeque;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
+
+pub const ABOUT: &str = "GEMA2 ROS 2 bridge: LaserScan in over DDS, poses out on /gema2/pose and to Nav2";
+
+#[derive(Args, Debug, Clone)]
+pub struct Ros2Args {
+    #[command(flatten)]
+    pub stage: messages::StageArgs,
+    /// The sensor_msgs/LaserScan topic to locate (sensor-data QoS: best effort).
+    #[arg(long, default_value = "/scan")]
+    pub scan_topic: String,
+    /// Where the poses go (geometry_msgs/PoseWithCovarianceStamped, reliable).
+    #[arg(long, default_value = "/gema2/pose")]
+    pub pose_topic: String,
+    /// Also seed Nav2's AMCL: an `ok` pose goes on /initialpose too, at most once per
+    /// --initialpose-every.
+    #[arg(long)]
+    pub initialpose: bool,
+    /// Seconds between two seeds of /initialpose.
+    #[arg(long, default_value_t = 10.0, value_parser = positive_seconds)]
+    pub initialpose_every: f64,
+    /// The map's frame, the published poses' frame_id.
+    #[arg(long, default_value = "map")]
+    pub map_frame: String,
+    /// The robot's frame: the pose published is this frame's (REP 105).
+    #[arg(long, default_value = "base_link")]
+    pub base_frame: String,
+    /// The laser's place on the robot, `x,y,yaw` (metres, radians); without it, from
+    /// /tf_static (base frame -> the scan's frame_id).
+    #[arg(long, value_parser = ros::planar_pose_arg, allow_hyphen_values = true)]
+    pub laser_pose: Option<(f64, f64, f64)>,
+    /// The DDS domain (default: $ROS_DOMAIN_ID, else 0).
+    #[arg(long)]
+    pub domain: Option<u16>,
+}
+
+fn positive_seconds(s: &str) -> Result<f64, String> {
+    match s.parse::<f64>() {
+        Ok(v) if v > 0.0 && v.is_finite() => Ok(v),
+        _ => Err(format!("{s}: a positive number of seconds")),
+    }
+}
+
+/// What the two threads share: the scans' ROS stamps by number, and the static frames.
+#[derive(Default)]
+struct Shared {
+    /// (scan number, its header) of the latest scans, oldest first.
+    stamps: VecDeque<(u64, msg::Header)>,
+    frames: StaticFrames,
+}
+
+/// Scans whose stamps are kept for their poses: seconds of scans at 40 Hz.
+const STAMPS_KEPT: usize = 4096;
+
+/// How often the scan thread looks for the stop flag.
+const STOP_POLL: Duration = Duration::from_millis(100);
+
+fn topic_name(name: &str) -> Result<Name> {
+    Name::parse(name).map_err(|e| anyhow!("{name}: not a ROS topic name: {e:?}"))
+}
+
+pub fn run(a: Ros2Args) -> Result<()> {
+    a.stage.place()?;
+    let domain = match (a.domain, std::env::var("ROS_DOMAIN_ID")) {
+        (Some(d), _) => d,
+        (None, Ok(d)) => d.trim().parse().map_err(|_| anyhow!("ROS_DOMAIN_ID={d}: not a domain number"))?,
+        (None, Err(_)) => 0,
+    };
+    let context = Context::with_options(ContextOptions::new().domain_id(domain))
+        .map_err(|e| anyhow!("ros2: starting DDS (domain {domain}): {e:?}"))?;
+    let shared = Arc::new(Mutex::new(Shared::default()));
+    let stop = Arc::new(AtomicBool::new(false));
+    // poses out: the publishers live on this thread
+    let mut dds = context
+        .new_node(NodeName::new("/", "gema2").map_err(|e| anyhow!("{e:?}"))?, NodeOptions::new())
+        .map_err(|e| anyhow!("ros2: creating the ROS node: {e:?}"))?;
+    let reliable = QosProfile::publisher_default()
+        .reliability_reliable(WhenFull::Wait(Duration::from_millis(100)))
+        .durability(Durability::Volatile)
+        .history(History::KeepLast { depth: 16 });
+    let pose_type = MessageTypeName::new("geometry_msgs", "PoseWithCovarianceStamped");
+    let poses_topic = dds
+        .create_topic(&topic_name(&a.pose_topic)?, pose_type.clone(), &reliable)
+        .map_err(|e| anyhow!("ros2: {}: {e:?}", a.pose_topic))?;
+    let poses_out: Publisher<msg::PoseWithCovarianceStamped> =
+        dds.create_publisher(&poses_topic, None).map_err(|e| anyhow!("ros2: {}: {e:?}", a.pose_topic))?;
+    let seeds_out: Option<Publisher<msg::PoseWithCovarianceStamped>> = match a.initialpose {
+        true => {
+            let t = dds
+                .create_topic(&topic_name("/initialpose")?, pose_type, &reliable)
+                .map_err(|e| anyhow!("ros2: /initialpose: {e:?}"))?;
+            Some(dds.create_publisher(&t, None).map_err(|e| anyhow!("ros2: /initialpose: {e:?}"))?)
+        }
+        false => None,
+    };
+    // scans in, on their own thread
+    let scans = {
+        let (context, shared, stop, a) = (context.clone(), Arc::clone(&shared), Arc::clone(&stop), a.clone());
+        std::thread::Builder::new().name("scans-in".into()).spawn(move || {
+            let done = scans_in(&context, &a, &shared, &stop);
+            stop.store(true, Ordering::Relaxed);
+            done
+        })?
+    };
+    let node = messages::create_node("ros2")?;
+    let poses = messages::Inlet::<PoseMsg>::open(&node, &a.stage.prefix, Topic::Pose)?;
+    messages::announce_ready(&node, &a.stage.prefix)?;
+    let mut out = PosesOut {
+        poses: poses_out,
+        seeds: seeds_out,
+        seeding: Seeding::new(Duration::from_secs_f64(a.initialpose_every)),
+        shared: Arc::clone(&shared),
+        a: a.clone(),
+        published: 0,
+        unstamped: 0,
+        unmounted_said: false,
+    };
+    let mut failure = None;
+    let on_event = |woken: &[bool]| {
+        if stop.load(Ordering::Relaxed) {
+            return CallbackProgression::Stop;
+        }
+        let mut look = Look::new([&poses.listener], woken[0]);
+        while look.next_pass() {
+            loop {
+                match look.receive(&poses.subscriber) {
+                    Ok(Some((sample, _))) => {
+                        if let Err(e) = out.publish(&sample) {
+                            failure = Some(e);
+                            return CallbackProgression::Stop;
+                        }
+                    }
+                    Ok(None) => break,
+                    Err(e) => {
+                        failure = Some(anyhow!("{}: receive: {e}", poses.name));
+                        return CallbackProgression::Stop;
+                    }
+                }
+            }
+        }
+        CallbackProgression::Continue
+    };
+    let waited = messages::run_stage(&node, &[(&poses.name, &poses.listener)], messages::MISSED_WAKEUP_POLL, on_event);
+    stop.store(true, Ordering::Relaxed);
+    let scanned = scans.join().map_err(|_| anyhow!("ros2: the scan thread panicked"))?;
+    eprintln!("ros2: published {} poses on {}", out.published, a.pose_topic);
+    if out.unstamped > 0 {
+        eprintln!("ros2: {} poses whose scan's stamp was no longer known were stamped when sent", out.unstamped);
+    }
+    waited?;
+    scanned?;
+    failure.map_or(Ok(()), Err).context("ros2")
+}
+
+/// The main thread's side: poses from the pipeline to ROS.
+struct PosesOut {
+    poses: Publisher<msg::PoseWithCovarianceStamped>,
+    seeds: Option<Publisher<msg::PoseWithCovarianceStamped>>,
+    seeding: Seeding,
+    shared: Arc<Mutex<Shared>>,
+    a: Ros2Args,
+    published: u64,
+    unstamped: u64,
+    unmounted_said: bool,
+}
+
+impl PosesOut {
+    /// Publishes the robot's pose of a located scan (a failed scan has none).
+    fn publish(&mut self, m: &PoseMsg) -> Result<()> {
+        let count = (m.count as usize).min(m.hypotheses.len());
+        if m.status == STATUS_FAILED || count == 0 {
+            return Ok(());
+        }
+        let (header, mount) = self.scan_header(m.header.seq);
+        let Some(mount) = mount.or_else(|| self.unmounted(&header.frame_id)) else { return Ok(()) };
+        let inverse = mount.inverse();
+        let robot: Vec<(Pose, f64)> =
+            m.hypotheses[..count].iter().map(|h| (pose(h.pose.x, h.pose.y, h.pose.theta) * inverse, h.cost)).collect();
+        let best = robot[0].0;
+        let message = msg::PoseWithCovarianceStamped {
+            header: msg::Header { stamp: header.stamp, frame_id: self.a.map_frame.clone() },
+            pose: msg::PoseWithCovariance {
+                pose: msg::Pose::from_planar(best.translation.x, best.translation.y, pose_theta(&best)),
+                covariance: msg::Covariance(covariance(m.status == STATUS_OK, &robot)),
+            },
+        };
+        if let Some(seeds) = &self.seeds {
+            if self.seeding.admit(m.status == STATUS_OK, Instant::now()) {
+                seeds.publish(message.clone()).map_err(|e| anyhow!("/initialpose: {e:?}"))?;
+            }
+        }
+        self.poses.publish(message).map_err(|e| anyhow!("{}: {e:?}", self.a.pose_topic))?;
+        self.published += 1;
+        Ok(())
+    }
+
+    /// Scan `seq`'s ROS header (its stamp, or now when it is no longer known) and the laser's
+    /// place on the robot, when known.
+    fn scan_header(&mut self, seq: u64) -> (msg::Header, Option<Pose>) {
+        let mut shared = self.shared.lock().unwrap_or_else(|p| p.into_inner());
+        while shared.stamps.front().is_some_and(|(s, _)| *s < seq) {
+            shared.stamps.pop_front();
+        }
+        let header = match shared.stamps.front() {
+            Some((s, h)) if *s == seq => h.clone(),
+            _ => {
+                self.unstamped += 1;
+                let now = std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).unwrap_or_default();
+                msg::Header { stamp: msg::Time::from_nanos(now.as_nanos() as u64), frame_id: String::new() }
+            }
+        };
+        let mount = match self.a.laser_pose {
+            Some((x, y, yaw)) => Some(pose(x, y, yaw)),
+            None if header.frame_id.trim_start_matches('/') == self.a.base_frame.trim_start_matches('/') => {
+                Some(Pose::identity())
+            }
+            None => shared.frames.pose_of(&header.frame_id, &self.a.base_frame),
+        };
+        (header, mount)
+    }
+
+    /// The mount to use when /tf_static has not (yet) placed the laser: the laser's own pose,
+    /// said once.
+    fn unmounted(&mut self, frame: &str) -> Option<Pose> {
+        if !self.unmounted_said {
+            self.unmounted_said = true;
+            eprintln!(
+                "ros2: no transform {} -> {frame:?} on /tf_static (nor --laser-pose): publishing the laser's pose as \
+                 the robot's until one comes",
+                self.a.base_frame
+            );
+        }
+        Some(Pose::identity())
+    }
+}
+
+/// The scan thread: LaserScans from DDS into the pipeline, static transforms into `shared`.
+fn scans_in(context: &Context, a: &Ros2Args, shared: &Mutex<Shared>, stop: &AtomicBool) -> Result<()> {
+    let mut dds = context
+        .new_node(NodeName::new("/", "gema2_scans").map_err(|e| anyhow!("{e:?}"))?, NodeOptions::new())
+        .map_err(|e| anyhow!("ros2: creating the ROS node: {e:?}"))?;
+    let sensor = QosProfile::subscription_default().history(History::KeepLast { depth: 5 });
+    let scan_topic = dds
+        .create_topic(&topic_name(&a.scan_topic)?, MessageTypeName::new("sensor_msgs", "LaserScan"), &sensor)
+        .map_err(|e| anyhow!("ros2: {}: {e:?}", a.scan_topic))?;
+    let mut scans: Subscription<msg::LaserScan> =
+        dds.create_subscription(&scan_topic, None).map_err(|e| anyhow!("ros2: {}: {e:?}", a.scan_topic))?;
+    let latched = QosProfile::publisher_default()
+        .reliability_reliable(WhenFull::DEFAULT)
+        .durability(Durability::TransientLocal)
+        .history(History::KeepLast { depth: 100 });
+    let tf_topic = dds
+        .create_topic(&topic_name("/tf_static")?, MessageTypeName::new("tf2_msgs", "TFMessage"), &latched)
+        .map_err(|e| anyhow!("ros2: /tf_static: {e:?}"))?;
+    let mut tf: Subscription<msg::TfMessage> =
+        dds.create_subscription(&tf_topic, None).map_err(|e| anyhow!("ros2: /tf_static: {e:?}"))?;
+    let mut poll = Poll::new()?;
+    poll.registry().register(&mut scans, Token(0), Interest::READABLE)?;
+    poll.registry().register(&mut tf, Token(1), Interest::READABLE)?;
+    let node = messages::create_node("ros2-scans")?;
+    let mut out =
+        Outlet::<ScanMsg>::open(&node, &a.stage.prefix, Topic::Scan, BackpressureStrategy::RetryUntilDelivered)?;
+    let mut events = Events::with_capacity(8);
+    let (mut seq, mut bad) = (0u64, 0u64);
+    while !stop.load(Ordering::Relaxed) && !messages::termination_requested(&node) {
+        if let Err(e) = poll.poll(&mut events, Some(STOP_POLL)) {
+            if e.kind() != std::io::ErrorKind::Interrupted {
+                return Err(anyhow!("ros2: waiting for DDS: {e}"));
+            }
+        }
+        // edge-triggered: take all that came, from both, on any wake-up
+        while let Some(taken) = tf.take().transpose() {
+            match taken {
+                Ok((m, _)) => {
+                    let mut s = shared.lock().unwrap_or_else(|p| p.into_inner());
+                    for t in &m.transforms {
+                        let (x, y, yaw) = t.transform.planar();
+                        s.frames.insert(&t.header.frame_id, &t.child_frame_id, x, y, yaw);
+                    }
+                }
+                Err(e) => eprintln!("ros2: /tf_static: a message that does not decode: {e:?}"),
+            }
+        }
+        while let Some(taken) = scans.take().transpose() {
+            let enter = monotonic_ns();
+            let scan = match taken
+                .map_err(|e| format!("does not decode: {e:?}"))
+                .and_then(|(m, _)| ros::laser_scan(&m).map(|s| (s, m.header)).map_err(|e| e.to_string()))
+            {
+                Ok(scan) => scan,
+                Err(e) => {
+                    bad += 1;
+                    if bad <= 10 {
+                        eprintln!("ros2: {}: dropped a LaserScan: {e} ({bad} so far)", a.scan_topic);
+                    }
+                    continue;
+                }
+            };
+            let (scan, header) = scan;
+            {
+                let mut s = shared.lock().unwrap_or_else(|p| p.into_inner());
+                if s.stamps.len() >= STAMPS_KEPT {
+                    s.stamps.pop_front();
+                }
+                s.stamps.push_back((seq, header));
+            }
+            out.send(|m: &mut ScanMsg| {
+                acquire::node::scan_to_msg(&scan, seq, enter, m);
+                m.header.span(Stage::Acquire).enter_ns = enter;
+                m.header.span(Stage::Acquire).leave_ns = monotonic_ns();
+                m.header.set_producer("ros2");
+            })
+            .map_err(|e| anyhow!("ros2: {}: {e}", out.name()))?;
+            seq += 1;
+        }
+    }
+    eprintln!(
+        "ros2: {} scans in from {}{}",
+        seq,
+        a.scan_topic,
+        if bad > 0 { format!(", {bad} dropped") } else { String::new() }
+    );
+    Ok(())
+}

@@ -1,0 +1,258 @@
+#!/usr/bin/env python3
+"""A ROS 2 robot as DDS sees it, played by Eclipse Cyclone DDS (PyPI `cyclonedds`), to test
+gema2's ros2 bridge against an implementation that is not ours.
+
+It publishes, as ROS 2 does:
+  rt/scan        sensor_msgs::msg::dds_::LaserScan_ (best effort), the scans of a CARMEN log
+                 (ROBOTLASER1 lines, e.g. from `gema2 sim`) at --rate, stamped 0.025 s apart;
+  rt/tf_static   tf2_msgs::msg::dds_::TFMessage_ (reliable, transient local): base_link ->
+                 laser at --laser-pose;
+and subscribes to rt/gema2/pose and rt/initialpose (PoseWithCovarianceStamped, reliable).
+
+Prints one CSV line a pose received: topic, scan number, x, y, yaw, the x, y and yaw variances,
+and the latency from publishing the scan to receiving its pose (ms); then, on stderr, the
+latency's p50 and p99. Run every DDS participant of a test in a network namespace (the test
+does): discovery multicasts.
+
+Usage: ros2_peer.py LOG [--rate HZ] [--laser-pose x,y,yaw] [--wait S] [--domain N]
+"""
+
+import argparse
+import math
+import sys
+import threading
+import time
+from dataclasses import dataclass
+
+from cyclonedds.core import Policy, Qos
+from cyclonedds.domain import DomainParticipant
+from cyclonedds.idl import IdlStruct
+from cyclonedds.idl.types import array, float32, float64, int32, sequence, uint32
+from cyclonedds.pub import DataWriter
+from cyclonedds.sub import DataReader
+from cyclonedds.topic import Topic
+from cyclonedds.util import duration
+
+
+@dataclass
+class Time(IdlStruct, typename="builtin_interfaces::msg::dds_::Time_"):
+    sec: int32
+    nanosec: uint32
+
+
+@dataclass
+class Header(IdlStruct, typename="std_msgs::msg::dds_::Header_"):
+    stamp: Time
+    frame_id: str
+
+
+@dataclass
+class LaserScan(IdlStruct, typename="sensor_msgs::msg::dds_::LaserScan_"):
+    header: Header
+    angle_min: float32
+    angle_max: float32
+    angle_increment: float32
+    time_increment: float32
+    scan_time: float32
+    range_min: float32
+    range_max: float32
+    ranges: sequence[float32]
+    intensities: sequence[float32]
+
+
+@dataclass
+class Point(IdlStruct, typename="geometry_msgs::msg::dds_::Point_"):
+    x: float64
+    y: float64
+    z: float64
+
+
+@dataclass
+class Vector3(IdlStruct, typename="geometry_msgs::msg::dds_::Vector3_"):
+    x: float64
+    y: float64
+    z: float64
+
+
+@dataclass
+class Quaternion(IdlStruct, typename="geometry_msgs::msg::dds_::Quaternion_"):
+    x: float64
+    y: float64
+    z: float64
+    w: float64
+
+
+@dataclass
+class Pose(IdlStruct, typename="geometry_msgs::msg::dds_::Pose_"):
+    position: Point
+    orientation: Quaternion
+
+
+@dataclass
+class PoseWithCovariance(IdlStruct, typename="geometry_msgs::msg::dds_::PoseWithCovariance_"):
+    pose: Pose
+    covariance: array[float64, 36]
+
+
+@dataclass
+class PoseWithCovarianceStamped(IdlStruct, typename="geometry_msgs::msg::dds_::PoseWithCovarianceStamped_"):
+    header: Header
+    pose: PoseWithCovariance
+
+
+@dataclass
+class Transform(IdlStruct, typename="geometry_msgs::msg::dds_::Transform_"):
+    translation: Vector3
+    rotation: Quaternion
+
+
+@dataclass
+class TransformStamped(IdlStruct, typename="geometry_msgs::msg::dds_::TransformStamped_"):
+    header: Header
+    child_frame_id: str
+    transform: Transform
+
+
+@dataclass
+class TFMessage(IdlStruct, typename="tf2_msgs::msg::dds_::TFMessage_"):
+    transforms: sequence[TransformStamped]
+
+
+# what ROS 2's rmw_cyclonedds puts on the wire: XCDR1
+CDR = Policy.DataRepresentation(use_cdrv0_representation=True)
+SENSOR = Qos(Policy.Reliability.BestEffort, Policy.History.KeepLast(5), CDR)
+RELIABLE = Qos(Policy.Reliability.Reliable(duration(milliseconds=100)), Policy.History.KeepLast(100), CDR)
+LATCHED = Qos(
+    Policy.Reliability.Reliable(duration(milliseconds=100)),
+    Policy.Durability.TransientLocal,
+    Policy.History.KeepLast(1),
+    CDR,
+)
+START = 1000.0  # the first scan's stamp, seconds
+STEP = 0.025  # between stamps
+
+
+def scans_of(log):
+    """(start, increment, range_max, ranges) of each ROBOTLASER1 line."""
+    sys.path.insert(0, str(__import__("pathlib").Path(__file__).parent))
+    from carmen2bag import robotlaser1  # the converter's parser: one reading of the format
+
+    out = []
+    for line in open(log):
+        t = line.split()
+        if t and t[0] == "ROBOTLASER1":
+            start, inc, max_range, ranges, _, _, _ = robotlaser1(t)
+            out.append((start, inc, max_range, ranges))
+    return out
+
+
+def quaternion(yaw):
+    return Quaternion(x=0.0, y=0.0, z=math.sin(yaw / 2), w=math.cos(yaw / 2))
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("log")
+    ap.add_argument("--rate", type=float, default=40.0)
+    ap.add_argument("--laser-pose", default="0,0,0")
+    ap.add_argument("--wait", type=float, default=5.0, help="seconds to wait for poses after the last scan")
+    ap.add_argument("--discovery", type=float, default=20.0, help="seconds to wait for the bridge to appear")
+    ap.add_argument("--domain", type=int, default=0)
+    args = ap.parse_args()
+    mount = [float(v) for v in args.laser_pose.split(",")]
+    scans = scans_of(args.log)
+
+    dp = DomainParticipant(args.domain)
+    scan_w = DataWriter(dp, Topic(dp, "rt/scan", LaserScan), qos=SENSOR)
+    tf_w = DataWriter(dp, Topic(dp, "rt/tf_static", TFMessage), qos=LATCHED)
+    readers = {
+        name: DataReader(dp, Topic(dp, f"rt/{name}", PoseWithCovarianceStamped), qos=RELIABLE)
+        for name in ("gema2/pose", "initialpose")
+    }
+    tf_w.write(
+        TFMessage(
+            transforms=[
+                TransformStamped(
+                    header=Header(stamp=Time(sec=0, nanosec=0), frame_id="base_link"),
+                    child_frame_id="laser",
+                    transform=Transform(translation=Vector3(x=mount[0], y=mount[1], z=0.0), rotation=quaternion(mount[2])),
+                )
+            ]
+        )
+    )
+    # the bridge's scan reader and pose writer must be found before the first scan
+    deadline = time.monotonic() + args.discovery
+    while not (scan_w.get_matched_subscriptions() and readers["gema2/pose"].get_matched_publications()):
+        if time.monotonic() > deadline:
+            sys.exit("no gema2 bridge found on DDS")
+        time.sleep(0.05)
+    time.sleep(0.5)
+
+    sent = {}  # scan number -> monotonic publish time
+    received = []  # (topic, k, pose, latency)
+    done = threading.Event()
+
+    def collect():
+        while not done.is_set():
+            got = False
+            for name, r in readers.items():
+                for m in r.take(N=64):
+                    if not isinstance(m, PoseWithCovarianceStamped):
+                        continue  # a writer's dispose or unregister (the bridge stopping)
+                    now = time.monotonic()
+                    s = m.header.stamp
+                    k = round((s.sec + s.nanosec * 1e-9 - START) / STEP)
+                    q = m.pose.pose.orientation
+                    yaw = math.atan2(2 * (q.w * q.z + q.x * q.y), 1 - 2 * (q.y * q.y + q.z * q.z))
+                    c = m.pose.covariance
+                    p = m.pose.pose.position
+                    latency = (now - sent[k]) * 1000 if k in sent else float("nan")
+                    received.append((name, k, (p.x, p.y, yaw, c[0], c[7], c[35]), latency, m.header.frame_id))
+                    got = True
+            if not got:
+                time.sleep(0.0002)
+
+    collector = threading.Thread(target=collect)
+    collector.start()
+    period = 1.0 / args.rate
+    t0 = time.monotonic()
+    for k, (start, inc, max_range, ranges) in enumerate(scans):
+        due = t0 + k * period
+        while time.monotonic() < due:
+            time.sleep(min(0.001, max(0.0, due - time.monotonic())))
+        stamp = START + k * STEP
+        sec = int(stamp)
+        msg = LaserScan(
+            header=Header(stamp=Time(sec=sec, nanosec=int(round((stamp - sec) * 1e9))), frame_id="laser"),
+            angle_min=start,
+            angle_max=start + inc * (len(ranges) - 1),
+            angle_increment=inc,
+            time_increment=0.0,
+            scan_time=period,
+            range_min=0.02,
+            range_max=max_range,
+            ranges=[r if r < max_range else math.inf for r in ranges],
+            intensities=[],
+        )
+        sent[k] = time.monotonic()
+        scan_w.write(msg)
+    last = time.monotonic()
+    while time.monotonic() - last < args.wait:
+        n = len(received)
+        time.sleep(0.2)
+        if len(received) != n:
+            last = time.monotonic()
+    done.set()
+    collector.join()
+    for name, k, (x, y, yaw, cxx, cyy, ctt), latency, frame in sorted(received, key=lambda r: (r[0], r[1])):
+        print(f"{name},{k},{x:.4f},{y:.4f},{yaw:.5f},{cxx:.6g},{cyy:.6g},{ctt:.6g},{latency:.3f},{frame}")
+    lat = sorted(r[3] for r in received if r[0] == "gema2/pose" and not math.isnan(r[3]))
+    if lat:
+        p = lambda q: lat[min(len(lat) - 1, int(q * len(lat)))]
+        print(f"scans sent {len(scans)}, poses {len(lat)}, latency p50 {p(0.5):.2f} ms p99 {p(0.99):.2f} ms", file=sys.stderr)
+    else:
+        print(f"scans sent {len(scans)}, no pose received", file=sys.stderr)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,108 @@
+//! The ros2 bridge against Eclipse Cyclone DDS (PyPI `cyclonedds`, scripts/ros2_peer.py)
+//! playing a ROS 2 robot: 1081-beam LaserScans at 40 Hz in, every located scan's robot pose out
+//! on /gema2/pose, and Nav2 seeded on /initialpose.
+//!
+//! No packet leaves the machine: every DDS participant runs in a network namespace the test
+//! creates (`unshare --net`), with only `lo`, multicast on, and 224.0.0.0/4 routed to it.
+
+mod common;
+
+use std::path::Path;
+use std::process::Command;
+
+fn exe() -> &'static str {
+    env!("CARGO_BIN_EXE_gema2")
+}
+
+/// Whether this machine lets the test make a network namespace.
+fn namespaces_work() -> bool {
+    Command::new("unshare").args(["--net", "--map-root-user", "true"]).status().is_ok_and(|s| s.success())
+}
+
+/// Runs `script` (bash) in a new network namespace with loopback multicast.
+fn in_namespace(script: &str) -> std::process::Output {
+    let setup = "set -e; ip link set lo up; ip link set lo multicast on; ip route add 224.0.0.0/4 dev lo; set +e\n";
+    Command::new("unshare")
+        .args(["--net", "--map-root-user", "bash", "-c"])
+        .arg(format!("{setup}{script}"))
+        .output()
+        .expect("unshare runs")
+}
+
+/// The CSV rows of `path`, split.
+fn rows(path: &Path) -> Vec<Vec<String>> {
+    std::fs::read_to_string(path)
+        .unwrap_or_default()
+        .lines()
+        .map(|l| l.split(',').map(str::to_owned).collect())
+        .collect()
+}
+
+#[test]
+fn cyclone_dds_scans_in_and_poses_out_with_none_lost() {
+    if !namespaces_work() {
+        common::skipped("cyclone_dds_scans_in_and_poses_out_with_none_lost", "no network namespace (unshare --net)");
+        return;
+    }
+    let python = common::python();
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    // a UST-10LX's scans: 1081 beams over 270 degrees, to 10 m
+    let log = d.join("ust.log");
+    let sim = Command::new(exe())
+        .args(["sim", "--map", "office", "--beams", "1081", "--fov", "270", "--range-max", "10", "--scans", "200"])
+        .args(["--seed", "2", "--out", log.to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert!(sim.status.success(), "{}", String::from_utf8_lossy(&sim.stderr));
+    let pipeline = concat!(env!("CARGO_MANIFEST_DIR"), "/pipelines/ros2.toml");
+    let peer = concat!(env!("CARGO_MANIFEST_DIR"), "/scripts/ros2_peer.py");
+    let prefix = format!("tros2_{}", std::process::id());
+    let script = format!(
+        "cd {dir}\n\
+         GEMA2_MAP=office {exe} run --pipeline {pipeline} --prefix {prefix} --scans 200 --timeout 90 --out online.csv \
+           > run.out 2> run.err &\n\
+         run=$!\n\
+         {python} {peer} {log} --rate 40 --laser-pose 0.2,0.05,0.1 > peer.out 2> peer.err\n\
+         echo peer $?\n\
+         wait $run\n\
+         echo run $?\n",
+        dir = d.display(),
+        exe = exe(),
+        python = python.display(),
+        log = log.display(),
+    );
+    let out = in_namespace(&script);
+    let said = String::from_utf8_lossy(&out.stdout);
+    let logs = |f: &str| std::fs::read_to_string(d.join(f)).unwrap_or_default();
+    let context = format!("{said}\nrun: {}\npeer: {}", logs("run.err"), logs("peer.err"));
+    assert!(said.contains("peer 0") && said.contains("run 0"), "{context}");
+    // every scan located by the pipeline reached ROS, as the robot's pose of that scan
+    let online = rows(&d.join("online.csv"));
+    let located: Vec<&Vec<String>> = online.iter().skip(1).filter(|r| r[5] != "failed").collect();
+    assert!(located.len() >= 190, "{} of 200 located: {context}", located.len());
+    let poses: Vec<Vec<String>> = rows(&d.join("peer.out")).into_iter().filter(|r| r[0] == "gema2/pose").collect();
+    assert_eq!(poses.len(), located.len(), "no pose lost: {context}");
+    let (mx, my, mt) = (0.2f64, 0.05f64, 0.1f64);
+    for (p, r) in poses.iter().zip(&located) {
+        assert_eq!(p[1], r[0], "the scan's stamp comes back with its pose");
+        let num = |s: &String| s.parse::<f64>().unwrap();
+        let (lx, ly, lt) = (num(&r[1]), num(&r[2]), num(&r[3]));
+        // robot = laser o mount^-1
+        let t = lt - mt;
+        let (x, y) = (lx - (t.cos() * mx - t.sin() * my), ly - (t.sin() * mx + t.cos() * my));
+        assert!((num(&p[2]) - x).abs() < 1e-3 && (num(&p[3]) - y).abs() < 1e-3, "{p:?} vs {r:?}");
+        let turn = (num(&p[4]) - t + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU) - std::f64::consts::PI;
+        assert!(turn.abs() < 1e-3, "{p:?} vs {r:?}");
+        assert_eq!(p[9], "map");
+        // an ok pose carries the ok spread; an ambiguous one more
+        let var = num(&p[5]);
+        assert!(if r[5] == "ok" { (var - 0.0025).abs() < 1e-9 } else { var >= 0.0025 }, "{p:?} {r:?}");
+    }
+    // Nav2 seeded with ok poses, at most once per 10 s: 200 scans at 40 Hz take 5 s
+    let seeds: Vec<Vec<String>> = rows(&d.join("peer.out")).into_iter().filter(|r| r[0] == "initialpose").collect();
+    assert_eq!(seeds.len(), 1, "{seeds:?}");
+    let latency = logs("peer.err");
+    assert!(latency.contains("latency p50"), "{latency}");
+    eprintln!("{}", latency.trim());
+}
