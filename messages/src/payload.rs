@@ -98,9 +98,11 @@ pub struct PoseMsgXyt {
     pub theta: f64,
 }
 
-/// `gema2/scan`: one laser scan.
+/// `gema2/scan`: one laser scan. Its layout is a C struct's (docs/design.md, "Payloads as C
+/// structs"), for sources outside Rust.
 #[derive(Clone, Copy, Debug, ZeroCopySend, Zeroable)]
 #[repr(C)]
+#[type_name("gema2::ScanMsg")]
 pub struct ScanMsg {
     pub header: Header,
     pub angle_min: f64,
@@ -317,7 +319,7 @@ mod tests {
     /// The C layout docs/design.md gives for `gema2/pose`, which readers in other languages
     /// mirror (examples/pose_listener.py): a change here is a change of that contract.
     #[test]
-    fn the_pose_message_has_its_documented_c_layout() {
+    fn the_pose_and_scan_messages_have_their_documented_c_layouts() {
         use std::mem::{align_of, offset_of, size_of};
         assert_eq!((size_of::<Header>(), offset_of!(Header, stages), offset_of!(Header, producer)), (96, 16, 64));
         assert_eq!((size_of::<HypothesisMsg>(), offset_of!(HypothesisMsg, scan_corner)), (56, 48));
@@ -327,6 +329,13 @@ mod tests {
         assert_eq!((size_of::<PoseMsg>(), align_of::<PoseMsg>()), (1936, 8));
         // SAFETY: type_name only returns the name the derive was given.
         assert_eq!(unsafe { <PoseMsg as ZeroCopySend>::type_name() }, "gema2::PoseMsg");
+        assert_eq!(offset_of!(ScanMsg, angle_min), 96);
+        assert_eq!(offset_of!(ScanMsg, has_truth), 128);
+        assert_eq!(offset_of!(ScanMsg, truth), 136);
+        assert_eq!(offset_of!(ScanMsg, ranges), 160);
+        assert_eq!((size_of::<ScanMsg>(), align_of::<ScanMsg>()), (8352, 8));
+        // SAFETY: as above.
+        assert_eq!(unsafe { <ScanMsg as ZeroCopySend>::type_name() }, "gema2::ScanMsg");
     }
 
     #[test]
