@@ -141,6 +141,7 @@ pub fn run(a: Ros2Args) -> Result<()> {
         published: 0,
         unstamped: 0,
         unmounted_said: false,
+        latency_us: Vec::new(),
     };
     let mut failure = None;
     let on_event = |woken: &[bool]| {
@@ -171,6 +172,15 @@ pub fn run(a: Ros2Args) -> Result<()> {
     stop.store(true, Ordering::Relaxed);
     let scanned = scans.join().map_err(|_| anyhow!("ros2: the scan thread panicked"))?;
     eprintln!("ros2: published {} poses on {}", out.published, a.pose_topic);
+    if !out.latency_us.is_empty() {
+        let (p50, p99) = messages::latency::p50_p99(&out.latency_us);
+        eprintln!(
+            "ros2: latency from a LaserScan taken to its pose published, ms: p50 {:.3} p99 {:.3} (last {} poses)",
+            p50 / 1e3,
+            p99 / 1e3,
+            out.latency_us.len()
+        );
+    }
     if out.unstamped > 0 {
         eprintln!("ros2: {} poses whose scan's stamp was no longer known were stamped when sent", out.unstamped);
     }
@@ -189,7 +199,13 @@ struct PosesOut {
     published: u64,
     unstamped: u64,
     unmounted_said: bool,
+    /// Microseconds from each scan taken off DDS to its pose handed to DDS (the latest
+    /// [`LATENCIES_KEPT`]).
+    latency_us: Vec<f64>,
 }
+
+/// Latencies kept for the report: the last hour at 40 Hz.
+const LATENCIES_KEPT: usize = 144_000;
 
 impl PosesOut {
     /// Publishes the robot's pose of a located scan (a failed scan has none).
@@ -218,6 +234,11 @@ impl PosesOut {
         }
         self.poses.publish(message).map_err(|e| anyhow!("{}: {e:?}", self.a.pose_topic))?;
         self.published += 1;
+        if self.latency_us.len() >= LATENCIES_KEPT {
+            self.latency_us.drain(..LATENCIES_KEPT / 2);
+        }
+        self.latency_us
+            .push(messages::latency::between_us(m.header.stages[Stage::Acquire as usize].enter_ns, monotonic_ns()));
         Ok(())
     }
 
