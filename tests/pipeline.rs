@@ -1049,3 +1049,75 @@ fn a_realtime_pipeline_runs_each_stage_where_and_how_its_file_says() {
     assert!(err.contains("idle cores wake within 0 us"), "{err}");
     assert_eq!(rows(&csv).len(), 60);
 }
+
+/// Writes an executable shell script `name` in `dir` and returns its path.
+fn script(dir: &Path, name: &str, body: &str) -> PathBuf {
+    use std::os::unix::fs::PermissionsExt;
+    let path = dir.join(name);
+    std::fs::write(&path, format!("#!/bin/sh\n{body}\n")).unwrap();
+    std::fs::set_permissions(&path, std::fs::Permissions::from_mode(0o755)).unwrap();
+    path
+}
+
+/// In a 10 Hz run, localize is swapped to a separately built program with other settings, and
+/// then swaps that cannot work are refused while the running localizer goes on: no pose is
+/// lost or repeated at the consumer.
+#[test]
+fn localize_swaps_to_another_program_with_other_settings_and_refuses_what_cannot_run() {
+    let Running { _dir, csv, prefix: p, run } = start_running("swapbin", 120, "10", Duration::from_secs(2));
+    let d = _dir.path();
+    // another program of the localize kind: here a wrapper that says it ran, then is one
+    let marker = d.join("ran");
+    let wrapper = script(
+        d,
+        "my-localize",
+        &format!(
+            "[ \"$1\" = --wire-version ] || echo ran >> {}\nexec {} stage localize \"$@\"",
+            marker.display(),
+            exe()
+        ),
+    );
+    // the listing says what each stage runs and can become
+    let list = gema2(&["swap", "--prefix", &p]);
+    let listed = String::from_utf8_lossy(&list.stdout);
+    assert!(list.status.success(), "{}", String::from_utf8_lossy(&list.stderr));
+    assert!(listed.contains("localize (localize): gema2 stage localize") && listed.contains("--binary"), "{listed}");
+    assert!(listed.contains("acquire (acquire):") && listed.contains("cannot be swapped yet"), "{listed}");
+    let old = stage_pids("localize", &p);
+    let swap =
+        gema2(&["swap", "localize", "--binary", wrapper.to_str().unwrap(), "--set", "thorough=1", "--prefix", &p]);
+    assert!(swap.status.success(), "{}", String::from_utf8_lossy(&swap.stderr));
+    let now = stage_pids("localize", &p);
+    assert_eq!(now.len(), 1);
+    assert_ne!(now, old);
+    assert!(std::fs::read_to_string(&marker).is_ok_and(|t| t.contains("ran")), "the new program ran");
+    let cmdline = std::fs::read(format!("/proc/{}/cmdline", now[0])).unwrap_or_default();
+    assert!(String::from_utf8_lossy(&cmdline).contains("thorough=1"), "with the new settings");
+    // a program that is not there, one of another wire version, one that dies at start, and a
+    // setting the map server owns: each refused, the running localizer untouched
+    let other_version = script(d, "old-localize", "[ \"$1\" = --wire-version ] && echo 1 && exit 0\nexit 3");
+    let dies = script(
+        d,
+        "broken-localize",
+        &format!("[ \"$1\" = --wire-version ] && echo {} && exit 0\nexit 7", messages::WIRE_VERSION),
+    );
+    let cases: [(&[&str], &str); 4] = [
+        (&["--binary", "/no/such/localize"], "cannot be started"),
+        (&["--binary", other_version.to_str().unwrap()], "speaks wire version 1"),
+        (&["--binary", dies.to_str().unwrap()], "exited before it was ready"),
+        (&["--set", "map_reach=3"], "map_reach shapes the map model"),
+    ];
+    for (args, why) in cases {
+        let mut all = vec!["swap", "localize", "--prefix", &p];
+        all.extend_from_slice(args);
+        let out = gema2(&all);
+        let said = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success() && said.contains(why), "{args:?}: {said}");
+        assert_eq!(stage_pids("localize", &p), now, "{args:?}: the running localizer was touched");
+    }
+    let out = run.wait_with_output().unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let seqs: Vec<u64> = rows(&csv).iter().map(|r| r[0].parse().unwrap()).collect();
+    let distinct: BTreeSet<u64> = seqs.iter().copied().collect();
+    assert_eq!((seqs.len(), distinct.len()), (120, 120), "poses lost or repeated");
+}

@@ -287,12 +287,33 @@ pub struct CornerReply {
     pub corners: [MapCornerMsg; MAX_CORNERS],
 }
 
-/// Request to the supervisor: replace `stage` by implementation `implementation`.
+/// [`ControlRequest::what`]: replace a stage.
+pub const CONTROL_SWAP: u32 = 0;
+/// [`ControlRequest::what`]: say what each stage runs and what it can be swapped to.
+pub const CONTROL_LIST: u32 = 1;
+/// Bytes of a program's path in a control request (UTF-8, NUL padded).
+pub const PATH_LEN: usize = 512;
+/// Bytes of a control request's arguments: each argument followed by a NUL.
+pub const ARGS_LEN: usize = 2048;
+/// Bytes of the supervisor's answer (UTF-8, NUL padded).
+pub const REPLY_LEN: usize = 4096;
+
+/// Request to the supervisor (`gema2 swap`): replace `stage` by another implementation,
+/// another program, or the same with other arguments; or list the stages.
 #[derive(Clone, Copy, Debug, ZeroCopySend, Zeroable)]
 #[repr(C)]
 pub struct ControlRequest {
+    /// [`CONTROL_SWAP`] or [`CONTROL_LIST`].
+    pub what: u32,
+    /// 1: `args` replace the stage's arguments; 0: they follow them.
+    pub replace_args: u32,
     pub stage: [u8; NAME_LEN],
+    /// Empty: the stage's own.
     pub implementation: [u8; NAME_LEN],
+    /// Empty: the stage's own program.
+    pub binary: [u8; PATH_LEN],
+    /// Arguments, each followed by a NUL.
+    pub args: [u8; ARGS_LEN],
 }
 
 /// The supervisor's answer: `ok` 1 on success, and a message.
@@ -300,7 +321,47 @@ pub struct ControlRequest {
 #[repr(C)]
 pub struct ControlReply {
     pub ok: u32,
-    pub message: [u8; 256],
+    pub message: [u8; REPLY_LEN],
+}
+
+/// `text` as NUL-padded bytes of length `N`, or `None` when it does not fit (or holds a NUL).
+pub fn padded<const N: usize>(text: &str) -> Option<[u8; N]> {
+    let b = text.as_bytes();
+    if b.len() > N || b.contains(&0) {
+        return None;
+    }
+    let mut out = [0u8; N];
+    out[..b.len()].copy_from_slice(b);
+    Some(out)
+}
+
+/// The text in NUL-padded bytes, up to the first NUL (lossy UTF-8).
+pub fn unpadded(bytes: &[u8]) -> String {
+    String::from_utf8_lossy(bytes.split(|&b| b == 0).next().unwrap_or(&[])).into_owned()
+}
+
+/// Arguments packed as [`ControlRequest::args`] holds them; `None` when they do not fit.
+pub fn pack_args(args: &[String]) -> Option<[u8; ARGS_LEN]> {
+    let mut out = [0u8; ARGS_LEN];
+    let mut at = 0;
+    for a in args {
+        let b = a.as_bytes();
+        if b.contains(&0) || at + b.len() + 1 > ARGS_LEN {
+            return None;
+        }
+        out[at..at + b.len()].copy_from_slice(b);
+        at += b.len() + 1;
+    }
+    Some(out)
+}
+
+/// The arguments of [`pack_args`]' bytes.
+pub fn unpack_args(bytes: &[u8; ARGS_LEN]) -> Vec<String> {
+    let end = bytes.iter().rposition(|&b| b != 0).map_or(0, |k| k + 1);
+    if end == 0 {
+        return Vec::new();
+    }
+    bytes[..end].split(|&b| b == 0).map(|a| String::from_utf8_lossy(a).into_owned()).collect()
 }
 
 #[cfg(test)]
@@ -336,6 +397,19 @@ mod tests {
         assert_eq!((size_of::<ScanMsg>(), align_of::<ScanMsg>()), (8352, 8));
         // SAFETY: as above.
         assert_eq!(unsafe { <ScanMsg as ZeroCopySend>::type_name() }, "gema2::ScanMsg");
+    }
+
+    #[test]
+    fn arguments_pack_and_unpack_whole_or_not_at_all() {
+        let args: Vec<String> = ["--set", "track=5", "", "--x"].iter().map(|s| s.to_string()).collect();
+        let packed = pack_args(&args).unwrap();
+        // an empty argument in the middle survives; a trailing one would read as padding
+        assert_eq!(unpack_args(&packed), args);
+        assert_eq!(unpack_args(&pack_args(&[]).unwrap()), Vec::<String>::new());
+        assert!(pack_args(&["x".repeat(ARGS_LEN)]).is_none());
+        assert!(pack_args(&["a\0b".into()]).is_none());
+        assert_eq!(unpadded(&padded::<8>("abc").unwrap()), "abc");
+        assert!(padded::<2>("abc").is_none());
     }
 
     #[test]

@@ -55,11 +55,20 @@ pub struct StageArgs {
     /// Run under SCHED_FIFO at this priority (1-99; needs root or CAP_SYS_NICE).
     #[arg(long)]
     pub priority: Option<u8>,
+    /// Print the wire contract's version ([`crate::WIRE_VERSION`]) and exit: what the
+    /// supervisor asks a program before swapping it in.
+    #[arg(long)]
+    pub wire_version: bool,
 }
 
 impl StageArgs {
-    /// Pins the process to `--cpu` and sets its `--priority`, when given.
+    /// Answers `--wire-version` (prints it and ends the process), then pins the process to
+    /// `--cpu` and sets its `--priority`, when given. Every stage calls it first.
     pub fn place(&self) -> Result<(), RuntimeError> {
+        if self.wire_version {
+            println!("{}", crate::WIRE_VERSION);
+            std::process::exit(0);
+        }
         if let Some(cpu) = self.cpu {
             crate::placement::pin_to_cpu(cpu)?;
         }
