@@ -330,8 +330,8 @@ fn run_with_no_scan_limit_goes_on_until_the_timeout() {
     let received: u64 = line["poses received ".len()..].split([' ', ',']).next().unwrap().parse().unwrap();
     assert!(received >= 10 && !line.contains(" of "), "{line}");
     for (args, why) in [
-        (&["--rate", "fast"][..], "a positive number of scans per second, or max"),
-        (&["--rate", "0"], "a positive number of scans per second, or max"),
+        (&["--rate", "fast"][..], "a positive number of scans per second, max, or recorded"),
+        (&["--rate", "0"], "a positive number of scans per second, max, or recorded"),
         (&["--timeout", "0"], "must be a number of seconds above 0"),
     ] {
         let out = gema2(&[&["run", "--prefix", &p][..], args].concat());
@@ -615,7 +615,9 @@ fn a_hot_swap_of_segment_then_localize_loses_at_most_two_scans() {
     let why = String::from_utf8_lossy(&other.stderr);
     assert!(!other.status.success() && why.contains("no implementation \"split-and-merge\""), "{why}");
     let source = gema2(&["swap", "acquire", "--impl", "x", "--prefix", &p]);
-    assert!(String::from_utf8_lossy(&source.stderr).contains("cannot be swapped"));
+    assert!(String::from_utf8_lossy(&source.stderr).contains("no implementations"));
+    let server = gema2(&["swap", "mapserver", "--prefix", &p]);
+    assert!(String::from_utf8_lossy(&server.stderr).contains("cannot be swapped yet"));
     // a fresh localizer reads the map server's model in place, and takes over
     let old = stage_pids("localize", &p);
     let swap = gema2(&["swap", "localize", "--impl", "gema2", "--prefix", &p]);
@@ -1082,7 +1084,8 @@ fn localize_swaps_to_another_program_with_other_settings_and_refuses_what_cannot
     let listed = String::from_utf8_lossy(&list.stdout);
     assert!(list.status.success(), "{}", String::from_utf8_lossy(&list.stderr));
     assert!(listed.contains("localize (localize): gema2 stage localize") && listed.contains("--binary"), "{listed}");
-    assert!(listed.contains("acquire (acquire):") && listed.contains("cannot be swapped yet"), "{listed}");
+    assert!(listed.contains("acquire (acquire):") && listed.contains("scan boundary"), "{listed}");
+    assert!(listed.contains("mapserver (mapserver):") && listed.contains("cannot be swapped yet"), "{listed}");
     let old = stage_pids("localize", &p);
     let swap =
         gema2(&["swap", "localize", "--binary", wrapper.to_str().unwrap(), "--set", "thorough=1", "--prefix", &p]);
@@ -1120,4 +1123,42 @@ fn localize_swaps_to_another_program_with_other_settings_and_refuses_what_cannot
     let seqs: Vec<u64> = rows(&csv).iter().map(|r| r[0].parse().unwrap()).collect();
     let distinct: BTreeSet<u64> = seqs.iter().copied().collect();
     assert_eq!((seqs.len(), distinct.len()), (120, 120), "poses lost or repeated");
+}
+
+/// In a 10 Hz run the source is swapped for another (here a replay of another log): the new one
+/// takes over at a scan boundary, numbering on from the old one's last scan, so the consumer
+/// sees every number once.
+#[test]
+fn the_source_is_handed_over_at_a_scan_boundary_with_no_pose_lost_or_repeated() {
+    let Running { _dir, csv, prefix: p, run } = start_running("swapsrc", 100, "10", Duration::from_secs(2));
+    let other = _dir.path().join("other.log");
+    let made = gema2(&["sim", "--map", "office", "--scans", "100", "--seed", "8", "--out", other.to_str().unwrap()]);
+    assert!(made.status.success());
+    let old = stage_pids("acquire", &p);
+    // --args takes the rest of the line: the prefix goes before it
+    let swap = gema2(&[
+        "swap",
+        "acquire",
+        "--prefix",
+        &p,
+        "--args",
+        "--log",
+        other.to_str().unwrap(),
+        "--rate",
+        "10",
+        "--scans",
+        "100",
+    ]);
+    assert!(swap.status.success(), "{}", String::from_utf8_lossy(&swap.stderr));
+    let now = stage_pids("acquire", &p);
+    assert_eq!(now.len(), 1);
+    assert_ne!(now, old);
+    let out = run.wait_with_output().unwrap();
+    let said = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{said}");
+    assert!(said.contains("acquire: took over from the source it replaces at scan "), "{said}");
+    let seqs: Vec<u64> = rows(&csv).iter().map(|r| r[0].parse().unwrap()).collect();
+    let distinct: BTreeSet<u64> = seqs.iter().copied().collect();
+    assert_eq!((seqs.len(), distinct.len()), (100, 100), "poses lost or repeated: {seqs:?}");
+    assert_eq!(distinct.iter().next_back(), Some(&99));
 }

@@ -80,6 +80,12 @@ pub struct AcquireArgs {
     /// message (`messages::WARM_UP`), so that the scan's own wake-ups find a warm path; 0: never.
     #[arg(long, default_value_t = DEFAULT_WARM_UP_US)]
     pub warm_up_us: u64,
+    /// Take over from the source this one replaces (a hot swap): announce readiness, then
+    /// publish only once the other source is gone, numbering from one after the last scan it
+    /// published, so downstream sees no gap and no repeat. With no scan seen from it, from
+    /// `--first-seq`.
+    #[arg(long)]
+    pub handover: bool,
     /// Seconds the source stays up after its last scan (SIGINT or SIGTERM end it sooner), so
     /// the segment stage can take that scan: iceoryx2 drops what a publisher sent once the
     /// publisher is gone, and a short replay ends before its first scan is read.
@@ -263,6 +269,15 @@ pub fn run(a: AcquireArgs) -> Result<()> {
     };
     let mut recorded = (a.rate == "recorded" && !a.is_sensor()).then(Pace::default);
     let mut seq = a.first_seq;
+    if a.handover {
+        match take_over(&node, &out.scans, &a.stage.prefix, a.first_seq)? {
+            Some(next) => {
+                eprintln!("acquire: took over from the source it replaces at scan {next}");
+                seq = next;
+            }
+            None => return Ok(()), // SIGINT or SIGTERM while waiting
+        }
+    }
     let mut skipped = 0u64;
     let mut next = monotonic_ns();
     let mut signalled = false;
@@ -309,6 +324,9 @@ pub fn run(a: AcquireArgs) -> Result<()> {
     if !signalled && !stop_requested() && seq > a.first_seq && a.linger > 0.0 {
         // the scans still in the segment stage's queue live in this process's memory
         messages::sleep(&node, Duration::from_secs_f64(a.linger.min(3600.0)));
+    } else if seq > a.first_seq && a.linger > 0.0 {
+        // stopped (a swap hands over, Ctrl-C): the last scans still reach their readers
+        std::thread::sleep(STOPPED_LINGER.min(Duration::from_secs_f64(a.linger)));
     }
     if skipped > 0 {
         eprintln!("acquire: skipped {skipped} malformed log lines");
@@ -317,6 +335,45 @@ pub fn run(a: AcquireArgs) -> Result<()> {
         eprintln!("acquire: {r}");
     }
     Ok(())
+}
+
+/// How often a source taking over looks whether the one it replaces is gone.
+const HANDOVER_POLL: Duration = Duration::from_millis(2);
+
+/// How long a source taking over waits to see a scan of the one it replaces before it says it
+/// is ready: the last scan's number must be known when the other goes.
+const HANDOVER_FIRST_SCAN: Duration = Duration::from_secs(3);
+
+/// How long a source stopped by a signal stays up after its last scan: enough for readers to
+/// take the scans still queued (iceoryx2 drops what a publisher sent once it is gone), short
+/// enough for a swap.
+const STOPPED_LINGER: Duration = Duration::from_millis(300);
+
+/// `--handover`: watches the scans the other source publishes; says it is ready once it has
+/// seen one (or waited [`HANDOVER_FIRST_SCAN`]); then, once the other is gone, the number to go
+/// on from. `None` when SIGINT or SIGTERM came first.
+fn take_over(node: &Node<ipc::Service>, out: &Outlet<ScanMsg>, prefix: &str, fallback: u64) -> Result<Option<u64>> {
+    let watch = messages::Inlet::<ScanMsg>::open(node, prefix, Topic::Scan)?;
+    let mut last: Option<u64> = None;
+    let mut ready = false;
+    let started = std::time::Instant::now();
+    loop {
+        // the other source waits for room in every reader's buffer, this one's too: drain it
+        let gone = out.other_publishers() == 0;
+        while let Some(sample) = watch.subscriber.receive().map_err(|e| anyhow!("{}: receive: {e:?}", watch.name))? {
+            last = Some(last.map_or(sample.header.seq, |l| l.max(sample.header.seq)));
+        }
+        if !ready && (last.is_some() || gone || started.elapsed() > HANDOVER_FIRST_SCAN) {
+            messages::announce_ready(node, prefix)?;
+            ready = true;
+        }
+        if gone && ready {
+            return Ok(Some(last.map_or(fallback, |l| l + 1)));
+        }
+        if !messages::sleep(node, HANDOVER_POLL) {
+            return Ok(None);
+        }
+    }
 }
 
 /// `--rate recorded`: scans published at the pace of their stamps, from the first one's

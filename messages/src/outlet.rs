@@ -199,6 +199,11 @@ impl<T: Debug + ZeroCopySend + Zeroable + 'static> Outlet<T> {
         self.data.dynamic_config().number_of_subscribers()
     }
 
+    /// Publishers of the topic other than this one: a source being replaced, while both run.
+    pub fn other_publishers(&self) -> usize {
+        self.data.dynamic_config().number_of_publishers().saturating_sub(1)
+    }
+
     /// What was resent or missed, for a stage's closing report; `None` when nothing was.
     pub fn report(&self) -> Option<String> {
         (self.resent > 0 || self.missed > 0).then(|| {

@@ -11,9 +11,10 @@
 //! old stage running, and the swap ends with an error that says why. `gema2 swap` with no stage
 //! lists what each stage runs and what it can be swapped to.
 //!
-//! Segment and localize stages swap this way. The source (acquire, ros2), the map server and
-//! the recorder do not yet: their hand-over needs more than a second process under the same
-//! names (a source's numbering continued, a map server's new version).
+//! Segment and localize stages swap this way. An acquire stage (the source) is handed over at a
+//! scan boundary: the new one starts with `--handover`, announces readiness, and publishes only
+//! once the old one is gone, numbering on from the old one's last scan. The ros2 bridge, the map
+//! server and the recorder do not swap yet (the map server takes a new map with SIGHUP).
 
 use super::child::{spawn, stop, StageProcess};
 use super::control::ControlServer;
@@ -141,10 +142,14 @@ fn refuse_model_settings(args: &[String]) -> Result<()> {
 fn changed(spec: &StageSpec, asked: &Asked) -> Result<(StageSpec, String)> {
     let kind = spec.kind;
     let implementations = implementations(kind);
-    if implementations.is_empty() {
+    if kind == Kind::Acquire && asked.implementation.is_some() {
+        bail!("a source has no implementations to choose from: give it other --args (or --binary)");
+    }
+    if implementations.is_empty() && kind != Kind::Acquire {
         bail!(
-            "stage {:?} is a {} stage, which cannot be swapped yet: segment stages (to one of {SEGMENTERS:?}) and \
-             localize stages ({LOCALIZERS:?}) can, to another --binary or with other --args / --set",
+            "stage {:?} is a {} stage, which cannot be swapped yet: segment stages (to one of {SEGMENTERS:?}), \
+             localize stages ({LOCALIZERS:?}) and acquire stages can, to another --binary or with other --args / \
+             --set",
             spec.name,
             kind.as_str()
         );
@@ -225,7 +230,12 @@ impl Swap {
             Err(e) => return refuse(format!("{e:#}")),
         };
         let instance = instance();
-        let new = match spawn(&spec, prefix, None, instance) {
+        // a source takes over at a scan boundary (not kept for a restart: that starts afresh)
+        let mut starting = spec.clone();
+        if starting.kind == Kind::Acquire {
+            starting.args.push("--handover".into());
+        }
+        let new = match spawn(&starting, prefix, None, instance) {
             Ok(c) => c,
             Err(e) => return refuse(format!("{e:#}")),
         };
@@ -311,6 +321,9 @@ fn listing(stages: &[StageProcess]) -> String {
         };
         let args = if s.args.is_empty() { String::new() } else { format!(" {}", s.args.join(" ")) };
         let to = match implementations(s.kind) {
+            [] if s.kind == Kind::Acquire => {
+                "can be swapped to another --binary or other --args, handed over at a scan boundary".to_owned()
+            }
             [] => "cannot be swapped yet".to_owned(),
             i => format!("can be swapped to --impl {}, another --binary, other --args or --set", i.join(" | ")),
         };
