@@ -616,8 +616,8 @@ fn a_hot_swap_of_segment_then_localize_loses_at_most_two_scans() {
     assert!(!other.status.success() && why.contains("no implementation \"split-and-merge\""), "{why}");
     let source = gema2(&["swap", "acquire", "--impl", "x", "--prefix", &p]);
     assert!(String::from_utf8_lossy(&source.stderr).contains("no implementations"));
-    let server = gema2(&["swap", "mapserver", "--prefix", &p]);
-    assert!(String::from_utf8_lossy(&server.stderr).contains("cannot be swapped yet"));
+    let server = gema2(&["swap", "mapserver", "--prefix", &p, "--set", "map_reach=3"]);
+    assert!(String::from_utf8_lossy(&server.stderr).contains("every localizer's too"));
     // a fresh localizer reads the map server's model in place, and takes over
     let old = stage_pids("localize", &p);
     let swap = gema2(&["swap", "localize", "--impl", "gema2", "--prefix", &p]);
@@ -1085,7 +1085,7 @@ fn localize_swaps_to_another_program_with_other_settings_and_refuses_what_cannot
     assert!(list.status.success(), "{}", String::from_utf8_lossy(&list.stderr));
     assert!(listed.contains("localize (localize): gema2 stage localize") && listed.contains("--binary"), "{listed}");
     assert!(listed.contains("acquire (acquire):") && listed.contains("scan boundary"), "{listed}");
-    assert!(listed.contains("mapserver (mapserver):") && listed.contains("cannot be swapped yet"), "{listed}");
+    assert!(listed.contains("mapserver (mapserver):") && listed.contains("new map version"), "{listed}");
     let old = stage_pids("localize", &p);
     let swap =
         gema2(&["swap", "localize", "--binary", wrapper.to_str().unwrap(), "--set", "thorough=1", "--prefix", &p]);
@@ -1161,4 +1161,28 @@ fn the_source_is_handed_over_at_a_scan_boundary_with_no_pose_lost_or_repeated() 
     let distinct: BTreeSet<u64> = seqs.iter().copied().collect();
     assert_eq!((seqs.len(), distinct.len()), (100, 100), "poses lost or repeated: {seqs:?}");
     assert_eq!(distinct.iter().next_back(), Some(&99));
+}
+
+/// In a 10 Hz run the map server is swapped for one serving another map file: it publishes the
+/// version after the running one's, the localizer takes it up between two scans, and no pose is
+/// lost or repeated.
+#[test]
+fn the_map_server_is_swapped_to_another_map_as_a_new_version() {
+    let Running { _dir, csv, prefix: p, run } = start_running("swapmap", 100, "10", Duration::from_secs(2));
+    let map = _dir.path().join("office-copy.json");
+    std::fs::write(&map, include_str!("../maps/office.json")).unwrap();
+    let old = stage_pids("mapserver", &p);
+    let swap = gema2(&["swap", "mapserver", "--prefix", &p, "--args", "--map", map.to_str().unwrap()]);
+    assert!(swap.status.success(), "{}", String::from_utf8_lossy(&swap.stderr));
+    let now = stage_pids("mapserver", &p);
+    assert_eq!(now.len(), 1);
+    assert_ne!(now, old);
+    let out = run.wait_with_output().unwrap();
+    let said = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{said}");
+    assert!(said.contains("office-copy.json (210 walls") && said.contains("as version 2"), "{said}");
+    assert!(said.contains("localize: map version 2 ("), "the localizer never took version 2: {said}");
+    let seqs: Vec<u64> = rows(&csv).iter().map(|r| r[0].parse().unwrap()).collect();
+    let distinct: BTreeSet<u64> = seqs.iter().copied().collect();
+    assert_eq!((seqs.len(), distinct.len()), (100, 100), "poses lost or repeated");
 }

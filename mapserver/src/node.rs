@@ -132,6 +132,32 @@ fn corner_reply(index: &map::CornerIndex, version: u32, q: &CornerQuery) -> Corn
     reply
 }
 
+/// How long a map server waits for the version another one serves.
+const RUNNING_VERSION_PATIENCE: Duration = Duration::from_secs(2);
+
+/// The map version another map server under this prefix serves, when one does (this one has
+/// published nothing yet).
+fn running_version(
+    node: &messages::iceoryx2::prelude::Node<messages::iceoryx2::prelude::ipc::Service>,
+    topic: &messages::TopicPorts<MapMsg>,
+) -> Result<Option<u32>> {
+    if topic.data.dynamic_config().number_of_publishers() <= 1 {
+        return Ok(None);
+    }
+    let subscriber = topic.data.subscriber_builder().create().with_context(|| format!("{}: subscriber", topic.name))?;
+    let deadline = std::time::Instant::now() + RUNNING_VERSION_PATIENCE;
+    while std::time::Instant::now() < deadline {
+        // the other server hands its history over from its loop, every few milliseconds
+        if let Some(sample) = subscriber.receive().map_err(|e| anyhow::anyhow!("{}: receive: {e:?}", topic.name))? {
+            return Ok(Some(sample.version));
+        }
+        if !messages::sleep(node, Duration::from_millis(5)) {
+            break;
+        }
+    }
+    Ok(None)
+}
+
 pub fn run(a: MapServerArgs) -> Result<()> {
     let mut config = localize::Gema2Config::default();
     config.apply(&a.set).context("mapserver: --set")?;
@@ -150,7 +176,9 @@ pub fn run(a: MapServerArgs) -> Result<()> {
         model_topic.event.notifier_builder().create().with_context(|| format!("{}: notifier", model_topic.name))?;
     let queries = open_corner_queries(&node, &a.stage.prefix)?;
     let server = queries.server_builder().create().context("corner queries: server")?;
-    let mut version = 1u32;
+    // a map server this one replaces (a hot swap) has published some version: go on from it,
+    // so the localizers take this one's map as a new version
+    let mut version = running_version(&node, &topic)?.map_or(1, |v| v.wrapping_add(1).max(1));
     // the model first: a localizer that sees the walls' new version finds its model there
     let send = |v: &Version, block: map::flat::FlatWriter, version: u32| -> Result<()> {
         publish_model(&model_topic, &model_publisher, &model_notifier, version, MODEL_LAYOUT, block.bytes())?;

@@ -13,8 +13,9 @@
 //!
 //! Segment and localize stages swap this way. An acquire stage (the source) is handed over at a
 //! scan boundary: the new one starts with `--handover`, announces readiness, and publishes only
-//! once the old one is gone, numbering on from the old one's last scan. The ros2 bridge, the map
-//! server and the recorder do not swap yet (the map server takes a new map with SIGHUP).
+//! once the old one is gone, numbering on from the old one's last scan. A new map server
+//! publishes its map as the version after the running one's, so the localizers take it up
+//! between two scans. The ros2 bridge and the recorder do not swap yet.
 
 use super::child::{spawn, stop, StageProcess};
 use super::control::ControlServer;
@@ -142,14 +143,15 @@ fn refuse_model_settings(args: &[String]) -> Result<()> {
 fn changed(spec: &StageSpec, asked: &Asked) -> Result<(StageSpec, String)> {
     let kind = spec.kind;
     let implementations = implementations(kind);
-    if kind == Kind::Acquire && asked.implementation.is_some() {
-        bail!("a source has no implementations to choose from: give it other --args (or --binary)");
+    let by_arguments = matches!(kind, Kind::Acquire | Kind::Mapserver);
+    if by_arguments && asked.implementation.is_some() {
+        bail!("a {} stage has no implementations to choose from: give it other --args (or --binary)", kind.as_str());
     }
-    if implementations.is_empty() && kind != Kind::Acquire {
+    if implementations.is_empty() && !by_arguments {
         bail!(
             "stage {:?} is a {} stage, which cannot be swapped yet: segment stages (to one of {SEGMENTERS:?}), \
-             localize stages ({LOCALIZERS:?}) and acquire stages can, to another --binary or with other --args / \
-             --set",
+             localize stages ({LOCALIZERS:?}), acquire and mapserver stages can, to another --binary or with \
+             other --args / --set",
             spec.name,
             kind.as_str()
         );
@@ -190,6 +192,11 @@ fn changed(spec: &StageSpec, asked: &Asked) -> Result<(StageSpec, String)> {
             refuse_model_settings(&asked.args)?;
             localize::Gema2Config::default().apply(&sets).context("--set")?
         }
+        // the localizers hold the corner settings too: the model must agree with them
+        Kind::Mapserver if asked.args.iter().any(|a| a == "--set") => bail!(
+            "the map server's corner settings are every localizer's too: change them in the pipeline's settings and \
+             start it again"
+        ),
         _ => {}
     }
     if what.is_empty() {
@@ -323,6 +330,10 @@ fn listing(stages: &[StageProcess]) -> String {
         let to = match implementations(s.kind) {
             [] if s.kind == Kind::Acquire => {
                 "can be swapped to another --binary or other --args, handed over at a scan boundary".to_owned()
+            }
+            [] if s.kind == Kind::Mapserver => {
+                "can be swapped to another --binary or other --args (another --map), served as a new map version"
+                    .to_owned()
             }
             [] => "cannot be swapped yet".to_owned(),
             i => format!("can be swapped to --impl {}, another --binary, other --args or --set", i.join(" | ")),
