@@ -64,7 +64,7 @@ pub fn open_model_topic(node: &Node<ipc::Service>, prefix: &str) -> Result<Model
         .max_publishers(2)
         .max_subscribers(16)
         .max_nodes(32)
-        .open_or_create()
+        .open_or_create_with_attributes(&crate::topic::wire_attributes())
         .map_err(|e| open(&e))?;
     let event = open_event(node, &name, &service)?;
     Ok(ModelPorts { name: service, data, event })

@@ -143,7 +143,7 @@ fn ready_event(
         .max_notifiers(16)
         .max_listeners(4)
         .max_nodes(32)
-        .open_or_create()
+        .open_or_create_with_attributes(&crate::topic::wire_attributes())
         .map_err(|e| crate::OpenError::Open { service, message: format!("{e:?}") })
 }
 

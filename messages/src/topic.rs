@@ -85,6 +85,19 @@ pub enum OpenError {
     Port { service: String, message: String },
 }
 
+/// What every service of the pipeline carries, and every process requires when it opens one:
+/// the wire contract's version ([`crate::WIRE_VERSION`]). A process of another version is
+/// refused at connect time, naming the service, instead of misreading its messages.
+pub fn wire_attributes() -> AttributeVerifier {
+    let verifier = (|| {
+        let key = "gema2.wire_version".try_into().ok()?;
+        let value = crate::WIRE_VERSION.to_string().as_str().try_into().ok()?;
+        AttributeVerifier::new().require(&key, &value).ok()
+    })();
+    // a fixed key and a short number always fit
+    verifier.unwrap_or_default()
+}
+
 /// The full service name of `topic` under `prefix` (`gema2` by default).
 pub fn service_name(prefix: &str, topic: &str) -> String {
     format!("{}/{}", prefix.trim_end_matches('/'), topic)
@@ -133,20 +146,21 @@ pub fn open_pubsub<T: Debug + ZeroCopySend + 'static>(
         .max_publishers(s.max_publishers)
         .max_subscribers(s.max_subscribers)
         .max_nodes(32)
-        .open_or_create()
+        .open_or_create_with_attributes(&crate::topic::wire_attributes())
         .map_err(|e| {
             let payload = std::any::type_name::<T>();
-            let hint = if matches!(
-                e,
+            let hint = match e {
                 PublishSubscribeOpenOrCreateError::PublishSubscribeOpenError(
-                    PublishSubscribeOpenError::IncompatibleTypes
-                )
-            ) {
-                // what it usually means in practice: one binary is older than the others
-                "; another process created it with a different payload layout: are all the \
-                 processes (a `viewer` too) built from the same sources?"
-            } else {
-                ""
+                    PublishSubscribeOpenError::IncompatibleTypes,
+                ) => {
+                    // what it usually means in practice: one binary is older than the others
+                    "; another process created it with a different payload layout: are all the \
+                     processes (a `viewer` too) built from the same sources?"
+                }
+                PublishSubscribeOpenOrCreateError::PublishSubscribeOpenError(
+                    PublishSubscribeOpenError::IncompatibleAttributes,
+                ) => "; another process created it with another wire version (messages::WIRE_VERSION)",
+                _ => "",
             };
             OpenError::Open { service: service.into(), message: format!("{e:?} (payload {payload}){hint}") }
         })?;
@@ -166,7 +180,7 @@ pub(crate) fn open_event(
         .max_notifiers(16)
         .max_listeners(16)
         .max_nodes(32)
-        .open_or_create()
+        .open_or_create_with_attributes(&crate::topic::wire_attributes())
         .map_err(|e| OpenError::Open { service: service.into(), message: format!("event: {e:?}") })
 }
 
@@ -199,6 +213,6 @@ fn open_request_response<Q: Debug + ZeroCopySend + 'static, R: Debug + ZeroCopyS
         .request_response::<Q, R>()
         .max_clients(8)
         .max_servers(max_servers)
-        .open_or_create()
+        .open_or_create_with_attributes(&crate::topic::wire_attributes())
         .map_err(|e| OpenError::Open { service: service.into(), message: format!("{e:?}") })
 }

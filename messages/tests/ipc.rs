@@ -200,3 +200,23 @@ fn a_look_passes_twice_and_counts_a_polled_scan_once() {
     }
     assert!(look.warm_up_to_pass_on());
 }
+
+/// A service made by a process of another wire version is refused when opened, naming the
+/// service and saying why, before any message is misread.
+#[test]
+fn a_service_of_another_wire_version_is_refused_at_connect_time() {
+    use iceoryx2::prelude::*;
+    let prefix = prefix("wire");
+    let node = create_node("test").unwrap();
+    let name = service_name(&prefix, "pose");
+    let key = "gema2.wire_version".try_into().unwrap();
+    let older = (WIRE_VERSION - 1).to_string();
+    let attrs = AttributeSpecifier::new().define(&key, &older.as_str().try_into().unwrap()).unwrap();
+    let _theirs = node
+        .service_builder(&name.as_str().try_into().unwrap())
+        .publish_subscribe::<PoseMsg>()
+        .create_with_attributes(&attrs)
+        .unwrap();
+    let err = open_topic::<PoseMsg>(&node, &prefix, Topic::Pose).err().expect("refused").to_string();
+    assert!(err.contains(&name) && err.contains("another wire version"), "{err}");
+}
