@@ -345,3 +345,34 @@ fn a_live_viewer_that_never_answers_costs_the_file_nothing() {
     let (summary, _) = inspect(std::slice::from_ref(&file));
     assert!(summary.contains("scans: 120 (seq 0..=119)"), "{summary}");
 }
+
+/// Every swap is recorded: the recording's log holds the supervisor's word for it, and
+/// `inspect` lists the swaps, refused ones too.
+#[test]
+fn swaps_are_recorded_and_inspect_lists_them() {
+    let dir = tempfile::tempdir().unwrap();
+    let log = simulate(dir.path(), 60);
+    let file = dir.path().join("swaps.rrd");
+    let p = prefix("swaprec");
+    let run = Command::new(gema2())
+        .args(["run", "--prefix", &p, "--scans", "60", "--timeout", "60", "--record"])
+        .arg(&file)
+        .arg("--pipeline")
+        .arg(pipeline(dir.path(), &log, "20"))
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    wait_for_bytes(&file, 1);
+    let swap = |args: &[&str]| Command::new(gema2()).args(["swap"]).args(args).args(["--prefix", &p]).output().unwrap();
+    let done = swap(&["segment", "--impl", "split-and-merge"]);
+    assert!(done.status.success(), "{}", String::from_utf8_lossy(&done.stderr));
+    let refused = swap(&["segment", "--impl", "no-such"]);
+    assert!(!refused.status.success());
+    let out = run.wait_with_output().unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let (text, _) = inspect(&[file]);
+    assert!(text.contains("swaps: 2"), "{text}");
+    assert!(text.contains("  swapped segment to split-and-merge"), "{text}");
+    assert!(text.contains("no implementation \"no-such\""), "{text}");
+}

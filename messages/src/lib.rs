@@ -38,8 +38,8 @@ pub use runtime::{
     RuntimeError, StageArgs, MAX_INSTANCE, MISSED_WAKEUP_POLL,
 };
 pub use topic::{
-    open_control, open_corner_queries, open_pubsub, open_topic, service_name, OpenError, Topic, TopicPorts,
-    TopicSettings, ALL_TOPICS,
+    open_control, open_corner_queries, open_events, open_pubsub, open_topic, service_name, OpenError, Topic,
+    TopicPorts, TopicSettings, ALL_TOPICS,
 };
 
 pub use waiting::{

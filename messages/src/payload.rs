@@ -324,6 +324,23 @@ pub struct ControlReply {
     pub message: [u8; REPLY_LEN],
 }
 
+/// Bytes of a supervisor event's text.
+pub const EVENT_LEN: usize = 512;
+
+/// `<prefix>/events`: what the supervisor did to the pipeline (a swap, its failure), for the
+/// recording and anyone watching.
+#[derive(Clone, Copy, Debug, ZeroCopySend, Zeroable)]
+#[repr(C)]
+pub struct EventMsg {
+    /// When, monotonic ns.
+    pub stamp_ns: u64,
+    /// 1 when what was asked was done.
+    pub ok: u32,
+    pub _pad: u32,
+    /// UTF-8, NUL padded.
+    pub text: [u8; EVENT_LEN],
+}
+
 /// `text` as NUL-padded bytes of length `N`, or `None` when it does not fit (or holds a NUL).
 pub fn padded<const N: usize>(text: &str) -> Option<[u8; N]> {
     let b = text.as_bytes();

@@ -184,6 +184,14 @@ pub(crate) fn open_event(
         .map_err(|e| OpenError::Open { service: service.into(), message: format!("event: {e:?}") })
 }
 
+/// The supervisor's events, `<prefix>/events`: a few kept for a recorder that connects late;
+/// a full reader loses the oldest, so the supervisor never waits on one.
+pub fn open_events(node: &Node<ipc::Service>, prefix: &str) -> Result<TopicPorts<crate::EventMsg>, OpenError> {
+    let settings =
+        TopicSettings { history: 16, buffer: 16, max_publishers: 2, max_subscribers: 8, safe_overflow: true };
+    open_pubsub::<crate::EventMsg>(node, &service_name(prefix, "events"), settings)
+}
+
 /// The map server's corner query service, `<prefix>/map/corners`.
 pub fn open_corner_queries(
     node: &Node<ipc::Service>,

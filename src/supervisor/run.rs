@@ -117,6 +117,7 @@ pub fn run(a: RunArgs) -> Result<()> {
     let server = claim_prefix(&control, &a.prefix)?;
     let poses = Inlet::<PoseMsg>::open(&node, &a.prefix, Topic::Pose)?;
     let ready = ready_listener(&node, &a.prefix)?;
+    let events = Events::open(&node, &a.prefix)?;
 
     let mut instances = Instances(0);
     let mut seen = HashSet::new();
@@ -148,7 +149,7 @@ pub fn run(a: RunArgs) -> Result<()> {
             failure = Some(e);
             return CallbackProgression::Stop;
         }
-        hot_swap(&mut swap, &server, &mut stages, &a.prefix, &seen, &mut instances);
+        hot_swap(&mut swap, &server, &mut stages, &a.prefix, &seen, &mut instances, &events);
         // done?
         let sources_done = stages.iter().filter(|s| s.spec.kind.is_source()).all(|s| s.finished);
         let all_in = scans.is_some_and(|n| monitor.received >= n);
@@ -325,20 +326,55 @@ fn hot_swap(
     prefix: &str,
     seen: &HashSet<usize>,
     instances: &mut Instances,
+    events: &Events,
 ) {
     if swap.is_none() {
         match Swap::accept(server, stages, prefix, || instances.next()) {
             Ok(s) => *swap = s,
-            Err(e) => eprintln!("supervisor: {e:#}"),
+            Err(e) => {
+                eprintln!("supervisor: {e:#}");
+                events.say(false, &format!("{e:#}"));
+            }
         }
     }
     if let Some(s) = swap.as_mut() {
-        match s.progress(seen, stages) {
-            SwapOutcome::Pending => {}
-            SwapOutcome::Done(message) | SwapOutcome::Failed(message) => {
-                eprintln!("supervisor: {message}");
-                *swap = None;
-            }
+        let (ok, message) = match s.progress(seen, stages) {
+            SwapOutcome::Pending => return,
+            SwapOutcome::Done(message) => (true, message),
+            SwapOutcome::Failed(message) => (false, message),
+        };
+        eprintln!("supervisor: {message}");
+        events.say(ok, &message);
+        *swap = None;
+    }
+}
+
+/// The supervisor's end of `<prefix>/events`: what it did, for the recording.
+struct Events {
+    publisher: messages::iceoryx2::port::publisher::Publisher<ipc::Service, messages::EventMsg, ()>,
+    notifier: messages::iceoryx2::port::notifier::Notifier<ipc::Service>,
+}
+
+impl Events {
+    fn open(node: &Node<ipc::Service>, prefix: &str) -> Result<Self> {
+        let ports = messages::open_events(node, prefix)?;
+        let publisher =
+            ports.data.publisher_builder().create().with_context(|| format!("{}: publisher", ports.name))?;
+        let notifier = ports.event.notifier_builder().create().with_context(|| format!("{}: notifier", ports.name))?;
+        Ok(Events { publisher, notifier })
+    }
+
+    /// Publishes `text` (cut to fit); a failure to is said, never fatal.
+    fn say(&self, ok: bool, text: &str) {
+        let mut bytes = [0u8; messages::EVENT_LEN];
+        let mut n = text.len().min(messages::EVENT_LEN - 1);
+        while !text.is_char_boundary(n) {
+            n -= 1;
+        }
+        bytes[..n].copy_from_slice(&text.as_bytes()[..n]);
+        let m = messages::EventMsg { stamp_ns: messages::monotonic_ns(), ok: u32::from(ok), _pad: 0, text: bytes };
+        if let Err(e) = messages::publish(&self.publisher, &self.notifier, |slot: &mut messages::EventMsg| *slot = m) {
+            eprintln!("supervisor: events: {e}");
         }
     }
 }

@@ -249,6 +249,9 @@ impl Inspection {
         }
         let errors = self.log.iter().filter(|(_, t)| t.contains("bad ") || t.contains("unusable")).count();
         out.push(format!("log entries: {} ({errors} about bad messages)", self.log.len()));
+        let swaps: Vec<&str> = self.log.iter().filter_map(|(_, t)| t.strip_prefix("supervisor: ")).collect();
+        out.push(format!("swaps: {}", swaps.len()));
+        out.extend(swaps.iter().map(|t| format!("  {t}")));
         out.join("\n")
     }
 

@@ -76,6 +76,8 @@ pub struct Subscriptions {
     pub corners: TopicSubscription<CornersMsg>,
     pub pose: TopicSubscription<PoseMsg>,
     pub map: TopicSubscription<MapMsg>,
+    /// The supervisor's events (swaps), beside the data topics.
+    pub events: TopicSubscription<messages::EventMsg>,
 }
 
 impl Subscriptions {
@@ -93,7 +95,15 @@ impl Subscriptions {
             }
         }
         let missing = |t: Topic| anyhow!("topic {t:?} is not in messages::ALL_TOPICS, so it would not be recorded");
+        let events = {
+            let ports = messages::open_events(node, prefix)?;
+            let data =
+                ports.data.subscriber_builder().create().with_context(|| format!("{}: subscriber", ports.name))?;
+            let wake = ports.event.listener_builder().create().with_context(|| format!("{}: listener", ports.name))?;
+            TopicSubscription { name: ports.name, data, wake }
+        };
         Ok(Subscriptions {
+            events,
             scan: scan.ok_or_else(|| missing(Topic::Scan))?,
             lines: lines.ok_or_else(|| missing(Topic::Lines))?,
             corners: corners.ok_or_else(|| missing(Topic::Corners))?,
@@ -111,8 +121,9 @@ impl Subscriptions {
             .collect()
     }
 
-    fn listeners(&self) -> [(&str, &Listener<ipc::Service>); 5] {
+    fn listeners(&self) -> [(&str, &Listener<ipc::Service>); 6] {
         [
+            (&self.events.name, &self.events.wake),
             (&self.scan.name, &self.scan.wake),
             (&self.lines.name, &self.lines.wake),
             (&self.corners.name, &self.corners.wake),
@@ -147,6 +158,7 @@ impl Subscriptions {
             each(&self.lines, |m| recorder.lines(m))?;
             each(&self.corners, |m| recorder.corners(m))
         };
+        each(&self.events, |m| recorder.event(m))?;
         each(&self.map, |m| recorder.map(m))?;
         upstream(recorder)?;
         loop {

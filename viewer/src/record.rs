@@ -203,6 +203,12 @@ impl Recorder {
         }
     }
 
+    /// A supervisor event (a swap, or its failure), as a log entry.
+    pub fn event(&mut self, m: &messages::EventMsg) -> Result<(), OutputError> {
+        let level = if m.ok == 1 { TextLogLevel::INFO } else { TextLogLevel::WARN };
+        self.log_text(level, format!("supervisor: {}", messages::unpadded(&m.text)))
+    }
+
     /// A new map version: walls and corners as static entities.
     pub fn map(&mut self, m: &MapMsg) -> Result<(), OutputError> {
         if self.map_version == Some(m.version) {
