@@ -55,7 +55,7 @@ pub struct StageArgs {
     /// Run under SCHED_FIFO at this priority (1-99; needs root or CAP_SYS_NICE).
     #[arg(long)]
     pub priority: Option<u8>,
-    /// Print the wire contract's version ([`crate::WIRE_VERSION`]) and exit: what the
+    /// Print the wire contract's version (messages::WIRE_VERSION) and exit: what the
     /// supervisor asks a program before swapping it in.
     #[arg(long)]
     pub wire_version: bool,

@@ -323,7 +323,7 @@ mod tests {
         assert_eq!(p.supervisor, SupervisorSpec { cpu: Some(1), priority: Some(40), wake_latency_us: Some(0) });
         assert!(p.stages.iter().filter(|s| s.kind != Kind::Mapserver).all(|s| s.priority.is_some()));
         let err = Pipeline::parse("[[stage]]\nname = \"a\"\nkind = \"segment\"\n", Path::new("p.toml")).unwrap_err();
-        assert!(format!("{err:#}").contains("no acquire stage"));
+        assert!(format!("{err:#}").contains("no acquire or ros2 stage"));
         let err = Pipeline::parse("[[stage]]\nname = \"a\"\nkind = \"laser\"\n", Path::new("p.toml")).unwrap_err();
         assert!(format!("{err:#}").contains("p.toml"));
         let err = Pipeline::parse("[[stage]]\nname = \"a\"\nkind = \"acquire\"\npriority = 0\n", Path::new("p.toml"))
