@@ -1186,3 +1186,75 @@ fn the_map_server_is_swapped_to_another_map_as_a_new_version() {
     let distinct: BTreeSet<u64> = seqs.iter().copied().collect();
     assert_eq!((seqs.len(), distinct.len()), (100, 100), "poses lost or repeated");
 }
+
+/// The issue's whole case: in one 10 Hz run each of the four stage kinds is swapped in turn
+/// (segment to another implementation, localize to a separately built program with other
+/// settings, the source to another log, the map server to another map file), and the consumer
+/// gets every pose once.
+#[test]
+fn every_stage_kind_is_swapped_in_turn_in_one_run_with_every_pose_once() {
+    let Running { _dir, csv, prefix: p, run } = start_running("swapall", 200, "10", Duration::from_secs(2));
+    let d = _dir.path();
+    let wrapper = script(d, "my-localize", &format!("exec {} stage localize \"$@\"", exe()));
+    let other = d.join("other.log");
+    let made = gema2(&["sim", "--map", "office", "--scans", "200", "--seed", "9", "--out", other.to_str().unwrap()]);
+    assert!(made.status.success());
+    let map = d.join("office-copy.json");
+    std::fs::write(&map, include_str!("../maps/office.json")).unwrap();
+    let swaps: [Vec<&str>; 4] = [
+        vec!["segment", "--prefix", &p, "--impl", "split-and-merge"],
+        vec!["localize", "--prefix", &p, "--binary", wrapper.to_str().unwrap(), "--set", "thorough=1"],
+        vec!["acquire", "--prefix", &p, "--args", "--log", other.to_str().unwrap(), "--rate", "10", "--scans", "200"],
+        vec!["mapserver", "--prefix", &p, "--args", "--map", map.to_str().unwrap()],
+    ];
+    for args in swaps {
+        let old = stage_pids(args[0], &p);
+        let out = gema2(&[&["swap"][..], &args].concat());
+        assert!(out.status.success(), "{args:?}: {}", String::from_utf8_lossy(&out.stderr));
+        let now = stage_pids(args[0], &p);
+        assert!(now.len() == 1 && now != old, "{args:?}: {old:?} -> {now:?}");
+        std::thread::sleep(Duration::from_millis(1500));
+    }
+    let out = run.wait_with_output().unwrap();
+    let said = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{said}");
+    let seqs: Vec<u64> = rows(&csv).iter().map(|r| r[0].parse().unwrap()).collect();
+    let distinct: BTreeSet<u64> = seqs.iter().copied().collect();
+    let missing: Vec<u64> = (0..200).filter(|s| !distinct.contains(s)).collect();
+    assert_eq!((seqs.len(), distinct.len()), (200, 200), "lost {missing:?}; {said}");
+}
+
+/// A pipeline file names alternatives per stage; `gema2 swap` lists them and `--to` takes one.
+#[test]
+fn a_stage_is_swapped_to_an_alternative_its_pipeline_file_names() {
+    let dir = tempfile::tempdir().unwrap();
+    let log = dir.path().join("scans.log");
+    let made = gema2(&["sim", "--map", "office", "--scans", "60", "--seed", "4", "--out", log.to_str().unwrap()]);
+    assert!(made.status.success());
+    let text = format!(
+        "[[stage]]\nname = \"mapserver\"\nkind = \"mapserver\"\nargs = [\"--map\", \"office\"]\n\n\
+         [[stage]]\nname = \"localize\"\nkind = \"localize\"\n\n\
+         [[stage]]\nname = \"segment\"\nkind = \"segment\"\n\
+         [[stage.alternative]]\nname = \"sm\"\nimplementation = \"split-and-merge\"\n\n\
+         [[stage]]\nname = \"acquire\"\nkind = \"acquire\"\nargs = [\"--log\", {log:?}, \"--rate\", \"10\"]\nrestart = \"never\"\n",
+        log = log.to_str().unwrap()
+    );
+    let pipeline = dir.path().join("alternatives.toml");
+    std::fs::write(&pipeline, text).unwrap();
+    let (p, csv) = (prefix("alt"), dir.path().join("poses.csv"));
+    let run = run_in_background(&pipeline, &p, 60, &csv);
+    wait_for("the source", Duration::from_secs(30), || !stage_pids("acquire", &p).is_empty());
+    let list = gema2(&["swap", "--prefix", &p]);
+    let listed = String::from_utf8_lossy(&list.stdout);
+    assert!(listed.contains("--to sm: --impl split-and-merge"), "{listed}");
+    let nope = gema2(&["swap", "segment", "--to", "nope", "--prefix", &p]);
+    let why = String::from_utf8_lossy(&nope.stderr);
+    assert!(!nope.status.success() && why.contains("names no alternative \"nope\""), "{why}");
+    let swap = gema2(&["swap", "segment", "--to", "sm", "--prefix", &p]);
+    assert!(swap.status.success(), "{}", String::from_utf8_lossy(&swap.stderr));
+    assert!(String::from_utf8_lossy(&swap.stdout).contains("swapped segment to split-and-merge"));
+    let out = run.wait_with_output().unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let seqs: BTreeSet<u64> = rows(&csv).iter().map(|r| r[0].parse().unwrap()).collect();
+    assert_eq!(seqs.len(), 60);
+}

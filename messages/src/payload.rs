@@ -310,6 +310,9 @@ pub struct ControlRequest {
     pub stage: [u8; NAME_LEN],
     /// Empty: the stage's own.
     pub implementation: [u8; NAME_LEN],
+    /// A replacement the pipeline file names for the stage (`[[stage.alternative]]`); empty:
+    /// none.
+    pub alternative: [u8; NAME_LEN],
     /// Empty: the stage's own program.
     pub binary: [u8; PATH_LEN],
     /// Arguments, each followed by a NUL.

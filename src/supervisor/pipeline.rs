@@ -87,6 +87,21 @@ pub struct StageSpec {
     pub priority: Option<u8>,
     #[serde(default = "on_failure")]
     pub restart: Restart,
+    /// What the stage can be swapped to by name (`gema2 swap STAGE --to NAME`), each a
+    /// `[[stage.alternative]]` table.
+    #[serde(default, rename = "alternative")]
+    pub alternatives: Vec<Alternative>,
+}
+
+/// A named replacement for a stage: another implementation, program or arguments.
+#[derive(Clone, Debug, Deserialize, PartialEq, Eq)]
+#[serde(deny_unknown_fields)]
+pub struct Alternative {
+    pub name: String,
+    pub implementation: Option<String>,
+    pub binary: Option<PathBuf>,
+    /// Instead of the stage's arguments, when given.
+    pub args: Option<Vec<String>>,
 }
 
 fn on_failure() -> Restart {
@@ -324,6 +339,10 @@ mod tests {
         assert!(p.stages.iter().filter(|s| s.kind != Kind::Mapserver).all(|s| s.priority.is_some()));
         let err = Pipeline::parse("[[stage]]\nname = \"a\"\nkind = \"segment\"\n", Path::new("p.toml")).unwrap_err();
         assert!(format!("{err:#}").contains("no acquire or ros2 stage"));
+        let with = "[[stage]]\nname = \"s\"\nkind = \"segment\"\n[[stage.alternative]]\nname = \"sm\"\n\
+                    implementation = \"split-and-merge\"\n[[stage]]\nname = \"a\"\nkind = \"acquire\"\n";
+        let p = Pipeline::parse(with, Path::new("p.toml")).unwrap();
+        assert_eq!(p.stages[0].alternatives[0].implementation.as_deref(), Some("split-and-merge"));
         let err = Pipeline::parse("[[stage]]\nname = \"a\"\nkind = \"laser\"\n", Path::new("p.toml")).unwrap_err();
         assert!(format!("{err:#}").contains("p.toml"));
         let err = Pipeline::parse("[[stage]]\nname = \"a\"\nkind = \"acquire\"\npriority = 0\n", Path::new("p.toml"))

@@ -213,6 +213,7 @@ fn apply_overrides(pipeline: &mut Pipeline, a: &RunArgs) -> Option<u64> {
                 cpu: None,
                 priority: None,
                 restart: Restart::OnFailure,
+                alternatives: Vec::new(),
             },
         );
     }

@@ -71,6 +71,7 @@ fn reply(request: &Request, ok: bool, message: &str) {
 /// What a swap asks for, read from the request.
 struct Asked {
     stage: String,
+    alternative: Option<String>,
     implementation: Option<String>,
     binary: Option<PathBuf>,
     args: Vec<String>,
@@ -82,6 +83,7 @@ impl Asked {
         let text = |b: &[u8]| Some(unpadded(b)).filter(|s| !s.is_empty());
         Asked {
             stage: name_str(&r.stage).to_owned(),
+            alternative: text(&r.alternative),
             implementation: text(&r.implementation),
             binary: text(&r.binary).map(PathBuf::from),
             args: unpack_args(&r.args),
@@ -232,6 +234,18 @@ impl Swap {
             let names: Vec<&str> = stages.iter().map(|s| s.spec.name.as_str()).collect();
             return refuse(format!("no stage called {:?}: the stages are {names:?}", asked.stage));
         };
+        let mut asked = asked;
+        if let Some(to) = asked.alternative.clone() {
+            let spec = &stages[stage].spec;
+            let Some(alt) = spec.alternatives.iter().find(|a| a.name == to) else {
+                let named: Vec<&str> = spec.alternatives.iter().map(|a| a.name.as_str()).collect();
+                return refuse(format!("stage {:?} names no alternative {to:?}: it names {named:?}", spec.name));
+            };
+            asked.implementation = alt.implementation.clone();
+            asked.binary = alt.binary.clone();
+            asked.replace_args = alt.args.is_some();
+            asked.args = alt.args.clone().unwrap_or_default();
+        }
         let (spec, what) = match changed(&stages[stage].spec, &asked) {
             Ok(c) => c,
             Err(e) => return refuse(format!("{e:#}")),
@@ -339,6 +353,19 @@ fn listing(stages: &[StageProcess]) -> String {
             i => format!("can be swapped to --impl {}, another --binary, other --args or --set", i.join(" | ")),
         };
         out += &format!("{} ({}): {running}{args}\n    {to}\n", s.name, s.kind.as_str());
+        for a in &s.alternatives {
+            let mut what = Vec::new();
+            if let Some(i) = &a.implementation {
+                what.push(format!("--impl {i}"));
+            }
+            if let Some(b) = &a.binary {
+                what.push(format!("--binary {}", b.display()));
+            }
+            if let Some(args) = &a.args {
+                what.push(format!("--args {}", args.join(" ")));
+            }
+            out += &format!("    --to {}: {}\n", a.name, what.join(" "));
+        }
     }
     out
 }
@@ -348,6 +375,9 @@ pub struct SwapArgs {
     /// The stage to replace, by its name in the pipeline; without it, list the stages and what
     /// each can be swapped to.
     pub stage: Option<String>,
+    /// A replacement the pipeline file names for the stage ([[stage.alternative]]).
+    #[arg(long, conflicts_with_all = ["implementation", "binary", "set", "args"])]
+    pub to: Option<String>,
     /// The implementation to run instead.
     #[arg(long = "impl")]
     pub implementation: Option<String>,
@@ -382,6 +412,7 @@ pub fn request(a: SwapArgs) -> Result<()> {
         replace_args: u32::from(a.args.is_some()),
         stage: name_bytes(a.stage.as_deref().unwrap_or("")),
         implementation: name_bytes(a.implementation.as_deref().unwrap_or("")),
+        alternative: name_bytes(a.to.as_deref().unwrap_or("")),
         binary: padded(&binary).ok_or_else(|| anyhow!("--binary: a path of at most {} bytes", messages::PATH_LEN))?,
         args: pack_args(&args).ok_or_else(|| anyhow!("the arguments take more than {} bytes", messages::ARGS_LEN))?,
     };
