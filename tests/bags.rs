@@ -88,6 +88,23 @@ fn as_flaser(log: &Path, out: &Path) {
     std::fs::write(out, lines).unwrap();
 }
 
+/// The .mcap file of a bag directory.
+fn mcap_in(bag: &Path) -> PathBuf {
+    std::fs::read_dir(bag)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .find(|p| p.extension().is_some_and(|e| e == "mcap"))
+        .expect("a bag holds an .mcap file")
+}
+
+/// A simulated URG log of `scans` scans in `dir` and the bag carmen2bag.py makes of it.
+fn log_and_bag(dir: &Path, scans: usize) -> (PathBuf, PathBuf) {
+    let log = sim(dir, "urg.log", scans, &[]);
+    let bag = dir.join("bag");
+    carmen2bag(&log, &bag, &[]);
+    (log, bag)
+}
+
 /// A simulated log of `scans` scans in the apartment (a world with few symmetries).
 fn sim(dir: &Path, name: &str, scans: usize, extra: &[&str]) -> PathBuf {
     let log = dir.join(name);
@@ -137,11 +154,7 @@ fn a_bag_written_by_rosbags_locates_as_the_log_it_was_made_from() {
             assert_eq!(success(&log_report), success(&bag_report), "{name} {selection:?}");
         }
         // the bag's single file reads as the bag
-        let file = std::fs::read_dir(&bag)
-            .unwrap()
-            .map(|e| e.unwrap().path())
-            .find(|p| p.extension().is_some_and(|e| e == "mcap"))
-            .unwrap();
+        let file = mcap_in(&bag);
         let (by_file, _) = locate(dir.path(), &format!("{name}-file"), MAP, &["--bag", file.to_str().unwrap()], &[]);
         let (by_log, _) = locate(dir.path(), &format!("{name}-log"), MAP, &["--log", log_s], extra);
         assert!(agreeing(&by_log, &by_file).0 * 100 >= by_log.len() * 99);
@@ -176,14 +189,8 @@ fn bags_gema2_cannot_read_are_refused_in_words() {
 #[test]
 fn a_bag_cut_short_locates_the_scans_before_the_cut_and_fails() {
     let dir = tempfile::tempdir().unwrap();
-    let log = sim(dir.path(), "urg.log", 40, &[]);
-    let bag = dir.path().join("bag");
-    carmen2bag(&log, &bag, &[]);
-    let file = std::fs::read_dir(&bag)
-        .unwrap()
-        .map(|e| e.unwrap().path())
-        .find(|p| p.extension().is_some_and(|e| e == "mcap"))
-        .unwrap();
+    let (_, bag) = log_and_bag(dir.path(), 40);
+    let file = mcap_in(&bag);
     let bytes = std::fs::read(&file).unwrap();
     let cut = dir.path().join("cut.mcap");
     std::fs::write(&cut, &bytes[..bytes.len() / 2]).unwrap();
@@ -198,9 +205,7 @@ fn a_bag_cut_short_locates_the_scans_before_the_cut_and_fails() {
 #[test]
 fn a_map_built_from_a_bag_is_the_map_built_from_its_log() {
     let dir = tempfile::tempdir().unwrap();
-    let log = sim(dir.path(), "urg.log", 100, &[]);
-    let bag = dir.path().join("bag");
-    carmen2bag(&log, &bag, &[]);
+    let (log, bag) = log_and_bag(dir.path(), 100);
     let built = |name: &str, source: &[&str]| {
         let out = dir.path().join(name);
         let mut args = vec!["map", "build", "--out", out.to_str().unwrap()];
@@ -225,9 +230,7 @@ fn a_map_built_from_a_bag_is_the_map_built_from_its_log() {
 #[test]
 fn the_pipeline_replays_a_bag_as_fast_as_it_goes_or_as_recorded() {
     let dir = tempfile::tempdir().unwrap();
-    let log = sim(dir.path(), "urg.log", 40, &[]);
-    let bag = dir.path().join("bag");
-    carmen2bag(&log, &bag, &[]);
+    let (_, bag) = log_and_bag(dir.path(), 40);
     let bag_s = bag.to_str().unwrap();
     let (offline, _) = locate(dir.path(), "offline", MAP, &["--bag", bag_s], &[]);
     for rate in ["max", "recorded"] {

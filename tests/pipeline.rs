@@ -40,6 +40,15 @@ fn setup_with(dir: &Path, scans: usize, rate: &str, sim_args: &[&str]) -> (PathB
     (log, pipeline)
 }
 
+/// The run's CSV holds a pose for each of scans 0..n, each once.
+fn assert_every_pose_once(csv: &Path, n: u64) {
+    let seqs: Vec<u64> = rows(csv).iter().map(|r| r[0].parse().unwrap()).collect();
+    let distinct: BTreeSet<u64> = seqs.iter().copied().collect();
+    let missing: Vec<u64> = (0..n).filter(|s| !distinct.contains(s)).collect();
+    let repeated = seqs.len() - distinct.len();
+    assert!(missing.is_empty() && repeated == 0 && distinct.len() as u64 == n, "lost {missing:?}, {repeated} repeated");
+}
+
 fn rows(csv: &Path) -> Vec<Vec<String>> {
     std::fs::read_to_string(csv).unwrap().lines().skip(1).map(|l| l.split(',').map(str::to_owned).collect()).collect()
 }
@@ -676,9 +685,7 @@ fn a_new_map_version_is_taken_up_between_two_scans_and_loses_none() {
     let said = String::from_utf8_lossy(&out.stderr);
     assert!(out.status.success(), "{said}");
     assert!(said.contains("localize: map version 2 ("), "the localizer never took version 2: {said}");
-    let seqs: Vec<u64> = rows(&csv).iter().map(|r| r[0].parse().unwrap()).collect();
-    let distinct: BTreeSet<u64> = seqs.iter().copied().collect();
-    assert_eq!((seqs.len(), distinct.len()), (200, 200), "poses lost or repeated");
+    assert_every_pose_once(&csv, 200);
 }
 
 /// Memory of the process `pid` of its own (not shared), kB: what it adds to the machine.
@@ -1120,9 +1127,7 @@ fn localize_swaps_to_another_program_with_other_settings_and_refuses_what_cannot
     }
     let out = run.wait_with_output().unwrap();
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-    let seqs: Vec<u64> = rows(&csv).iter().map(|r| r[0].parse().unwrap()).collect();
-    let distinct: BTreeSet<u64> = seqs.iter().copied().collect();
-    assert_eq!((seqs.len(), distinct.len()), (120, 120), "poses lost or repeated");
+    assert_every_pose_once(&csv, 120);
 }
 
 /// In a 10 Hz run the source is swapped for another (here a replay of another log): the new one
@@ -1157,10 +1162,7 @@ fn the_source_is_handed_over_at_a_scan_boundary_with_no_pose_lost_or_repeated() 
     let said = String::from_utf8_lossy(&out.stderr);
     assert!(out.status.success(), "{said}");
     assert!(said.contains("acquire: took over from the source it replaces at scan "), "{said}");
-    let seqs: Vec<u64> = rows(&csv).iter().map(|r| r[0].parse().unwrap()).collect();
-    let distinct: BTreeSet<u64> = seqs.iter().copied().collect();
-    assert_eq!((seqs.len(), distinct.len()), (100, 100), "poses lost or repeated: {seqs:?}");
-    assert_eq!(distinct.iter().next_back(), Some(&99));
+    assert_every_pose_once(&csv, 100);
 }
 
 /// In a 10 Hz run the map server is swapped for one serving another map file: it publishes the
@@ -1182,9 +1184,7 @@ fn the_map_server_is_swapped_to_another_map_as_a_new_version() {
     assert!(out.status.success(), "{said}");
     assert!(said.contains("office-copy.json (210 walls") && said.contains("as version 2"), "{said}");
     assert!(said.contains("localize: map version 2 ("), "the localizer never took version 2: {said}");
-    let seqs: Vec<u64> = rows(&csv).iter().map(|r| r[0].parse().unwrap()).collect();
-    let distinct: BTreeSet<u64> = seqs.iter().copied().collect();
-    assert_eq!((seqs.len(), distinct.len()), (100, 100), "poses lost or repeated");
+    assert_every_pose_once(&csv, 100);
 }
 
 /// The whole case: in one 10 Hz run each of the four stage kinds is swapped in turn
@@ -1218,10 +1218,7 @@ fn every_stage_kind_is_swapped_in_turn_in_one_run_with_every_pose_once() {
     let out = run.wait_with_output().unwrap();
     let said = String::from_utf8_lossy(&out.stderr);
     assert!(out.status.success(), "{said}");
-    let seqs: Vec<u64> = rows(&csv).iter().map(|r| r[0].parse().unwrap()).collect();
-    let distinct: BTreeSet<u64> = seqs.iter().copied().collect();
-    let missing: Vec<u64> = (0..200).filter(|s| !distinct.contains(s)).collect();
-    assert_eq!((seqs.len(), distinct.len()), (200, 200), "lost {missing:?}; {said}");
+    assert_every_pose_once(&csv, 200);
 }
 
 /// A pipeline file names alternatives per stage; `gema2 swap` lists them and `--to` takes one.
