@@ -815,26 +815,17 @@ fn ctrl_c_stops_every_stage_and_leaves_no_dead_resources() {
     assert!(left.is_empty(), "dead iceoryx2 nodes of processes {left:?} were left behind (ours: {ours:?})");
 }
 
-#[test]
-fn the_whole_pipeline_runs_on_an_emulated_urg04lx() {
-    let dir = tempfile::tempdir().unwrap();
-    let link = dir.path().join("urg");
-    let recorded = dir.path().join("recorded.log");
-    let mut emu = Command::new(exe())
-        .args(["emulate-urg", "--map", "office", "--period-ms", "25", "--link", link.to_str().unwrap()])
-        .stdout(Stdio::null())
-        .stderr(Stdio::null())
-        .spawn()
-        .unwrap();
-    wait_for("the emulator's pty", Duration::from_secs(10), || link.exists());
-    // the shipped example, as its comment says to run it
-    let pipeline = concat!(env!("CARGO_MANIFEST_DIR"), "/pipelines/urg-serial.toml");
-    let p = prefix("urg");
+/// Runs the shipped pipeline file `file` on the emulated sensor `emu` (its place in the
+/// variable `sensor`), for `scans` scans recorded to `recorded`; stops the emulator, checks that
+/// every scan was located, and returns the recording.
+fn run_on_sensor(mut emu: Child, file: &str, sensor: (&str, &str), scans: usize, recorded: &Path) -> String {
+    let pipeline = format!("{}/pipelines/{file}", env!("CARGO_MANIFEST_DIR"));
+    let p = prefix(file.trim_end_matches(".toml"));
     let out = Command::new(exe())
-        .args(["run", "--pipeline", pipeline, "--prefix", &p, "--scans", "20", "--timeout", "60"])
+        .args(["run", "--pipeline", &pipeline, "--prefix", &p, "--scans", &scans.to_string(), "--timeout", "60"])
         .env("GEMA2_MAP", "office")
-        .env("GEMA2_SERIAL", &link)
-        .env("GEMA2_RECORD", &recorded)
+        .env(sensor.0, sensor.1)
+        .env("GEMA2_RECORD", recorded)
         .output()
         .unwrap();
     // SAFETY: kill(2) on a child of this test.
@@ -842,8 +833,24 @@ fn the_whole_pipeline_runs_on_an_emulated_urg04lx() {
     let _ = emu.wait();
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let report = String::from_utf8_lossy(&out.stdout);
-    assert!(report.contains("poses received 20 of 20"), "{report}");
-    let text = std::fs::read_to_string(&recorded).unwrap();
+    assert!(report.contains(&format!("poses received {scans} of {scans}")), "{report}");
+    std::fs::read_to_string(recorded).unwrap()
+}
+
+#[test]
+fn the_whole_pipeline_runs_on_an_emulated_urg04lx() {
+    let dir = tempfile::tempdir().unwrap();
+    let link = dir.path().join("urg");
+    let recorded = dir.path().join("recorded.log");
+    let emu = Command::new(exe())
+        .args(["emulate-urg", "--map", "office", "--period-ms", "25", "--link", link.to_str().unwrap()])
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    wait_for("the emulator's pty", Duration::from_secs(10), || link.exists());
+    // the shipped example, as its comment says to run it
+    let text = run_on_sensor(emu, "urg-serial.toml", ("GEMA2_SERIAL", link.to_str().unwrap()), 20, &recorded);
     assert!(text.starts_with("# gema2: poses are not ground truth"));
     assert!(text.lines().filter(|l| l.starts_with("ROBOTLASER1")).count() >= 20);
 }
@@ -862,22 +869,7 @@ fn the_whole_pipeline_runs_on_an_emulated_ust_10lx_over_tcp() {
         .unwrap();
     let mut address = String::new();
     std::io::BufRead::read_line(&mut std::io::BufReader::new(emu.stdout.take().unwrap()), &mut address).unwrap();
-    let pipeline = concat!(env!("CARGO_MANIFEST_DIR"), "/pipelines/ust-tcp.toml");
-    let p = prefix("ust");
-    let out = Command::new(exe())
-        .args(["run", "--pipeline", pipeline, "--prefix", &p, "--scans", "40", "--timeout", "60"])
-        .env("GEMA2_MAP", "office")
-        .env("GEMA2_LIDAR", address.trim())
-        .env("GEMA2_RECORD", &recorded)
-        .output()
-        .unwrap();
-    // SAFETY: kill(2) on a child of this test.
-    unsafe { libc::kill(emu.id() as i32, libc::SIGTERM) };
-    let _ = emu.wait();
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-    let report = String::from_utf8_lossy(&out.stdout);
-    assert!(report.contains("poses received 40 of 40"), "{report}");
-    let text = std::fs::read_to_string(&recorded).unwrap();
+    let text = run_on_sensor(emu, "ust-tcp.toml", ("GEMA2_LIDAR", address.trim()), 40, &recorded);
     let beams: Vec<usize> = text
         .lines()
         .filter(|l| l.starts_with("ROBOTLASER1"))
