@@ -165,12 +165,17 @@ fn a_bag_written_by_rosbags_locates_as_the_log_it_was_made_from() {
 fn bags_gema2_cannot_read_are_refused_in_words() {
     let dir = tempfile::tempdir().unwrap();
     let log = sim(dir.path(), "urg.log", 30, &[]);
-    // sqlite3 storage: the command that converts it
-    let db3 = dir.path().join("db3-bag");
-    carmen2bag(&log, &db3, &["--storage", "sqlite3"]);
-    let out = gema2(&["locate", "--bag", db3.to_str().unwrap()]);
+    // a compressed bag's files: the command that converts it
+    let zstd = dir.path().join("zstd-bag");
+    std::fs::create_dir(&zstd).unwrap();
+    std::fs::write(
+        zstd.join("metadata.yaml"),
+        "  storage_identifier: mcap\n  relative_file_paths:\n  - b_0.mcap.zstd\n",
+    )
+    .unwrap();
+    let out = gema2(&["locate", "--bag", zstd.to_str().unwrap()]);
     let err = String::from_utf8_lossy(&out.stderr);
-    assert!(!out.status.success() && err.contains("sqlite3") && err.contains("ros2 bag convert"), "{err}");
+    assert!(!out.status.success() && err.contains("b_0.mcap.zstd") && err.contains("ros2 bag convert"), "{err}");
     // a topic that is not there, and a truth topic that holds scans
     let bag = dir.path().join("bag");
     carmen2bag(&log, &bag, &[]);
@@ -181,9 +186,37 @@ fn bags_gema2_cannot_read_are_refused_in_words() {
     let out = gema2(&["locate", "--bag", b, "--truth-topic", "/scan"]);
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(!out.status.success() && err.contains("not PoseStamped or Odometry"), "{err}");
+    // a .db3 file that is not sqlite
+    let junk = dir.path().join("junk.db3");
+    std::fs::write(&junk, b"this is not a database, whatever its name says").unwrap();
+    let out = gema2(&["locate", "--bag", junk.to_str().unwrap()]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success() && err.contains("junk.db3: not a readable sqlite3 bag file"), "{err}");
     // a directory that is no bag
     let out = gema2(&["locate", "--bag", dir.path().to_str().unwrap()]);
     assert!(String::from_utf8_lossy(&out.stderr).contains("not a bag"));
+}
+
+/// A bag in sqlite3 storage (ROS 2 Humble's default), written by rosbags, reads as the same
+/// bag in MCAP storage does.
+#[test]
+fn a_sqlite3_bag_locates_as_its_mcap_twin() {
+    let dir = tempfile::tempdir().unwrap();
+    let (log, bag) = log_and_bag(dir.path(), 40);
+    let db3 = dir.path().join("db3-bag");
+    carmen2bag(&log, &db3, &["--storage", "sqlite3"]);
+    let (b1, b2) = (bag.to_str().unwrap(), db3.to_str().unwrap());
+    let (from_mcap, mcap_report) = locate(dir.path(), "mcap", MAP, &["--bag", b1, "--truth-topic", "/truth"], &[]);
+    let (from_db3, db3_report) = locate(dir.path(), "db3", MAP, &["--bag", b2, "--truth-topic", "/truth"], &[]);
+    assert_eq!(from_mcap.len(), 40);
+    assert_eq!(from_mcap, from_db3);
+    let success = |r: &str| r.lines().find(|l| l.starts_with("success")).map(str::to_owned);
+    assert_eq!(success(&mcap_report), success(&db3_report));
+    // its one file reads as the bag
+    let file =
+        std::fs::read_dir(&db3).unwrap().map(|e| e.unwrap().path()).find(|p| p.extension().is_some_and(|e| e == "db3"));
+    let (from_file, _) = locate(dir.path(), "db3-file", MAP, &["--bag", file.unwrap().to_str().unwrap()], &[]);
+    assert_eq!(from_file, from_mcap);
 }
 
 #[test]

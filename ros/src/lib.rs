@@ -1,7 +1,7 @@
 //! ROS 2 interop without a ROS installation: the messages gema2 reads and writes, in the CDR
 //! encoding ROS 2 puts on the wire and in bags ([`cdr`], [`msg`]); a `sensor_msgs/LaserScan` as
-//! the scan every stage sees, read as REP 117 says ([`scan`]); and rosbag2 bags in MCAP storage
-//! ([`bag`]).
+//! the scan every stage sees, read as REP 117 says ([`scan`]); and rosbag2 bags in MCAP and
+//! sqlite3 storage ([`bag`], [`db3`]).
 //!
 //! One job: ROS 2 bytes in and out. Depends on `laser` (what a scan and a pose are) and the
 //! `mcap` crate; nothing here knows the algorithm or the pipeline.
@@ -9,8 +9,11 @@
 pub mod bag;
 pub mod bag_scans;
 pub mod cdr;
+pub mod db3;
+pub mod mcap_file;
 pub mod msg;
 pub mod scan;
+pub mod stored;
 
 pub use bag::{Bag, BagError, BagMessage};
 pub use bag_scans::{BagScan, BagScanError, BagScans, ScanTopics};
