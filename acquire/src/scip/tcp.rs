@@ -33,10 +33,7 @@ impl TcpLink {
     /// The addresses `HOST:PORT` names (looked up again at each connection: a sensor's name
     /// may move).
     fn addresses(&self) -> Result<Vec<SocketAddr>, ScipError> {
-        let found = self
-            .address
-            .to_socket_addrs()
-            .map_err(|e| ScipError::Io(std::io::Error::new(e.kind(), format!("{}: {e}", self.address))))?;
+        let found = self.address.to_socket_addrs().map_err(ScipError::Io)?;
         Ok(found.collect())
     }
 }
@@ -64,7 +61,7 @@ impl Connector for TcpLink {
                 Err(e) => last = Some(e),
             }
         }
-        let e = last.unwrap_or_else(|| std::io::Error::other("the name has no address"));
-        Err(ScipError::Io(std::io::Error::new(e.kind(), format!("{}: {e}", self.address))))
+        // the source names the address in what it says
+        Err(ScipError::Io(last.unwrap_or_else(|| std::io::Error::other("the name has no address"))))
     }
 }
