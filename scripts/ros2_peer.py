@@ -7,14 +7,16 @@ It publishes, as ROS 2 does:
                  (ROBOTLASER1 lines, e.g. from `gema2 sim`) at --rate, stamped 0.025 s apart;
   rt/tf_static   tf2_msgs::msg::dds_::TFMessage_ (reliable, transient local): base_link ->
                  laser at --laser-pose;
-and subscribes to rt/gema2/pose and rt/initialpose (PoseWithCovarianceStamped, reliable).
+and, with --grid, a map_server map (YAML and PGM) on rt/map as nav_msgs::msg::dds_::OccupancyGrid_
+(reliable, transient local), as a ROS 2 map_server does; and subscribes to rt/gema2/pose and
+rt/initialpose (PoseWithCovarianceStamped, reliable).
 
 Prints one CSV line a pose received: topic, scan number, x, y, yaw, the x, y and yaw variances,
 and the latency from publishing the scan to receiving its pose (ms); then, on stderr, the
 latency's p50 and p99. Run every DDS participant of a test in a network namespace (the test
 does): discovery multicasts.
 
-Usage: ros2_peer.py LOG [--rate HZ] [--laser-pose x,y,yaw] [--wait S] [--domain N]
+Usage: ros2_peer.py LOG [--rate HZ] [--laser-pose x,y,yaw] [--grid MAP.yaml] [--wait S] [--domain N]
 """
 
 import argparse
@@ -27,7 +29,7 @@ from dataclasses import dataclass
 from cyclonedds.core import Policy, Qos
 from cyclonedds.domain import DomainParticipant
 from cyclonedds.idl import IdlStruct
-from cyclonedds.idl.types import array, float32, float64, int32, sequence, uint32
+from cyclonedds.idl.types import array, float32, float64, int8, int32, sequence, uint32
 from cyclonedds.pub import DataWriter
 from cyclonedds.sub import DataReader
 from cyclonedds.topic import Topic
@@ -101,6 +103,22 @@ class PoseWithCovarianceStamped(IdlStruct, typename="geometry_msgs::msg::dds_::P
 
 
 @dataclass
+class MapMetaData(IdlStruct, typename="nav_msgs::msg::dds_::MapMetaData_"):
+    map_load_time: Time
+    resolution: float32
+    width: uint32
+    height: uint32
+    origin: Pose
+
+
+@dataclass
+class OccupancyGrid(IdlStruct, typename="nav_msgs::msg::dds_::OccupancyGrid_"):
+    header: Header
+    info: MapMetaData
+    data: sequence[int8]
+
+
+@dataclass
 class Transform(IdlStruct, typename="geometry_msgs::msg::dds_::Transform_"):
     translation: Vector3
     rotation: Quaternion
@@ -146,6 +164,54 @@ def scans_of(log):
     return out
 
 
+def grid_of(yaml_path):
+    """The OccupancyGrid a ROS map_server publishes for a YAML map (trinary, as its defaults)."""
+    from pathlib import Path
+
+    meta = {}
+    for line in open(yaml_path):
+        if ":" in line and not line.lstrip().startswith("#"):
+            k, v = line.split(":", 1)
+            meta[k.strip()] = v.strip()
+    image = Path(yaml_path).parent / meta["image"].strip("'\"")
+    raw = open(image, "rb").read()
+    tokens, pos = [], 0
+    while len(tokens) < 4:  # magic, width, height, maxval; comments skipped
+        while raw[pos : pos + 1].isspace():
+            pos += 1
+        if raw[pos : pos + 1] == b"#":
+            pos = raw.index(b"\n", pos)
+            continue
+        end = pos
+        while not raw[end : end + 1].isspace():
+            end += 1
+        tokens.append(raw[pos:end].decode())
+        pos = end
+    pos += 1
+    assert tokens[0] == "P5", "a binary PGM"
+    width, height, maxval = int(tokens[1]), int(tokens[2]), int(tokens[3])
+    pixels = raw[pos : pos + width * height]
+    occupied, free = float(meta.get("occupied_thresh", 0.65)), float(meta.get("free_thresh", 0.196))
+    negate = meta.get("negate", "0").strip() not in ("0", "false")
+    data = []
+    for row in range(height - 1, -1, -1):  # the image's top row is the grid's last
+        for v in pixels[row * width : (row + 1) * width]:
+            p = v / maxval if negate else (maxval - v) / maxval
+            data.append(100 if p > occupied else 0 if p < free else -1)
+    origin = [float(x) for x in meta["origin"].strip("[]").split(",")]
+    return OccupancyGrid(
+        header=Header(stamp=Time(sec=0, nanosec=0), frame_id="map"),
+        info=MapMetaData(
+            map_load_time=Time(sec=0, nanosec=0),
+            resolution=float(meta["resolution"]),
+            width=width,
+            height=height,
+            origin=Pose(position=Point(x=origin[0], y=origin[1], z=0.0), orientation=quaternion(origin[2])),
+        ),
+        data=data,
+    )
+
+
 def quaternion(yaw):
     return Quaternion(x=0.0, y=0.0, z=math.sin(yaw / 2), w=math.cos(yaw / 2))
 
@@ -158,6 +224,8 @@ def main():
     ap.add_argument("--wait", type=float, default=5.0, help="seconds to wait for poses after the last scan")
     ap.add_argument("--discovery", type=float, default=20.0, help="seconds to wait for the bridge to appear")
     ap.add_argument("--domain", type=int, default=0)
+    ap.add_argument("--grid", help="a map_server YAML map to publish on rt/map")
+    ap.add_argument("--regrid-after", type=int, help="publish the grid again after this many scans (a map update)")
     args = ap.parse_args()
     mount = [float(v) for v in args.laser_pose.split(",")]
     scans = scans_of(args.log)
@@ -165,6 +233,10 @@ def main():
     dp = DomainParticipant(args.domain)
     scan_w = DataWriter(dp, Topic(dp, "rt/scan", LaserScan), qos=SENSOR)
     tf_w = DataWriter(dp, Topic(dp, "rt/tf_static", TFMessage), qos=LATCHED)
+    if args.grid:
+        map_w = DataWriter(dp, Topic(dp, "rt/map", OccupancyGrid), qos=LATCHED)
+        grid = grid_of(args.grid)
+        map_w.write(grid)
     readers = {
         name: DataReader(dp, Topic(dp, f"rt/{name}", PoseWithCovarianceStamped), qos=RELIABLE)
         for name in ("gema2/pose", "initialpose")
@@ -236,6 +308,9 @@ def main():
         )
         sent[k] = time.monotonic()
         scan_w.write(msg)
+        if args.grid and args.regrid_after == k + 1:
+            grid.header.stamp = Time(sec=1, nanosec=0)
+            map_w.write(grid)
     last = time.monotonic()
     while time.monotonic() - last < args.wait:
         n = len(received)

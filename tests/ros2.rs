@@ -106,3 +106,85 @@ fn cyclone_dds_scans_in_and_poses_out_with_none_lost() {
     assert!(latency.contains("latency p50"), "{latency}");
     eprintln!("{}", latency.trim());
 }
+
+/// The map from a ROS 2 map_server: Cyclone DDS publishes the office drawn as a grid on /map
+/// (transient local, as map_server does); the map server takes it (`--map ros2:/map`, the
+/// pipeline file's default), traces it into walls and the pipeline locates the scans against
+/// it; the grid published again midway is a new map version.
+#[test]
+fn the_map_comes_from_a_ros_2_map_server() {
+    if !namespaces_work() {
+        common::skipped("the_map_comes_from_a_ros_2_map_server", "no network namespace (unshare --net)");
+        return;
+    }
+    let python = common::python();
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let grid = d.join("office.yaml");
+    let export = Command::new(exe())
+        .args(["map", "export-ros", "--map", "office", "--out", grid.to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert!(export.status.success(), "{}", String::from_utf8_lossy(&export.stderr));
+    let log = d.join("ust.log");
+    let sim = Command::new(exe())
+        .args(["sim", "--map", "office", "--beams", "1081", "--fov", "270", "--range-max", "10", "--scans", "80"])
+        .args(["--seed", "6", "--out", log.to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert!(sim.status.success(), "{}", String::from_utf8_lossy(&sim.stderr));
+    let pipeline = concat!(env!("CARGO_MANIFEST_DIR"), "/pipelines/ros2.toml");
+    let peer = concat!(env!("CARGO_MANIFEST_DIR"), "/scripts/ros2_peer.py");
+    let prefix = format!("tros2map_{}", std::process::id());
+    // the robot (and its map_server) first; the pipeline's map server waits for the grid
+    let script = format!(
+        "cd {dir}\n\
+         {python} {peer} {log} --rate 20 --grid {grid} --regrid-after 40 > peer.out 2> peer.err &\n\
+         peer=$!\n\
+         unset GEMA2_MAP\n\
+         {exe} run --pipeline {pipeline} --prefix {prefix} --scans 80 --timeout 90 --out online.csv \
+           > run.out 2> run.err\n\
+         echo run $?\n\
+         wait $peer\n\
+         echo peer $?\n",
+        dir = d.display(),
+        exe = exe(),
+        python = python.display(),
+        log = log.display(),
+        grid = grid.display(),
+    );
+    let out = in_namespace(&script);
+    let said = String::from_utf8_lossy(&out.stdout);
+    let logs = |f: &str| std::fs::read_to_string(d.join(f)).unwrap_or_default();
+    let context = format!("{said}\nrun: {}\npeer: {}", logs("run.err"), logs("peer.err"));
+    assert!(said.contains("peer 0") && said.contains("run 0"), "{context}");
+    assert!(logs("run.err").contains("mapserver: serving ros2:/map ("), "{context}");
+    // the grid published again is a new map version, taken up by the localizer
+    assert!(
+        logs("run.err").contains("mapserver: received ros2:/map (") && logs("run.err").contains("as version 2"),
+        "{context}"
+    );
+    assert!(logs("run.err").contains("localize: map version 2 ("), "{context}");
+    // the poses against the traced grid are where the simulator put the laser
+    let truth: Vec<(f64, f64)> = std::fs::read_to_string(&log)
+        .unwrap()
+        .lines()
+        .filter(|l| l.starts_with("ROBOTLASER1"))
+        .map(|l| {
+            let t: Vec<&str> = l.split_whitespace().collect();
+            let n: usize = t[8].parse().unwrap();
+            let p = 9 + n + 1;
+            (t[p].parse().unwrap(), t[p + 1].parse().unwrap())
+        })
+        .collect();
+    let poses: Vec<Vec<String>> = rows(&d.join("peer.out")).into_iter().filter(|r| r[0] == "gema2/pose").collect();
+    let right = poses
+        .iter()
+        .filter(|p| {
+            let k: usize = p[1].parse().unwrap();
+            let (x, y): (f64, f64) = (p[2].parse().unwrap(), p[3].parse().unwrap());
+            truth.get(k).is_some_and(|&(tx, ty)| (x - tx).hypot(y - ty) < 0.3)
+        })
+        .count();
+    assert!(right * 10 >= truth.len() * 8, "{right} of {} scans located right: {context}", truth.len());
+}

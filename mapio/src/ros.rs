@@ -396,6 +396,33 @@ impl OccupancyGrid {
         Some(OccupancyGrid { resolution: meta.resolution, origin: meta.origin, width, height, cells })
     }
 
+    /// The grid a ROS `nav_msgs/OccupancyGrid` carries (`values` row-major from cell (0, 0), -1
+    /// unknown or 0-100 percent), read with map_server's thresholds: occupied above 65 %, free
+    /// below 19.6 %. `None` when the values do not fill `width` x `height` or the resolution
+    /// or origin is not a number.
+    pub fn from_occupancy(
+        resolution: f64,
+        origin: [f64; 3],
+        width: usize,
+        height: usize,
+        values: &[i8],
+    ) -> Option<Self> {
+        let usable = resolution.is_finite() && resolution > 0.0 && origin.iter().all(|v| v.is_finite());
+        if !usable || width.checked_mul(height) != Some(values.len()) {
+            return None;
+        }
+        let cells = values
+            .iter()
+            .map(|&v| match v {
+                v if !(0..=100).contains(&v) => Cell::Unknown,
+                v if f64::from(v) / 100.0 > 0.65 => Cell::Occupied,
+                v if f64::from(v) / 100.0 < 0.196 => Cell::Free,
+                _ => Cell::Unknown,
+            })
+            .collect();
+        Some(OccupancyGrid { resolution, origin, width, height, cells })
+    }
+
     /// Where lattice point (i, j) (a cell corner, in cells) lies in the map frame.
     fn corner(&self, i: f64, j: f64) -> Point2<f64> {
         let (s, c) = self.origin[2].sin_cos();
@@ -647,6 +674,15 @@ pub fn is_ros_map(path: &Path) -> bool {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_ros_occupancy_grid_reads_with_map_servers_thresholds() {
+        let g = OccupancyGrid::from_occupancy(0.05, [1.0, 2.0, 0.0], 3, 2, &[-1, 0, 100, 66, 65, 19]).unwrap();
+        use Cell::*;
+        assert_eq!(g.cells, vec![Unknown, Free, Occupied, Occupied, Unknown, Free]);
+        assert!(OccupancyGrid::from_occupancy(0.05, [0.0; 3], 3, 3, &[0; 6]).is_none(), "too few values");
+        assert!(OccupancyGrid::from_occupancy(f64::NAN, [0.0; 3], 1, 1, &[0]).is_none());
+    }
     use proptest::prelude::*;
 
     fn meta(text: &str) -> Result<MapMeta, RosMapError> {

@@ -5,8 +5,10 @@
 //! changes; [`wire`] writes a [`map::WallMap`] into the map message and reads it back, checked,
 //! for every process that subscribes.
 //!
-//! Depends on `map` (the model), `mapio` (loading what a user names) and `messages` (the wire
-//! contract). Inside the crate: `wire` <- `node`.
+//! Depends on `map` (the model), `mapio` (loading what a user names), `messages` (the wire
+//! contract), and `ros` with `ros2-client` for a map taken from a ROS 2 map_server over DDS
+//! ([`ros_map`]). Inside the crate: `wire`, `ros_map` <- `node`.
 
 pub mod node;
+pub mod ros_map;
 pub mod wire;

@@ -30,7 +30,9 @@ pub const ABOUT: &str = "GEMA2 map server: the map and its model with history, c
 pub struct MapServerArgs {
     #[command(flatten)]
     pub stage: messages::StageArgs,
-    /// A bundled map's name, a JSON wall map or a ROS map_server .yaml (watched for changes).
+    /// A bundled map's name, a JSON wall map or a ROS map_server .yaml (watched for changes), or
+    /// `ros2:/map`: the nav_msgs/OccupancyGrid a ROS 2 map_server publishes on that topic (DDS
+    /// domain $ROS_DOMAIN_ID), each grid a new version.
     #[arg(long, default_value = "office")]
     pub map: String,
     /// A setting, KEY=VALUE (repeatable), as the localizer's `--set`: the map-corner keys
@@ -92,7 +94,11 @@ struct Version {
 
 /// The map version `spec` names, and its model as the block to publish once.
 fn load(spec: &str, config: &localize::Gema2Config) -> Result<(Version, map::flat::FlatWriter)> {
-    let map = load_map(spec)?;
+    build(load_map(spec)?, spec, config)
+}
+
+/// The version of `map` (named `spec` in errors), and its model as the block to publish once.
+fn build(map: map::WallMap, spec: &str, config: &localize::Gema2Config) -> Result<(Version, map::flat::FlatWriter)> {
     if map.walls.len() > MAX_WALLS {
         bail!("{spec}: {} walls, at most {MAX_WALLS} can be published", map.walls.len());
     }
@@ -100,6 +106,48 @@ fn load(spec: &str, config: &localize::Gema2Config) -> Result<(Version, map::fla
     let model = MapModel::new(map, &config.map_corners);
     let block = model.to_block();
     Ok((Version { model, block_len: block.len(), built_in: started.elapsed() }, block))
+}
+
+/// A map from a ROS 2 map_server: the grids as they come.
+struct RosMap {
+    topic: String,
+    grids: std::sync::mpsc::Receiver<Result<map::WallMap>>,
+    stop: std::sync::Arc<AtomicBool>,
+    thread: Option<std::thread::JoinHandle<()>>,
+}
+
+impl RosMap {
+    fn start(topic: &str) -> Result<Self> {
+        let domain = match std::env::var("ROS_DOMAIN_ID") {
+            Ok(d) => d.trim().parse().map_err(|_| anyhow::anyhow!("ROS_DOMAIN_ID={d}: not a domain number"))?,
+            Err(_) => 0,
+        };
+        let (tx, grids) = std::sync::mpsc::channel();
+        let stop = std::sync::Arc::new(AtomicBool::new(false));
+        let thread = crate::ros_map::subscribe(topic, domain, tx, std::sync::Arc::clone(&stop))?;
+        Ok(RosMap { topic: topic.to_owned(), grids, stop, thread: Some(thread) })
+    }
+
+    /// The first grid that gives a map: a map server is ready only with one.
+    fn first(&self) -> Result<map::WallMap> {
+        eprintln!("mapserver: waiting for a nav_msgs/OccupancyGrid on {}", self.topic);
+        loop {
+            match self.grids.recv() {
+                Ok(Ok(map)) => return Ok(map),
+                Ok(Err(e)) => eprintln!("mapserver: {}: {e:#}; waiting for another", self.topic),
+                Err(_) => bail!("{}: the map subscription ended", self.topic),
+            }
+        }
+    }
+}
+
+impl Drop for RosMap {
+    fn drop(&mut self) {
+        self.stop.store(true, Ordering::Relaxed);
+        if let Some(t) = self.thread.take() {
+            let _ = t.join();
+        }
+    }
 }
 
 /// The answer to a corner query `q` from `index` (the map of `version`): the corners of
@@ -164,7 +212,14 @@ pub fn run(a: MapServerArgs) -> Result<()> {
     a.stage.place()?;
     // SAFETY: the handler only stores to an atomic.
     unsafe { libc::signal(libc::SIGHUP, on_sighup as *const () as libc::sighandler_t) };
-    let (mut current, block) = load(&a.map, &config)?;
+    let from_ros = match crate::ros_map::topic_of(&a.map) {
+        Some(topic) => Some(RosMap::start(topic)?),
+        None => None,
+    };
+    let (mut current, block) = match &from_ros {
+        Some(ros) => build(ros.first()?, &a.map, &config)?,
+        None => load(&a.map, &config)?,
+    };
     let mut watched = Watched::of(&a.map);
     let node = messages::create_node("mapserver")?;
     let topic = open_topic::<MapMsg>(&node, &a.stage.prefix, Topic::Map)?;
@@ -221,7 +276,20 @@ pub fn run(a: MapServerArgs) -> Result<()> {
             let reply = corner_reply(&current.model.corners, version, &q);
             response.write_payload(reply).send().context("corner queries: send")?;
         }
-        if RELOAD.swap(false, Ordering::Relaxed) || watched.changed() {
+        if let Some(ros) = &from_ros {
+            for grid in ros.grids.try_iter() {
+                match grid.and_then(|map| build(map, &a.map, &config)) {
+                    Ok((v, block)) => {
+                        version += 1;
+                        current = v;
+                        send(&current, block, version)?;
+                        said(&current, "received", version);
+                    }
+                    Err(e) => eprintln!("mapserver: {}: {e:#}; kept version {version}", ros.topic),
+                }
+            }
+            RELOAD.store(false, Ordering::Relaxed);
+        } else if RELOAD.swap(false, Ordering::Relaxed) || watched.changed() {
             // the YAML may name another image now
             watched = Watched::of(&a.map);
             match load(&a.map, &config) {

@@ -299,6 +299,27 @@ impl Odometry {
     }
 }
 
+/// `nav_msgs/msg/MapMetaData`.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct MapMetaData {
+    pub map_load_time: Time,
+    /// Metres a cell.
+    pub resolution: f32,
+    pub width: u32,
+    pub height: u32,
+    /// The pose of cell (0, 0)'s corner in the map frame.
+    pub origin: Pose,
+}
+
+/// `nav_msgs/msg/OccupancyGrid`: row-major from cell (0, 0), each -1 (unknown) or 0-100
+/// (occupancy, percent), as a ROS map_server publishes `/map`.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct OccupancyGrid {
+    pub header: Header,
+    pub info: MapMetaData,
+    pub data: Vec<i8>,
+}
+
 /// `geometry_msgs/msg/Transform`: a translation and a rotation quaternion (x, y, z, w).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Transform {
