@@ -170,7 +170,7 @@ fn source(a: &AcquireArgs) -> Result<(Source, &'static str)> {
     if let Some(path) = &a.bag {
         let bag = ros::Bag::open(path)?;
         let topics = ros::ScanTopics { scan: a.scan_topic.clone(), ..Default::default() };
-        let scans = ros::BagScans::open(&bag, &topics).map_err(|e| anyhow!("{}: {e}", path.display()))?;
+        let scans = ros::BagScans::open(&bag, &topics)?;
         let items = scans.map(|item| {
             item.map(|s| s.scan).map_err(|e| match e.is_one_message() {
                 true => anyhow::Error::new(Skipped(e.to_string())),

@@ -118,10 +118,7 @@ struct RosMap {
 
 impl RosMap {
     fn start(topic: &str) -> Result<Self> {
-        let domain = match std::env::var("ROS_DOMAIN_ID") {
-            Ok(d) => d.trim().parse().map_err(|_| anyhow::anyhow!("ROS_DOMAIN_ID={d}: not a domain number"))?,
-            Err(_) => 0,
-        };
+        let domain = ros::domain_id(None).map_err(anyhow::Error::msg)?;
         let (tx, grids) = std::sync::mpsc::channel();
         let stop = std::sync::Arc::new(AtomicBool::new(false));
         let thread = crate::ros_map::subscribe(topic, domain, tx, std::sync::Arc::clone(&stop))?;
@@ -276,28 +273,26 @@ pub fn run(a: MapServerArgs) -> Result<()> {
             let reply = corner_reply(&current.model.corners, version, &q);
             response.write_payload(reply).send().context("corner queries: send")?;
         }
-        if let Some(ros) = &from_ros {
-            for grid in ros.grids.try_iter() {
-                match grid.and_then(|map| build(map, &a.map, &config)) {
-                    Ok((v, block)) => {
-                        version += 1;
-                        current = v;
-                        send(&current, block, version)?;
-                        said(&current, "received", version);
-                    }
-                    Err(e) => eprintln!("mapserver: {}: {e:#}; kept version {version}", ros.topic),
-                }
+        // new versions: the grids that came from ROS, or the file changed (or SIGHUP)
+        let reload = RELOAD.swap(false, Ordering::Relaxed);
+        let arrived: Vec<(&str, Result<(Version, map::flat::FlatWriter)>)> = match &from_ros {
+            Some(ros) => {
+                ros.grids.try_iter().map(|g| ("received", g.and_then(|map| build(map, &a.map, &config)))).collect()
             }
-            RELOAD.store(false, Ordering::Relaxed);
-        } else if RELOAD.swap(false, Ordering::Relaxed) || watched.changed() {
-            // the YAML may name another image now
-            watched = Watched::of(&a.map);
-            match load(&a.map, &config) {
+            None if reload || watched.changed() => {
+                // the YAML may name another image now
+                watched = Watched::of(&a.map);
+                vec![("reloaded", load(&a.map, &config))]
+            }
+            None => Vec::new(),
+        };
+        for (what, next) in arrived {
+            match next {
                 Ok((v, block)) => {
                     version += 1;
                     current = v;
                     send(&current, block, version)?;
-                    said(&current, "reloaded", version);
+                    said(&current, what, version);
                 }
                 Err(e) => eprintln!("mapserver: kept version {version}: {e:#}"),
             }

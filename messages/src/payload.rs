@@ -355,6 +355,18 @@ pub fn padded<const N: usize>(text: &str) -> Option<[u8; N]> {
     Some(out)
 }
 
+/// `text` as NUL-padded bytes of length `N`, cut at a character boundary so that at least one
+/// NUL ends it: a message that may be longer than its slot (a reply, an event).
+pub fn cut_padded<const N: usize>(text: &str) -> [u8; N] {
+    let mut out = [0u8; N];
+    let mut n = text.len().min(N.saturating_sub(1));
+    while !text.is_char_boundary(n) {
+        n -= 1;
+    }
+    out[..n].copy_from_slice(&text.as_bytes()[..n]);
+    out
+}
+
 /// The text in NUL-padded bytes, up to the first NUL (lossy UTF-8).
 pub fn unpadded(bytes: &[u8]) -> String {
     String::from_utf8_lossy(bytes.split(|&b| b == 0).next().unwrap_or(&[])).into_owned()
@@ -429,6 +441,9 @@ mod tests {
         assert!(pack_args(&["x".repeat(ARGS_LEN)]).is_none());
         assert!(pack_args(&["a\0b".into()]).is_none());
         assert_eq!(unpadded(&padded::<8>("abc").unwrap()), "abc");
+        // cut at a character boundary, a NUL always left at the end
+        assert_eq!(unpadded(&cut_padded::<6>("ab\u{e9}\u{e9}")), "ab\u{e9}");
+        assert_eq!(cut_padded::<4>("abcdef"), *b"abc\0");
         assert!(padded::<2>("abc").is_none());
     }
 

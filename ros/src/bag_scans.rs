@@ -25,9 +25,10 @@ pub enum BagScanError {
     /// The bag cannot be read on.
     #[error(transparent)]
     Bag(#[from] BagError),
-    /// The topics asked for are not in the bag, or not of a type that can be read.
-    #[error("{0}")]
-    Topic(String),
+    /// The topics asked for are not in the bag (named by its path), or not of a type that can
+    /// be read.
+    #[error("{bag}: {message}")]
+    Topic { bag: std::path::PathBuf, message: String },
 }
 
 impl BagScanError {
@@ -124,21 +125,22 @@ impl BagScans {
     /// The scans of `bag` on `topics.scan`, with truth from `topics.truth`. Reads the truth
     /// topic through first.
     pub fn open(bag: &Bag, topics: &ScanTopics) -> Result<Self, BagScanError> {
+        let refused = |message: String| BagScanError::Topic { bag: bag.path.clone(), message };
         let all = bag.topics()?;
         let listing = || all.iter().map(|t| format!("{} ({})", t.name, t.ros_type)).collect::<Vec<_>>().join(", ");
         let scans: Vec<_> = all.iter().filter(|t| t.ros_type == msg::LaserScan::TYPE).collect();
         let topic = match &topics.scan {
             Some(name) => match all.iter().find(|t| &t.name == name) {
                 Some(t) if t.ros_type == msg::LaserScan::TYPE => t,
-                Some(t) => return Err(BagScanError::Topic(format!("{name} holds {}, not LaserScan", t.ros_type))),
-                None => return Err(BagScanError::Topic(format!("no topic {name} in the bag; it has {}", listing()))),
+                Some(t) => return Err(refused(format!("{name} holds {}, not LaserScan", t.ros_type))),
+                None => return Err(refused(format!("no topic {name} in the bag; it has {}", listing()))),
             },
             None => match scans.as_slice() {
                 [only] => only,
-                [] => return Err(BagScanError::Topic(format!("no LaserScan topic in the bag; it has {}", listing()))),
+                [] => return Err(refused(format!("no LaserScan topic in the bag; it has {}", listing()))),
                 several => {
                     let names: Vec<&str> = several.iter().map(|t| t.name.as_str()).collect();
-                    return Err(BagScanError::Topic(format!(
+                    return Err(refused(format!(
                         "the bag has {} LaserScan topics ({}): say which with --scan-topic",
                         names.len(),
                         names.join(", ")
@@ -151,10 +153,10 @@ impl BagScans {
             None => None,
             Some(name) => {
                 let Some(t) = all.iter().find(|t| &t.name == name) else {
-                    return Err(BagScanError::Topic(format!("no truth topic {name} in the bag; it has {}", listing())));
+                    return Err(refused(format!("no truth topic {name} in the bag; it has {}", listing())));
                 };
                 if t.ros_type != msg::PoseStamped::TYPE && t.ros_type != msg::Odometry::TYPE {
-                    return Err(BagScanError::Topic(format!(
+                    return Err(refused(format!(
                         "the truth topic {name} holds {}, not PoseStamped or Odometry",
                         t.ros_type
                     )));

@@ -30,3 +30,13 @@ pub fn planar_pose_arg(s: &str) -> Result<(f64, f64, f64), String> {
         _ => Err(format!("{s}: three finite numbers x,y,yaw (metres, radians)")),
     }
 }
+
+/// The DDS domain to join: `given` (a `--domain`), else `$ROS_DOMAIN_ID` as every ROS 2 node
+/// reads it, else 0.
+pub fn domain_id(given: Option<u16>) -> Result<u16, String> {
+    match (given, std::env::var("ROS_DOMAIN_ID")) {
+        (Some(d), _) => Ok(d),
+        (None, Ok(d)) => d.trim().parse().map_err(|_| format!("ROS_DOMAIN_ID={d}: not a domain number")),
+        (None, Err(_)) => Ok(0),
+    }
+}

@@ -121,7 +121,9 @@ fn two_laser_topics_need_choosing_and_truth_comes_by_stamp() {
     );
     let bag = Bag::open(&path).unwrap();
     match BagScans::open(&bag, &ScanTopics::default()) {
-        Err(BagScanError::Topic(e)) => assert!(e.contains("/front, /rear") && e.contains("--scan-topic"), "{e}"),
+        Err(BagScanError::Topic { message: e, .. }) => {
+            assert!(e.contains("/front, /rear") && e.contains("--scan-topic"), "{e}")
+        }
         other => panic!("{:?}", other.map(|_| ())),
     }
     for (topic, y) in [("/truth", 0.0), ("/odom", 1.0)] {

@@ -88,11 +88,7 @@ fn topic_name(name: &str) -> Result<Name> {
 
 pub fn run(a: Ros2Args) -> Result<()> {
     a.stage.place()?;
-    let domain = match (a.domain, std::env::var("ROS_DOMAIN_ID")) {
-        (Some(d), _) => d,
-        (None, Ok(d)) => d.trim().parse().map_err(|_| anyhow!("ROS_DOMAIN_ID={d}: not a domain number"))?,
-        (None, Err(_)) => 0,
-    };
+    let domain = ros::domain_id(a.domain).map_err(anyhow::Error::msg)?;
     let context = Context::with_options(ContextOptions::new().domain_id(domain))
         .map_err(|e| anyhow!("ros2: starting DDS (domain {domain}): {e:?}"))?;
     let shared = Arc::new(Mutex::new(Shared::default()));

@@ -56,10 +56,7 @@ impl Source {
                 truth: bag.truth_topic.clone(),
                 laser_pose: bag.laser_pose,
             };
-            let scans = ros::BagScans::open(&opened, &topics).map_err(|e| match e {
-                ros::BagScanError::Topic(_) => anyhow::anyhow!("{}: {e}", path.display()),
-                e => e.into(),
-            })?;
+            let scans = ros::BagScans::open(&opened, &topics)?;
             if scans.bad_truth > 0 {
                 eprintln!("{}: {} messages of the truth topic did not decode", path.display(), scans.bad_truth);
             }

@@ -367,13 +367,8 @@ impl Events {
 
     /// Publishes `text` (cut to fit); a failure to is said, never fatal.
     fn say(&self, ok: bool, text: &str) {
-        let mut bytes = [0u8; messages::EVENT_LEN];
-        let mut n = text.len().min(messages::EVENT_LEN - 1);
-        while !text.is_char_boundary(n) {
-            n -= 1;
-        }
-        bytes[..n].copy_from_slice(&text.as_bytes()[..n]);
-        let m = messages::EventMsg { stamp_ns: messages::monotonic_ns(), ok: u32::from(ok), _pad: 0, text: bytes };
+        let text = messages::cut_padded::<{ messages::EVENT_LEN }>(text);
+        let m = messages::EventMsg { stamp_ns: messages::monotonic_ns(), ok: u32::from(ok), _pad: 0, text };
         if let Err(e) = messages::publish(&self.publisher, &self.notifier, |slot: &mut messages::EventMsg| *slot = m) {
             eprintln!("supervisor: events: {e}");
         }

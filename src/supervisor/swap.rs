@@ -26,7 +26,7 @@ use localize::LOCALIZERS;
 use messages::iceoryx2::active_request::ActiveRequest;
 use messages::iceoryx2::prelude::*;
 use messages::{
-    name_bytes, name_str, open_control, pack_args, padded, unpack_args, unpadded, Awaited, ControlReply,
+    cut_padded, name_bytes, name_str, open_control, pack_args, padded, unpack_args, unpadded, Awaited, ControlReply,
     ControlRequest, CONTROL_LIST, CONTROL_SWAP, REPLY_LEN,
 };
 use segment::SEGMENTERS;
@@ -56,13 +56,7 @@ pub enum SwapOutcome {
 }
 
 fn reply(request: &Request, ok: bool, message: &str) {
-    let mut m = ControlReply { ok: ok as u32, message: [0; REPLY_LEN] };
-    let bytes = message.as_bytes();
-    let mut n = bytes.len().min(REPLY_LEN - 1);
-    while !message.is_char_boundary(n) {
-        n -= 1;
-    }
-    m.message[..n].copy_from_slice(&bytes[..n]);
+    let m = ControlReply { ok: ok as u32, message: cut_padded::<REPLY_LEN>(message) };
     if let Ok(r) = request.loan_uninit() {
         let _ = r.write_payload(m).send();
     }
