@@ -463,6 +463,21 @@ impl Gema2Config {
             "how far a map corner's junction may lie beyond a wall's end, metres",
             reach
         ),
+        // the scan's own keys: the map makes its corners as the scan does
+        setting!(
+            MapCornerConfig,
+            "reach",
+            Range::NonNegative,
+            "how far a corner may lie beyond a line's visible end, metres",
+            short_reach
+        ),
+        setting!(
+            MapCornerConfig,
+            "long_line",
+            Range::NonNegative,
+            "a line at least this long is long (for long_reach), metres",
+            long_wall
+        ),
         setting!(
             MapCornerConfig,
             "wall_ends",
@@ -560,6 +575,10 @@ mod tests {
         assert_eq!(c.localizer.screened, 100);
         assert_eq!(c.map_corners.reach, 2.0);
         assert_eq!(c.localizer.track_radius, Some(3.0));
+        // the map makes its corners with the scan's reach and long lines
+        c.apply(&["reach=0.7", "long_line=0.9"]).unwrap();
+        assert_eq!((c.segmenter.corner.reach, c.map_corners.short_reach), (0.7, 0.7));
+        assert_eq!((c.segmenter.corner.long_line, c.map_corners.long_wall), (0.9, 0.9));
     }
 
     #[test]

@@ -62,6 +62,14 @@ pub struct MapCornerConfig {
     /// has its map counterpart. At 1 m, 28 % of furnished office scans found no map corner to
     /// match (`gema2 locate --diagnose`).
     pub reach: f64,
+    /// How far a junction may lie beyond the end of a wall shorter than `long_wall`, metres:
+    /// the scan's reach (`segment::CornerConfig::reach`), which makes corners farther out only
+    /// between two long lines. On a map built from a real log most walls are short pieces of
+    /// clutter, and at `reach` each one met hundreds of others.
+    pub short_reach: f64,
+    /// A wall at least this long may meet another long one up to `reach` beyond its end,
+    /// metres: the scan's `long_line`.
+    pub long_wall: f64,
     /// Shortest arm, metres.
     pub min_arm_length: f64,
     /// Largest gap between collinear walls that an arm's extent bridges, metres.
@@ -78,6 +86,8 @@ impl Default for MapCornerConfig {
         MapCornerConfig {
             min_angle: 25f64.to_radians(),
             reach: 5.0,
+            short_reach: 1.0,
+            long_wall: 0.6,
             min_arm_length: 0.1,
             max_gap: 3.0,
             wall_ends: true,
@@ -186,11 +196,13 @@ fn junctions(walls: &[Wall], cfg: &MapCornerConfig) -> Vec<(Point2<f64>, Vec<u32
     let boxes: Vec<(Point2<f64>, Point2<f64>)> = walls
         .iter()
         .map(|w| {
-            let r = Vector2::new(cfg.reach, cfg.reach);
+            let reach = wall_reach(w, cfg);
+            let r = Vector2::new(reach, reach);
             (w.a.inf(&w.b) - r, w.a.sup(&w.b) + r)
         })
         .collect();
     let directions: Vec<Vector2<f64>> = walls.iter().map(|w| (w.b - w.a).normalize()).collect();
+    let long: Vec<bool> = walls.iter().map(|w| w.length() >= cfg.long_wall).collect();
     for i in 0..walls.len() {
         let bi = boxes[i];
         for j in i + 1..walls.len() {
@@ -206,7 +218,9 @@ fn junctions(walls: &[Wall], cfg: &MapCornerConfig) -> Vec<(Point2<f64>, Vec<u32
             }
             let t = (b.a - a.a).perp(&db) / den;
             let x = a.a + da * t;
-            if a.closest(x).0 <= cfg.reach && b.closest(x).0 <= cfg.reach {
+            // as the scan makes its corners: beyond the short reach only between two long walls
+            let reach = if long[i] && long[j] { cfg.reach } else { cfg.short_reach.min(cfg.reach) };
+            if a.closest(x).0 <= reach && b.closest(x).0 <= reach {
                 found.push((x, i as u32, j as u32));
             }
         }
@@ -246,12 +260,23 @@ fn junctions(walls: &[Wall], cfg: &MapCornerConfig) -> Vec<(Point2<f64>, Vec<u32
     out
 }
 
+/// How far beyond its ends a junction of `w` may lie: `reach` for a long wall, else the short
+/// reach.
+fn wall_reach(w: &Wall, cfg: &MapCornerConfig) -> f64 {
+    if w.length() >= cfg.long_wall {
+        cfg.reach
+    } else {
+        cfg.short_reach.min(cfg.reach)
+    }
+}
+
 fn arms_of(w: &Wall, index: u32, x: Point2<f64>, cfg: &MapCornerConfig, out: &mut Vec<MapArm>) {
     let len = w.length();
+    let reach = wall_reach(w, cfg);
     let dir = (w.b - w.a) / len;
     let t = (x - w.a).dot(&dir);
     for (direction, gap, length) in [(dir, (-t).max(0.0), len - t.max(0.0)), (-dir, (t - len).max(0.0), t.min(len))] {
-        if gap <= cfg.reach && length >= cfg.min_arm_length {
+        if gap <= reach && length >= cfg.min_arm_length {
             out.push(MapArm { direction, gap, length, extent: gap + length, wall: index, reserved: 0 });
         }
     }
@@ -465,6 +490,26 @@ mod tests {
         assert_eq!(idx.corners().len(), 4);
         assert_eq!(idx.similar(FRAC_PI_2, 1e-9).len(), 2);
         assert_eq!(idx.similar(3.0 * FRAC_PI_2, 1e-9).len(), 2);
+    }
+
+    /// As a scan makes its corners (`segment::corner`): a junction beyond a wall's end by more
+    /// than the short reach is a corner only between two long walls.
+    #[test]
+    fn only_long_walls_meet_far_beyond_their_ends() {
+        let junctions_only = MapCornerConfig { wall_ends: false, ..MapCornerConfig::default() };
+        // a wall up from (0, 3) would meet y = 0 at the origin, 3 m below its end
+        let far = |length: f64| {
+            let walls = vec![Wall::new(0.5, 0.0, 5.0, 0.0), Wall::new(0.0, 3.0, 0.0, 3.0 + length)];
+            CornerIndex::build(&walls, &junctions_only).corners().len()
+        };
+        assert_eq!(far(2.0), 2);
+        assert_eq!(far(0.5), 0);
+        // within the short reach, a short wall meets any other
+        let near = vec![Wall::new(0.5, 0.0, 5.0, 0.0), Wall::new(0.0, 0.8, 0.0, 1.2)];
+        assert_eq!(CornerIndex::build(&near, &junctions_only).corners().len(), 2);
+        // the short reach never exceeds the reach
+        let tight = MapCornerConfig { reach: 0.5, ..junctions_only };
+        assert_eq!(CornerIndex::build(&near, &tight).corners().len(), 0);
     }
 
     #[test]

@@ -125,7 +125,7 @@ const _: () = assert!(std::mem::size_of::<WallFrame>() == 56);
 
 /// The version of the model block's layout: raised whenever a [`Flat::put`] of the model's
 /// parts changes what it writes. A block of another layout is refused.
-pub const MODEL_LAYOUT: u64 = 1;
+pub const MODEL_LAYOUT: u64 = 2;
 
 /// The first 8 bytes of a model block, as written on this machine: also tells a block of
 /// another byte order.
@@ -229,7 +229,7 @@ impl MapModel {
 
 impl Flat for MapCornerConfig {
     fn put(&self, w: &mut FlatWriter) {
-        for v in [self.min_angle, self.reach, self.min_arm_length, self.max_gap] {
+        for v in [self.min_angle, self.reach, self.short_reach, self.long_wall, self.min_arm_length, self.max_gap] {
             w.put_f64(v);
         }
         w.put_bool(self.wall_ends);
@@ -239,6 +239,8 @@ impl Flat for MapCornerConfig {
         Ok(MapCornerConfig {
             min_angle: r.take_f64("min_angle")?,
             reach: r.take_f64("reach")?,
+            short_reach: r.take_f64("short_reach")?,
+            long_wall: r.take_f64("long_wall")?,
             min_arm_length: r.take_f64("min_arm_length")?,
             max_gap: r.take_f64("max_gap")?,
             wall_ends: r.take_bool("wall_ends")?,
