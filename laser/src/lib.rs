@@ -14,6 +14,7 @@
 
 pub mod fit;
 mod geometry;
+pub mod motion;
 mod pose;
 pub mod rng;
 
