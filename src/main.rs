@@ -9,6 +9,7 @@ mod diagnose;
 mod progress;
 mod report;
 mod results;
+mod sequential;
 mod supervisor;
 
 use clap::{Parser, Subcommand};

@@ -9,9 +9,10 @@ pub const SUCCESS_POSITION: f64 = 0.30;
 pub const SUCCESS_HEADING_DEG: f64 = 5.0;
 
 /// The header of the pose CSV (docs/design.md's six columns, then more).
-pub const CSV_HEADER: &str = "scan,x,y,theta,score,status,micros,hypotheses,candidates,inliers,through";
+pub const CSV_HEADER: &str = "scan,x,y,theta,score,status,micros,hypotheses,candidates,inliers,through,scans";
 
-/// One CSV row; `best` is (x, y, theta, cost, inliers, through) of the reported pose.
+/// One CSV row; `best` is (x, y, theta, cost, inliers, through) of the reported pose, and
+/// `scans` how many scans the answer rests on (1 for a single-scan answer, 0 with none).
 pub fn csv_row(
     scan: usize,
     best: Option<(f64, f64, f64, f64, f64, f64)>,
@@ -19,12 +20,13 @@ pub fn csv_row(
     micros: f64,
     hypotheses: usize,
     candidates: usize,
+    scans: u32,
 ) -> String {
     match best {
-        Some((x, y, t, c, i, th)) => {
-            format!("{scan},{x:.4},{y:.4},{t:.5},{c:.4},{status},{micros:.1},{hypotheses},{candidates},{i:.3},{th:.3}")
-        }
-        None => format!("{scan},,,,,failed,{micros:.1},{hypotheses},{candidates},,"),
+        Some((x, y, t, c, i, th)) => format!(
+            "{scan},{x:.4},{y:.4},{t:.5},{c:.4},{status},{micros:.1},{hypotheses},{candidates},{i:.3},{th:.3},{scans}"
+        ),
+        None => format!("{scan},,,,,failed,{micros:.1},{hypotheses},{candidates},,,0"),
     }
 }
 
@@ -41,6 +43,9 @@ pub struct Outcome {
     pub steps: [f64; 7],
     /// The steps of the search cascade that ran.
     pub ran: localize::Ran,
+    /// Microseconds of each search of the cascade, by [`localize::Step::index`] (0 when it
+    /// did not run).
+    pub searches: [f64; localize::Step::COUNT],
 }
 
 impl Outcome {
@@ -52,7 +57,15 @@ impl Outcome {
             )),
             _ => None,
         };
-        Outcome { status, error, has_truth: truth.is_some(), micros, steps: [0.0; 7], ran: localize::Ran::default() }
+        Outcome {
+            status,
+            error,
+            has_truth: truth.is_some(),
+            micros,
+            steps: [0.0; 7],
+            ran: localize::Ran::default(),
+            searches: [0.0; localize::Step::COUNT],
+        }
     }
 
     /// Records the step times of a segmentation and localization.
@@ -68,6 +81,7 @@ impl Outcome {
             us(loc.cost),
         ];
         self.ran = loc.ran;
+        self.searches = loc.steps.map(us);
         self
     }
 
@@ -180,6 +194,15 @@ impl Summary {
         for (k, name) in names.iter().enumerate() {
             let mut v: Vec<f64> = self.outcomes.iter().map(|o| o.steps[k]).collect();
             s += &format!(" {name} {:.1}", quantile(&mut v, 0.5));
+        }
+        s += "\n";
+        s += "median us of a search, over the scans it ran on:";
+        for step in localize::CASCADE.map(|c| c.step) {
+            let mut v: Vec<f64> =
+                self.outcomes.iter().filter(|o| o.ran.contains(step)).map(|o| o.searches[step.index()]).collect();
+            if !v.is_empty() {
+                s += &format!(" {} {:.1}", step.as_str(), quantile(&mut v, 0.5));
+            }
         }
         s += "\n";
         if self.outcomes.iter().any(|o| o.has_truth) {

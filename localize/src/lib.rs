@@ -16,6 +16,7 @@ pub mod matching;
 #[cfg(feature = "process")]
 pub mod node;
 pub mod refine;
+pub mod sequential;
 pub mod settings;
 pub mod slide;
 
@@ -33,4 +34,5 @@ pub use matching::pose_from_corners;
 /// name starts a fresh process (a new build, once installed) beside the running one.
 pub const LOCALIZERS: [&str; 1] = ["gema2"];
 pub use refine::RefineConfig;
+pub use sequential::{Sequential, SequentialAnswer, SequentialConfig};
 pub use slide::{SlideConfig, FROM_SLIDE};

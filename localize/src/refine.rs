@@ -106,6 +106,28 @@ pub fn refine(model: &MapModel, points: &[Point2<f64>], pose: &Pose, cfg: &Refin
     (Isometry2::new(t, theta), fraction)
 }
 
+/// How well `points` at `pose` pin down the position: the smaller eigenvalue of the sum of
+/// n n^T over the points, n the normal of the wall each lies on (within `gate` of it), so in
+/// points' worth: a point on no wall adds nothing, one on a wall across the weakest direction
+/// one. 0 in a corridor: every wall runs one way, the position along it is free.
+pub fn position_constraint(model: &MapModel, points: &[Point2<f64>], pose: &Pose, gate: f64) -> f64 {
+    let (mut xx, mut xy, mut yy) = (0.0f64, 0.0f64, 0.0f64);
+    for q in points {
+        let p = pose * q;
+        let Some(k) = model.field.nearest_wall(p) else { continue };
+        let wall = &model.frames[k as usize];
+        let along = (p - wall.a).dot(&wall.e);
+        if !(0.0..=wall.length_squared).contains(&along) || (p - wall.a).dot(&wall.normal).abs() > gate {
+            continue;
+        }
+        let n = wall.normal;
+        (xx, xy, yy) = (xx + n.x * n.x, xy + n.x * n.y, yy + n.y * n.y);
+    }
+    // the smaller root of the 2 x 2 symmetric matrix's characteristic polynomial
+    let half_trace = (xx + yy) / 2.0;
+    (half_trace - (((xx - yy) / 2.0).powi(2) + xy * xy).sqrt()).max(0.0)
+}
+
 /// A prior that the correction from the starting pose lies within the pairing gate, as the
 /// matrix added to the normal equations (the prior's information, scaled by `kernel`^2).
 ///

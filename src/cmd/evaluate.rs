@@ -49,6 +49,16 @@ pub struct EvaluateArgs {
     /// `--markdown docs/results.md` regenerates that page's accuracy tables.
     #[arg(long, value_name = "FILE")]
     pub markdown: Option<PathBuf>,
+    /// With --carmen: locate each log's odd scans against the map of its even ones with the
+    /// sequential localizer instead, and report per log how soon each start is sure, how often
+    /// `ok` is wrong, and what tracking costs (--odom-noise, --odom-seed, --restart-every as
+    /// `gema2 locate --sequential`; the suite leaves out the simulated logs).
+    #[command(flatten)]
+    pub seq: crate::sequential::SequentialArgs,
+    /// With --sequential: also kidnap the robot this many times a log: 20 located scans of one
+    /// stretch, then 20 of a stretch at least 10 m away, with no odometry across the cut.
+    #[arg(long, default_value_t = 0)]
+    pub kidnaps: usize,
 }
 
 /// One located log's figures.
@@ -207,6 +217,11 @@ pub fn run(a: EvaluateArgs) -> Result<()> {
     if a.scans == 0 && !a.no_sim {
         bail!("--scans must be at least 1");
     }
+    a.seq.check()?;
+    if a.seq.sequential {
+        let Some(dir) = &a.carmen else { bail!("--sequential locates CARMEN logs: give --carmen") };
+        return sequential_suite(&a, dir, &config);
+    }
     let mut page = String::new();
     if !a.no_sim {
         let title = format!("simulated URG-04LX, {} scans a log, seed {}", a.scans, a.seed);
@@ -346,4 +361,152 @@ fn grid_map(log: &Path, offset: usize) -> Result<WallMap> {
 fn built_map(log: &Path, offset: usize) -> Result<WallMap> {
     let map = build_map::build(&BuildArgs::every_other(log, offset)?, &mut Malformed::silent())?.map;
     Ok(WallMap::parse(&map.to_json("built"), log)?)
+}
+
+/// `--sequential`: each CARMEN log's odd scans against the map of its even ones, by the
+/// sequential localizer, one row a log.
+fn sequential_suite(a: &EvaluateArgs, dir: &Path, config: &Gema2Config) -> Result<()> {
+    use crate::sequential::{Odometry, SeqRun};
+    let noise = a.seq.noise()?;
+    let title = format!(
+        "{}: odd scans against a map of the even ones, sequential, odometry {}, a cold start every {} located scans",
+        dir.display(),
+        noise
+            .map_or("of the log".to_string(), |n| format!("drawn with noise {:?}, seed {}", n.alphas, a.seq.odom_seed)),
+        a.seq.restart_every.map_or("- (never)".to_string(), |n| n.to_string()),
+    );
+    println!("{title}\n");
+    let head = [
+        "log",
+        "scans",
+        "starts",
+        "median to fix",
+        "fixed within 3",
+        "wrong ok",
+        "right after fix",
+        "tracking median us",
+        "tracking p99 us",
+        "median us",
+        "kidnaps: last wrong ok / right ok within 5",
+    ];
+    let mut table = format!("### {title}\n\n| {} |\n|{}\n", head.join(" | "), "---|".repeat(head.len()));
+    println!("{}", head.join(" | "));
+    let mut malformed = Malformed::default();
+    for log in carmen_logs(dir)? {
+        let mut items = Vec::new();
+        for item in CarmenReader::open(&log, FlaserLayout::default())? {
+            items.push(malformed.take(item)?);
+        }
+        let model = Arc::new(MapModel::new(built_map(&log, 0)?, &config.map_corners));
+        let mut segmenter = segment::LineVisibilitySegmenter::new(config.segmenter);
+        let localizer = localize::Localizer::new(model, config.localizer);
+        let mut run = SeqRun::new(
+            localize::Sequential::new(localizer, localize::SequentialConfig::default()),
+            a.seq.restart_every,
+        );
+        let mut odometry = Odometry::new(noise, a.seq.odom_seed);
+        let stem = log_stem(&log);
+        let mut progress = crate::progress::Progress::scans(&stem, Some((items.len() / 2) as u64));
+        for item in items.iter().skip(1).step_by(2).flatten() {
+            let odom = odometry.next(item.odometry, item.scan.truth.as_ref(), false)?;
+            let o = run.locate(&mut segmenter, &item.scan, odom);
+            progress.add(&o.outcome);
+        }
+        progress.finish();
+        let kidnaps = kidnap_all(&items, a.kidnaps, &run, config, noise, a.seq.odom_seed)?;
+        let s = run.summary();
+        let pct = |v: Option<f64>| v.map_or("-".to_string(), |v| format!("{:.1} %", 100.0 * v));
+        let (t50, t99) =
+            s.tracking().map_or(("-".to_string(), "-".to_string()), |(a, b)| (format!("{a:.0}"), format!("{b:.0}")));
+        let mut all = s.all_micros.clone();
+        let cells = [
+            stem,
+            s.scans.to_string(),
+            s.starts.to_string(),
+            s.median_to_fix().map_or("-".into(), |m| if m.is_finite() { format!("{m:.0}") } else { "never".into() }),
+            pct(Some(s.fixed_within(3))),
+            format!("{} ({:.2} %)", s.wrong_ok, 100.0 * s.wrong_ok_share()),
+            pct(s.right_after_fix_share()),
+            t50,
+            t99,
+            format!("{:.0}", if all.is_empty() { 0.0 } else { crate::report::quantile(&mut all, 0.5) }),
+            kidnaps,
+        ];
+        println!("{}", cells.join(" | "));
+        table += &format!("| {} |\n", cells.join(" | "));
+    }
+    if let Some(path) = &a.markdown {
+        let command: Vec<String> = std::env::args().skip(1).filter(|s| !s.is_empty()).collect();
+        crate::results::write_section(path, "evaluate-sequential", &format!("gema2 {}", command.join(" ")), &table)?;
+    }
+    malformed.into_result("skipped")
+}
+
+/// `--kidnaps N`: N splices of two stretches of the log's odd scans at least 10 m apart, each
+/// located by a fresh sequential localizer on `run`'s map with no odometry across the cut.
+/// Says, over the splices, the latest scan after a cut with a wrong `ok` and how many found a
+/// right `ok` within 5 scans of it.
+fn kidnap_all(
+    items: &[Option<acquire::LogScan>],
+    count: usize,
+    run: &crate::sequential::SeqRun,
+    config: &Gema2Config,
+    noise: Option<laser::motion::OdometryNoise>,
+    seed: u64,
+) -> Result<String> {
+    use crate::sequential::{Kidnap, Odometry, SeqRun};
+    const STRETCH: usize = 20;
+    if count == 0 {
+        return Ok("-".into());
+    }
+    let odd: Vec<&acquire::LogScan> = items.iter().skip(1).step_by(2).flatten().collect();
+    let n = odd.len();
+    let place = |k: usize| odd[k].scan.truth.map(|t| t.translation.vector);
+    let mut results = Vec::new();
+    for k in 0..count {
+        let i = k * n / count;
+        if i + STRETCH > n {
+            break;
+        }
+        let Some(end_a) = place(i + STRETCH - 1) else { continue };
+        // the first stretch from half the log on that starts 10 m away
+        let far = (0..n)
+            .map(|d| (i + n / 2 + d * 7) % n)
+            .take(n)
+            .find(|&j| j + STRETCH <= n && place(j).is_some_and(|p| (p - end_a).norm() >= 10.0));
+        let Some(j) = far else { continue };
+        let model = std::sync::Arc::clone(run.sequential.localizer.model());
+        let mut segmenter = segment::LineVisibilitySegmenter::new(config.segmenter);
+        let localizer = localize::Localizer::new(model, config.localizer);
+        let mut fresh = SeqRun::new(localize::Sequential::new(localizer, localize::SequentialConfig::default()), None);
+        let mut odometry = Odometry::new(noise, seed + k as u64 + 1);
+        let mut after = Vec::new();
+        for (m, item) in odd[i..i + STRETCH].iter().chain(&odd[j..j + STRETCH]).enumerate() {
+            // drawn odometry sees no motion across the cut; the log's own is moved on from
+            // where it was at the cut by the second stretch's own motion
+            let odom = match noise {
+                Some(_) => odometry.next(None, item.scan.truth.as_ref(), m == STRETCH)?,
+                None if m >= STRETCH => shifted(&odd, i + STRETCH - 1, j, m - STRETCH),
+                None => item.odometry,
+            };
+            let o = fresh.locate(&mut segmenter, &item.scan, odom);
+            if m >= STRETCH {
+                after.push(o);
+            }
+        }
+        results.push(Kidnap::judge(&after));
+    }
+    if results.is_empty() {
+        return Ok("- (no two stretches 10 m apart)".into());
+    }
+    let worst = results.iter().map(|r| r.last_wrong_ok).max().unwrap_or(0);
+    let found = results.iter().filter(|r| r.new_fix.is_some_and(|f| f <= 5)).count();
+    Ok(format!("{worst} / {found} of {}", results.len()))
+}
+
+/// The log's odometry for the `m`-th scan after a cut from scan `a` to scan `b` of `odd`: where
+/// odometry was at `a`, moved on by the motion from `b` to `b + m`.
+fn shifted(odd: &[&acquire::LogScan], a: usize, b: usize, m: usize) -> Option<laser::Pose> {
+    let (at_a, at_b, now) = (odd[a].odometry?, odd[b].odometry?, odd[b + m].odometry?);
+    Some(at_a * laser::motion::motion(&at_b, &now))
 }

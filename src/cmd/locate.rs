@@ -62,6 +62,8 @@ pub struct LocateArgs {
     /// (created if missing).
     #[arg(long, num_args = 2, value_names = ["N", "DIR"])]
     pub dump_scan: Vec<String>,
+    #[command(flatten)]
+    pub seq: crate::sequential::SequentialArgs,
 }
 
 /// `--dump-scan N DIR`, read: the scan's index and the folder.
@@ -95,6 +97,10 @@ pub fn configs(a: &LocateArgs) -> Result<Gema2Config> {
 }
 
 pub fn run(a: LocateArgs) -> Result<()> {
+    a.seq.check()?;
+    if a.seq.sequential {
+        return run_sequential(a);
+    }
     let map = mapio::load_map(&a.map)?;
     let config = configs(&a)?;
     let loc_cfg = config.localizer;
@@ -197,14 +203,27 @@ impl CsvOut {
             (p.translation.x, p.translation.y, laser::pose_theta(p), c.value, c.inliers, c.through)
         });
         let row =
-            crate::report::csv_row(index, fields, loc.status.as_str(), micros, loc.hypotheses.len(), loc.candidates);
+            crate::report::csv_row(index, fields, loc.status.as_str(), micros, loc.hypotheses.len(), loc.candidates, 1);
+        writeln!(self.0, "{row}")?;
+        Ok(())
+    }
+
+    /// Scan `index`'s row of a sequential run.
+    fn sequential_row(&mut self, index: usize, o: &crate::sequential::SeqOutcome) -> Result<()> {
+        let a = &o.answer;
+        let fields = a
+            .pose
+            .zip(a.cost)
+            .filter(|_| a.status != Status::Failed)
+            .map(|(p, c)| (p.translation.x, p.translation.y, laser::pose_theta(&p), c.value, c.inliers, c.through));
+        let row = crate::report::csv_row(index, fields, a.status.as_str(), o.outcome.micros, a.tracks, 0, a.scans);
         writeln!(self.0, "{row}")?;
         Ok(())
     }
 
     /// The row of scan `index`, whose line could not be read: no answer.
     fn unreadable(&mut self, index: usize) -> Result<()> {
-        writeln!(self.0, "{}", crate::report::csv_row(index, None, Status::Failed.as_str(), 0.0, 0, 0))?;
+        writeln!(self.0, "{}", crate::report::csv_row(index, None, Status::Failed.as_str(), 0.0, 0, 0, 0))?;
         Ok(())
     }
 
@@ -276,4 +295,73 @@ impl Run {
         }
         Ok(())
     }
+}
+
+/// `--sequential`: the sequential localizer over the selected scans, each row's `scans` column
+/// saying how many scans its answer rests on.
+fn run_sequential(a: LocateArgs) -> Result<()> {
+    use crate::sequential::{Odometry, SeqRun};
+    if a.diagnose || !a.dump_scan.is_empty() {
+        anyhow::bail!("--diagnose and --dump-scan locate single scans: leave out --sequential");
+    }
+    let map = mapio::load_map(&a.map)?;
+    let config = configs(&a)?;
+    let model = Arc::new(MapModel::new(map, &config.map_corners));
+    let mut segmenter = segment::LineVisibilitySegmenter::new(config.segmenter);
+    let localizer = localize::Localizer::new(Arc::clone(&model), config.localizer);
+    let mut run =
+        SeqRun::new(localize::Sequential::new(localizer, localize::SequentialConfig::default()), a.seq.restart_every);
+    let mut odometry = Odometry::new(a.seq.noise()?, a.seq.odom_seed);
+    let source = Source::open(a.log.as_deref(), &a.bag, &a.flaser)?;
+    let mut csv = a.out.as_deref().map(CsvOut::create).transpose()?;
+    let mut malformed = Malformed::of(source.unit);
+    let mut summary = Summary::default();
+    let mut stopped = None;
+    let mut progress = crate::progress::Progress::of_log("", &source.path, source.total);
+    for (index, item) in source.scans.enumerate() {
+        let mut item = match item {
+            Ok(item) => item,
+            Err(SourceError::Skip(_)) if !super::selected(index, a.every, a.offset) => continue,
+            Err(SourceError::Skip(e)) => {
+                if let Some(w) = csv.as_mut() {
+                    w.unreadable(index)?;
+                }
+                malformed.add(e);
+                continue;
+            }
+            Err(SourceError::Stop(e)) => {
+                stopped = Some(e);
+                break;
+            }
+        };
+        if !super::selected(index, a.every, a.offset) {
+            continue;
+        }
+        if a.no_truth {
+            item.scan.truth = None;
+        }
+        let odom = odometry.next(item.odometry, item.scan.truth.as_ref(), false)?;
+        let o = run.locate(&mut segmenter, &item.scan, odom);
+        if let Some(w) = csv.as_mut() {
+            w.sequential_row(index, &o)?;
+        }
+        progress.add(&o.outcome);
+        summary.add(o.outcome);
+    }
+    progress.finish();
+    if let Some(w) = csv {
+        w.finish()?;
+    }
+    if !summary.outcomes.is_empty() {
+        print!("{}", summary.render());
+        print!("{}", run.summary().render());
+    }
+    if let Some(e) = stopped {
+        anyhow::bail!("{e}; stopped there, after {} scans", summary.outcomes.len());
+    }
+    malformed.into_result("skipped")?;
+    if summary.outcomes.is_empty() {
+        anyhow::bail!("{}: no laser scan located", source.path.display());
+    }
+    Ok(())
 }

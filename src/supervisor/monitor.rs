@@ -63,6 +63,7 @@ impl Monitor {
             micros,
             p.count as usize,
             p.candidates as usize,
+            u32::from(best.is_some()),
         ));
     }
 

@@ -244,6 +244,24 @@ impl Localizer {
         self.locate_lines_given(scan, seg)
     }
 
+    /// [`locate`](Self::locate) with every search kept to poses within `radius` of `centre`,
+    /// as tracking keeps them (`track`): the sequential localizer's search about a track whose
+    /// refined pose left the odometry's spread ([`crate::sequential`]).
+    pub fn locate_near(
+        &mut self,
+        scan: &ScanView<'_>,
+        seg: &Segmentation,
+        centre: Point2<f64>,
+        radius: f64,
+    ) -> &Localization {
+        let (prior, track) = (self.prior, self.config.track_radius);
+        self.prior = Some(centre);
+        self.config.track_radius = Some(radius);
+        self.locate(scan, seg);
+        (self.prior, self.config.track_radius) = (prior, track);
+        &self.out
+    }
+
     /// [`locate`](Self::locate) for a segmentation whose lines arrive separately (the
     /// pipeline's localizer gets samples, corners and line extents; `seg.lines` is ignored).
     pub fn locate_with_lines(
@@ -293,20 +311,53 @@ impl Localizer {
         CostConfig { sigma_floor: self.cost.sigma_floor.max(self.model.map.sigma), ..self.cost }
     }
 
-    fn locate_lines_given(&mut self, scan: &ScanView<'_>, seg: &Segmentation) -> &Localization {
-        self.out.hypotheses.clear();
-        self.out.status = Status::Failed;
-        self.out.times = LocateTimes::default();
-        self.out.slide_step = None;
+    /// The per-scan state every search and [`refine_at`](Self::refine_at) read: eq. 7's
+    /// e(d) and form for this scan, and the points refinement fits.
+    fn prepare(&mut self, scan: &ScanView<'_>, seg: &Segmentation) {
         // a scan noisier than the configured e(d) would count the right pose's beams as seeing
         // through walls
         self.error = self.config.error.scaled(segment::noise::usable_scale(seg.noise_scale));
         self.cost = self.scan_cost_config();
         let drops = self.config.surface_dropouts;
         self.cost.skip_no_returns = drops > 0 && crate::cost::surface_dropouts(scan, &self.error) >= drops;
+        subsample(seg, self.config.refine_points, &mut self.refine_pts);
+    }
+
+    /// Refines each of `poses` against the map with this scan's points and costs it by the
+    /// full eq. 7, as a search does its kept hypotheses: the sequential localizer's step for
+    /// the poses it already holds ([`crate::sequential`]). `out` gets one (pose, cost) each.
+    pub fn refine_at(&mut self, scan: &ScanView<'_>, seg: &Segmentation, poses: &[Pose], out: &mut Vec<(Pose, Cost)>) {
+        out.clear();
+        self.prepare(scan, seg);
+        let model = Arc::clone(&self.model);
+        let final_cfg = self.final_cost_config();
+        for p in poses {
+            let refined = refine(&model, &self.refine_pts, p, &self.config.refine).0;
+            let c = cost(scan, &refined, &model.caster, &self.error, &final_cfg, &mut self.scratch, &mut self.expected);
+            out.push((refined, c));
+        }
+    }
+
+    /// How well the last scan refined or located pins down the position at `pose`
+    /// ([`crate::refine::position_constraint`], over refinement's points).
+    pub fn position_constraint(&self, pose: &Pose) -> f64 {
+        crate::refine::position_constraint(&self.model, &self.refine_pts, pose, self.config.refine.final_gate)
+    }
+
+    /// Whether `pose` lies where the robot cannot be (outside a closed building or the
+    /// surveyed free space), when answers are kept to where it can.
+    pub fn off_limits(&self, pose: &Pose) -> bool {
+        self.config.inside_only && self.model.off_limits(Point2::from(pose.translation.vector))
+    }
+
+    fn locate_lines_given(&mut self, scan: &ScanView<'_>, seg: &Segmentation) -> &Localization {
+        self.out.hypotheses.clear();
+        self.out.status = Status::Failed;
+        self.out.times = LocateTimes::default();
+        self.out.slide_step = None;
+        self.prepare(scan, seg);
         let cfg = &self.config;
         screen_points(seg, &self.lines, cfg.screen_points, cfg.screen_long_line, &mut self.screen_pts);
-        subsample(seg, self.config.refine_points, &mut self.refine_pts);
         let ran = self.run_cascade(scan, seg);
         if ran.contains(Step::Slide) {
             let cfg = self.config;

@@ -1,0 +1,408 @@
+//! The sequential localizer: eq. 7 accumulated over the scans of a moving robot.
+//!
+//! One scan in a symmetric place cannot be told from its twin; a robot that moves a metre
+//! sees the difference, and its wheel odometry says how it moved. This localizer keeps the
+//! hypotheses ([`Track`]s) of an unsure scan instead of discarding them, moves them by the
+//! odometry between two scans, refines each against the new scan and costs it again by eq. 7
+//! ([`Localizer::refine_at`]). The costs add up: a track is `behind` the best by the sum, over
+//! the scans it lived through, of its per-beam cost less the best's. It says `ok` when one
+//! track is ahead of every distinct rival by [`SequentialConfig::margin`] on that sum.
+//!
+//! While no track is sure, every scan also runs the global search of [`Localizer::locate`] and
+//! its hypotheses join the tracks (a global pose that lands on a track refreshes it). Once
+//! sure, a scan costs a refinement and one eq. 7 per track: it tracks. A track whose refined
+//! pose leaves the odometry's spread ([`OdometryNoise::spread`]), or whose pose the scan no
+//! longer explains, misses the scan; the best missing one means the robot was moved or is
+//! lost, and the global search runs again on that very scan. A track that misses twice is
+//! dropped.
+//!
+//! Without odometry between two scans nothing can be carried over: the tracks are dropped and
+//! the scan is located from scratch.
+
+use crate::cost::Cost;
+use crate::localizer::{same_pose, Localizer, Status};
+use laser::motion::{motion, OdometryNoise};
+use laser::{angle_diff, pose_theta, Pose, ScanView};
+use segment::Segmentation;
+use std::time::{Duration, Instant};
+
+/// The sequential localizer's settings.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SequentialConfig {
+    /// How far the odometry's motion may be off: the motion model's alphas. Larger than the
+    /// robot's own is safe (a wider gate); smaller loses the track on a slip.
+    pub motion: OdometryNoise,
+    /// The lead, in eq. 7 cost per beam summed over the scans, that the best track needs over
+    /// every distinct rival to be `ok` (the single-scan ambiguity margin, accumulated).
+    pub margin: f64,
+    /// A track first seen while others are tracked starts this far behind the best: it has
+    /// not been through their scans.
+    pub birth: f64,
+    /// A track this far behind the best is dropped.
+    pub drop: f64,
+    /// What a missed scan adds to a track's lag.
+    pub miss: f64,
+    /// A track that misses this many scans in a row is dropped.
+    pub lost_after: u32,
+    /// Most tracks kept.
+    pub max_tracks: usize,
+    /// Until the best track has lived through this many scans, the global search runs on every
+    /// scan and its hypotheses join the tracks.
+    pub settle_scans: u32,
+    /// The gate about a predicted pose: this floor plus `gate_sigmas` of the motion's spread
+    /// (metres; the heading's floor is `gate_heading`, radians).
+    pub gate_position: f64,
+    pub gate_heading: f64,
+    pub gate_sigmas: f64,
+    /// The fewest beams agreeing with the map for an `ok` answer.
+    pub min_inliers_ok: f64,
+    /// The fewest beams agreeing with the map for a track to hold on a scan.
+    pub min_inliers_held: f64,
+    /// Refinement starts from headings this far apart at least (radians), at most this many
+    /// on either side of the predicted one.
+    pub start_step: f64,
+    pub max_start_sides: i32,
+    /// The least [`crate::refine::position_constraint`] of an `ok` answer, in points' worth of
+    /// refinement's: below it the scan leaves a direction free (a corridor), along which only
+    /// drifting odometry says where the robot is.
+    pub min_constraint: f64,
+}
+
+impl Default for SequentialConfig {
+    fn default() -> Self {
+        SequentialConfig {
+            motion: OdometryNoise::new([0.1, 0.02, 0.1, 0.02]),
+            margin: 0.3,
+            birth: 0.3,
+            drop: 3.0,
+            miss: 0.15,
+            lost_after: 3,
+            max_tracks: 24,
+            settle_scans: 3,
+            gate_position: 0.3,
+            gate_heading: 5f64.to_radians(),
+            gate_sigmas: 3.0,
+            min_inliers_ok: 0.65,
+            min_inliers_held: 0.5,
+            start_step: 3f64.to_radians(),
+            max_start_sides: 5,
+            min_constraint: 12.0,
+        }
+    }
+}
+
+/// One hypothesis the localizer carries from scan to scan.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Track {
+    pub pose: Pose,
+    /// Its eq. 7 cost on the last scan it explained.
+    pub cost: Cost,
+    /// How far behind the best track it is: per-beam cost summed over the scans.
+    pub behind: f64,
+    /// The scans it has explained.
+    pub scans: u32,
+    /// The scans it has missed in a row.
+    pub misses: u32,
+    /// Whether it was first seen while other tracks were held (not on a cold start).
+    pub late: bool,
+}
+
+/// One scan's answer.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SequentialAnswer {
+    pub status: Status,
+    /// The best track's pose and cost; none when `failed`.
+    pub pose: Option<Pose>,
+    pub cost: Option<Cost>,
+    /// How many scans the answer rests on (the best track's).
+    pub scans: u32,
+    /// Whether the global search ran on this scan (else it tracked).
+    pub global: bool,
+    /// Tracks held after the scan.
+    pub tracks: usize,
+    /// Time spent on tracks and on the global search.
+    pub tracking: Duration,
+    pub searching: Duration,
+}
+
+/// The sequential localizer over a single-scan [`Localizer`].
+pub struct Sequential {
+    pub localizer: Localizer,
+    pub config: SequentialConfig,
+    tracks: Vec<Track>,
+    /// The odometry of the last scan located.
+    last_odometry: Option<Pose>,
+    poses: Vec<Pose>,
+    scored: Vec<(Pose, Cost)>,
+    /// This scan's gate about a predicted pose (position, heading).
+    gate: (f64, f64),
+}
+
+impl Sequential {
+    pub fn new(localizer: Localizer, config: SequentialConfig) -> Self {
+        Sequential {
+            localizer,
+            config,
+            tracks: Vec::new(),
+            last_odometry: None,
+            poses: Vec::new(),
+            scored: Vec::new(),
+            gate: (0.0, 0.0),
+        }
+    }
+
+    /// Forgets every track: the next scan starts cold.
+    pub fn reset(&mut self) {
+        self.tracks.clear();
+        self.last_odometry = None;
+    }
+
+    pub fn tracks(&self) -> &[Track] {
+        &self.tracks
+    }
+
+    /// Locates one scan, whose odometry pose (any frame, the robot's or the sensor's: only the
+    /// motion between two scans is read) is `odometry` when known.
+    pub fn locate(&mut self, scan: &ScanView<'_>, seg: &Segmentation, odometry: Option<Pose>) -> SequentialAnswer {
+        let t0 = Instant::now();
+        let moved = match (self.last_odometry, odometry) {
+            (Some(a), Some(b)) => Some((motion(&a, &b), a, b)),
+            _ => None,
+        };
+        self.last_odometry = odometry;
+        if moved.is_none() {
+            self.tracks.clear();
+        }
+        self.gate = (0.0, 0.0);
+        let mut missed_best = false;
+        if let Some((delta, a, b)) = moved {
+            missed_best = self.follow(scan, seg, &delta, &a, &b);
+        }
+        let t1 = Instant::now();
+        let global = self.tracks.is_empty() || missed_best || !self.settled();
+        let mut single = None;
+        if global {
+            single = self.search(scan, seg);
+        }
+        let t2 = Instant::now();
+        self.settle_lags();
+        let mut answer = self.answer(single);
+        answer.global = global;
+        answer.tracking = t1 - t0;
+        answer.searching = t2 - t1;
+        answer
+    }
+
+    /// Moves every track by the odometry's motion, refines it on the scan and costs it;
+    /// returns whether the best track missed the scan.
+    fn follow(&mut self, scan: &ScanView<'_>, seg: &Segmentation, delta: &Pose, a: &Pose, b: &Pose) -> bool {
+        let cfg = self.config;
+        let (spread, turn) = cfg.motion.spread(a, b);
+        let gate = cfg.gate_position + cfg.gate_sigmas * spread;
+        let gate_heading = cfg.gate_heading + cfg.gate_sigmas * turn;
+        // a turn's heading is the odometry's least sure part, and refinement's narrowest
+        // reach: each track is refined from headings across its spread, the best kept
+        let step = turn.clamp(cfg.start_step, 2.0 * cfg.start_step);
+        let sides = ((cfg.gate_sigmas * turn / step).ceil() as i32).clamp(0, cfg.max_start_sides);
+        let starts = (2 * sides + 1) as usize;
+        self.poses.clear();
+        for t in &self.tracks {
+            let predicted = t.pose * delta;
+            for k in -sides..=sides {
+                let turned = nalgebra::Isometry2::new(
+                    predicted.translation.vector,
+                    pose_theta(&predicted) + f64::from(k) * step,
+                );
+                self.poses.push(turned);
+            }
+        }
+        self.localizer.refine_at(scan, seg, &self.poses, &mut self.scored);
+        let predictions: Vec<Pose> = self.poses.chunks(starts).map(|c| c[sides as usize]).collect();
+        let best_of: Vec<(Pose, Cost)> = self
+            .scored
+            .chunks(starts)
+            .map(|c| *c.iter().min_by(|a, b| a.1.value.total_cmp(&b.1.value)).unwrap_or(&c[0]))
+            .collect();
+        self.poses = predictions;
+        self.scored = best_of;
+        let min_inliers = self.config.min_inliers_held;
+        let best_before = self.best_index();
+        for ((track, predicted), (refined, cost)) in self.tracks.iter_mut().zip(&self.poses).zip(&self.scored) {
+            let held = (refined.translation.vector - predicted.translation.vector).norm() <= gate
+                && angle_diff(pose_theta(refined), pose_theta(predicted)).abs() <= gate_heading
+                && cost.value.is_finite()
+                && cost.inliers >= min_inliers;
+            if held {
+                (track.pose, track.cost) = (*refined, *cost);
+                track.scans += 1;
+                track.misses = 0;
+            } else {
+                // where odometry says it went: the global search may still find it there
+                track.pose = *predicted;
+                track.cost.value = f64::INFINITY;
+                track.misses += 1;
+            }
+        }
+        // the best track lost by refinement alone: search the odometry's spread about where it
+        // should be, before taking it for lost
+        if let Some(k) = best_before.filter(|&k| self.tracks[k].misses > 0) {
+            let predicted = self.poses[k];
+            let centre = nalgebra::Point2::from(predicted.translation.vector);
+            let loc = self.localizer.locate_near(scan, seg, centre, gate);
+            // only a pose with no rival within the spread: a twin there is no track
+            let found = loc.hypotheses.iter().take(1).find(|h| {
+                loc.status == Status::Ok
+                    && h.cost.inliers >= min_inliers
+                    && angle_diff(pose_theta(&h.pose), pose_theta(&predicted)).abs() <= gate_heading
+            });
+            if let Some(h) = found {
+                let t = &mut self.tracks[k];
+                (t.pose, t.cost) = (h.pose, h.cost);
+                t.scans += 1;
+                t.misses = 0;
+            }
+        }
+        self.gate = (gate, gate_heading);
+        best_before.is_some_and(|k| self.tracks[k].misses > 0)
+    }
+
+    /// The global search; its hypotheses join the tracks. Returns the single-scan status and
+    /// best pose.
+    fn search(&mut self, scan: &ScanView<'_>, seg: &Segmentation) -> Option<(Status, Pose)> {
+        let (position, heading) = (self.localizer.config.distinct_position, self.localizer.config.distinct_heading);
+        let min_inliers = self.localizer.config.min_inliers;
+        let loc = self.localizer.locate(scan, seg);
+        if loc.status == Status::Failed {
+            return None;
+        }
+        let single = loc.hypotheses.first().map(|h| (loc.status, h.pose));
+        let had_tracks = self.tracks.iter().any(|t| t.scans > 0);
+        let hyps: Vec<_> = loc.hypotheses.iter().filter(|h| h.cost.inliers >= min_inliers).copied().collect();
+        for h in hyps {
+            let gate = self.gate;
+            let lands_on = |t: &Track| {
+                if t.misses > 0 {
+                    // a missed track is where odometry put it, give or take the motion's spread
+                    same_pose(&t.pose, &h.pose, gate.0.max(position), gate.1.max(heading))
+                } else {
+                    same_pose(&t.pose, &h.pose, position, heading)
+                }
+            };
+            match self.tracks.iter_mut().find(|t| lands_on(t)) {
+                Some(t) => {
+                    // a global pose on a track: the better of the two, and a missed track found
+                    if h.cost.value < t.cost.value {
+                        if t.misses > 0 {
+                            t.scans += 1;
+                            t.misses = 0;
+                        }
+                        (t.pose, t.cost) = (h.pose, h.cost);
+                    }
+                }
+                None => self.tracks.push(Track {
+                    pose: h.pose,
+                    cost: h.cost,
+                    // lagging until the lags are settled: it missed every scan the others saw
+                    behind: if had_tracks { f64::NAN } else { 0.0 },
+                    scans: 1,
+                    misses: 0,
+                    late: had_tracks,
+                }),
+            }
+        }
+        single
+    }
+
+    /// Adds this scan's costs to the tracks' lags, starts the new tracks behind the best,
+    /// drops the tracks too far behind or lost, and keeps the best `max_tracks`.
+    fn settle_lags(&mut self) {
+        let cfg = self.config;
+        let best_cost =
+            self.tracks.iter().filter(|t| t.misses == 0).map(|t| t.cost.value).fold(f64::INFINITY, f64::min);
+        for t in self.tracks.iter_mut().filter(|t| !t.behind.is_nan()) {
+            t.behind += if t.misses > 0 { cfg.miss } else { t.cost.value - best_cost };
+        }
+        let leader = self.tracks.iter().filter(|t| !t.behind.is_nan()).map(|t| t.behind).fold(f64::INFINITY, f64::min);
+        let leader = if leader.is_finite() { leader } else { 0.0 };
+        for t in self.tracks.iter_mut().filter(|t| t.behind.is_nan()) {
+            t.behind = leader + cfg.birth + (t.cost.value - best_cost);
+        }
+        let lowest = self.tracks.iter().map(|t| t.behind).fold(f64::INFINITY, f64::min);
+        for t in self.tracks.iter_mut() {
+            t.behind -= lowest;
+        }
+        self.tracks.retain(|t| t.behind <= cfg.drop && t.misses < cfg.lost_after);
+        self.tracks.sort_by(|a, b| a.behind.total_cmp(&b.behind));
+        // tracks that converged to one pose are one: the one ahead stays
+        let mut kept = 0;
+        for k in 0..self.tracks.len() {
+            let t = self.tracks[k];
+            if !self.tracks[..kept].iter().any(|q| same_pose(&q.pose, &t.pose, 0.05, 1f64.to_radians())) {
+                self.tracks[kept] = t;
+                kept += 1;
+            }
+        }
+        self.tracks.truncate(kept.min(cfg.max_tracks));
+    }
+
+    /// The track ahead (the first after [`settle_lags`](Self::settle_lags)).
+    fn best_index(&self) -> Option<usize> {
+        (!self.tracks.is_empty()).then_some(0)
+    }
+
+    /// Whether the best track is sure and old enough to stop the global search.
+    fn settled(&self) -> bool {
+        self.tracks.first().is_some_and(|t| t.scans >= self.config.settle_scans) && self.lead() >= self.config.margin
+    }
+
+    /// How far the best track is ahead of its nearest distinct rival (infinite with none).
+    fn lead(&self) -> f64 {
+        let Some(best) = self.tracks.first() else { return 0.0 };
+        let (position, heading) = (self.localizer.config.distinct_position, self.localizer.config.distinct_heading);
+        self.tracks[1..]
+            .iter()
+            .filter(|t| !same_pose(&t.pose, &best.pose, position, heading))
+            .map(|t| t.behind - best.behind)
+            .fold(f64::INFINITY, f64::min)
+    }
+
+    /// The scan's answer. A best track seen on this scan alone is `ok` only as the single-scan
+    /// search judged it; an older one when it leads by the margin and explains the scan.
+    fn answer(&self, single: Option<(Status, Pose)>) -> SequentialAnswer {
+        let mut a = SequentialAnswer {
+            status: Status::Failed,
+            pose: None,
+            cost: None,
+            scans: 0,
+            global: false,
+            tracks: self.tracks.len(),
+            tracking: Duration::ZERO,
+            searching: Duration::ZERO,
+        };
+        let Some(best) = self.tracks.first().filter(|t| t.misses == 0) else {
+            if !self.tracks.is_empty() {
+                a.status = Status::Ambiguous;
+                a.pose = Some(self.tracks[0].pose);
+            }
+            return a;
+        };
+        (a.pose, a.cost, a.scans) = (Some(best.pose), Some(best.cost), best.scans);
+        let cfg = &self.localizer.config;
+        let sure = self.lead() >= self.config.margin
+            && best.cost.inliers >= self.config.min_inliers_ok
+            && !self.localizer.off_limits(&best.pose)
+            && self.localizer.position_constraint(&best.pose) >= self.config.min_constraint;
+        // a track that turned up while others were held has not been through their scans: it
+        // must outlive them for a while; one of a cold start, as its own search judged it
+        let vouched = if best.late {
+            best.scans >= self.config.settle_scans
+        } else {
+            best.scans > 1
+                || single.is_some_and(|(s, p)| {
+                    s == Status::Ok && same_pose(&p, &best.pose, cfg.distinct_position, cfg.distinct_heading)
+                })
+        };
+        a.status = if sure && vouched { Status::Ok } else { Status::Ambiguous };
+        a
+    }
+}

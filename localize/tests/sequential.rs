@@ -1,0 +1,102 @@
+//! The sequential localizer on simulated scans: tracking by odometry, and the kidnapped robot.
+
+use acquire::{Obstacles, Scenario, SensorModel, Simulator};
+use laser::{pose, Pose};
+use localize::{same_pose, Localizer, LocalizerConfig, MapModel, Sequential, SequentialConfig, Status};
+use map::MapCornerConfig;
+use segment::{LineVisibilitySegmenter, Segmenter, SegmenterConfig};
+use std::sync::Arc;
+
+struct Rig {
+    sim: Simulator,
+    segmenter: LineVisibilitySegmenter,
+    sequential: Sequential,
+}
+
+impl Rig {
+    fn new(name: &str, seed: u64) -> Self {
+        let map = worlds::by_name(name).expect("a bundled world");
+        let model = Arc::new(MapModel::new(map.clone(), &MapCornerConfig::default()));
+        let localizer = Localizer::new(model, LocalizerConfig::default());
+        Rig {
+            sim: Simulator::new(&map, SensorModel::urg04lx(), Scenario::Clean, seed),
+            segmenter: LineVisibilitySegmenter::new(SegmenterConfig::default()),
+            sequential: Sequential::new(localizer, SequentialConfig::default()),
+        }
+    }
+
+    /// Locates the scan at `truth`, with `odometry`.
+    fn locate(&mut self, truth: &Pose, odometry: Option<Pose>) -> localize::SequentialAnswer {
+        let scan = self.sim.scan_at(truth, &Obstacles::default());
+        let seg = self.segmenter.segment(&scan.view());
+        self.sequential.locate(&scan.view(), seg, odometry)
+    }
+}
+
+fn right(a: &localize::SequentialAnswer, truth: &Pose) -> bool {
+    a.pose.is_some_and(|p| same_pose(&p, truth, 0.3, 5f64.to_radians()))
+}
+
+/// A robot turning on the spot with exact odometry: once sure, every answer is right, and the
+/// scans after the first few track (no global search).
+#[test]
+fn once_sure_it_tracks_by_odometry_and_stays_right() {
+    let mut rig = Rig::new("apartment", 3);
+    let start = rig.sim.random_pose();
+    let (mut fixed, mut tracked) = (false, 0);
+    for k in 0..24 {
+        let truth = start * pose(0.0, 0.0, 0.2 * k as f64);
+        let a = rig.locate(&truth, Some(truth));
+        if fixed {
+            assert!(right(&a, &truth), "scan {k}: {a:?} for {truth:?}");
+            tracked += usize::from(!a.global);
+        }
+        fixed |= a.status == Status::Ok && right(&a, &truth);
+    }
+    assert!(fixed, "never sure");
+    assert!(tracked >= 15, "tracked {tracked} scans");
+}
+
+/// Carried elsewhere with odometry that saw nothing: no `ok` on the old place after the scan
+/// of the cut, and a right `ok` on the new one within five scans.
+#[test]
+fn a_kidnapped_robot_lets_go_of_the_old_place_and_finds_the_new() {
+    for seed in [4u64, 5, 6] {
+        let mut rig = Rig::new("office", seed);
+        let here = rig.sim.random_pose();
+        let mut there = rig.sim.random_pose();
+        while (there.translation.vector - here.translation.vector).norm() < 5.0 {
+            there = rig.sim.random_pose();
+        }
+        let mut odometry = pose(0.0, 0.0, 0.0);
+        for k in 0..10 {
+            let truth = here * pose(0.0, 0.0, 0.15 * k as f64);
+            odometry = pose(0.0, 0.0, 0.15 * k as f64);
+            rig.locate(&truth, Some(odometry));
+        }
+        let mut found = None;
+        for k in 0..8 {
+            let truth = there * pose(0.0, 0.0, 0.15 * k as f64);
+            let moved = odometry * pose(0.0, 0.0, 0.15 * (k as f64 + 1.0));
+            let a = rig.locate(&truth, Some(moved));
+            if a.status == Status::Ok {
+                assert!(right(&a, &truth), "seed {seed}, scan {k} after the cut: ok at {:?}, truth {truth:?}", a.pose);
+                found.get_or_insert(k + 1);
+            }
+        }
+        assert!(found.is_some_and(|k| k <= 5), "seed {seed}: right ok after the cut at {found:?}");
+    }
+}
+
+/// Without odometry nothing is carried: every scan runs the global search.
+#[test]
+fn without_odometry_every_scan_is_located_from_scratch() {
+    let mut rig = Rig::new("apartment", 7);
+    let start = rig.sim.random_pose();
+    for k in 0..5 {
+        let truth = start * pose(0.0, 0.0, 0.3 * k as f64);
+        let a = rig.locate(&truth, None);
+        assert!(a.global, "scan {k} tracked without odometry");
+        assert!(a.scans <= 1, "scan {k}: an answer resting on {} scans", a.scans);
+    }
+}

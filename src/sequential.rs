@@ -1,0 +1,278 @@
+//! `--sequential` of `gema2 locate` and `gema2 evaluate`: the sequential localizer
+//! ([`localize::sequential`]) over a log, with the log's odometry or odometry drawn from its
+//! true motion, cold starts every N scans, and the figures of a run: how soon each start is
+//! sure, how often it is wrong, and what tracking costs.
+
+use crate::report::{quantile, Outcome, SUCCESS_HEADING_DEG, SUCCESS_POSITION};
+use anyhow::{bail, Result};
+use clap::Args;
+use laser::motion::OdometryNoise;
+use laser::rng::Rng;
+use laser::{LaserScan, Pose};
+use localize::{Sequential, SequentialAnswer, Status};
+use segment::Segmenter;
+use std::time::Instant;
+
+/// The odometry and restarts of a sequential run.
+#[derive(Args, Clone, Debug, Default)]
+pub struct SequentialArgs {
+    /// Locate with the sequential localizer: hypotheses carried from scan to scan by odometry
+    /// (the log's, or drawn with --odom-noise), `ok` once one leads on the evidence so far.
+    #[arg(long)]
+    pub sequential: bool,
+    /// For evaluation: replace the log's odometry with odometry drawn from its true motion by
+    /// the odometry motion model with these alphas (AMCL's alpha1..alpha4), so that it drifts.
+    #[arg(long, value_name = "A1,A2,A3,A4", value_delimiter = ',')]
+    pub odom_noise: Option<Vec<f64>>,
+    /// The seed of --odom-noise.
+    #[arg(long, default_value_t = 1)]
+    pub odom_seed: u64,
+    /// Forget every hypothesis each N located scans: N scans a cold start.
+    #[arg(long, value_name = "N")]
+    pub restart_every: Option<usize>,
+}
+
+impl SequentialArgs {
+    /// The drawn odometry's noise, checked.
+    pub fn noise(&self) -> Result<Option<OdometryNoise>> {
+        let Some(a) = &self.odom_noise else { return Ok(None) };
+        let alphas: [f64; 4] = match a.as_slice() {
+            [a1, a2, a3, a4] => [*a1, *a2, *a3, *a4],
+            _ => bail!("--odom-noise takes four alphas, A1,A2,A3,A4"),
+        };
+        if alphas.iter().any(|v| !v.is_finite() || *v < 0.0) {
+            bail!("--odom-noise: each alpha is a finite number, 0 or more (got {a:?})");
+        }
+        Ok(Some(OdometryNoise::new(alphas)))
+    }
+
+    /// Whether any sequential option was given without `--sequential`.
+    pub fn check(&self) -> Result<()> {
+        if !self.sequential && (self.odom_noise.is_some() || self.restart_every.is_some()) {
+            bail!("--odom-noise and --restart-every go with --sequential");
+        }
+        if self.restart_every == Some(0) {
+            bail!("--restart-every must be at least 1");
+        }
+        Ok(())
+    }
+}
+
+/// Where each located scan's odometry comes from: the log's, or drawn from the true motion.
+pub struct Odometry {
+    drawn: Option<(OdometryNoise, Rng)>,
+    /// The last scan's truth and drawn odometry.
+    last: Option<(Pose, Pose)>,
+}
+
+impl Odometry {
+    pub fn new(noise: Option<OdometryNoise>, seed: u64) -> Self {
+        Odometry { drawn: noise.map(|n| (n, Rng::new(seed))), last: None }
+    }
+
+    /// The odometry of the next located scan: `logged` as the log gives it, or drawn from the
+    /// motion between the last scan's truth and `truth`. A cut (`cut`: the robot was carried
+    /// elsewhere) is no motion to the odometry.
+    pub fn next(&mut self, logged: Option<Pose>, truth: Option<&Pose>, cut: bool) -> Result<Option<Pose>> {
+        let Some((noise, rng)) = self.drawn.as_mut() else { return Ok(logged) };
+        let Some(truth) = truth else {
+            bail!("--odom-noise draws odometry from the log's true poses, and a scan has none");
+        };
+        let odom = match self.last {
+            None => *truth,
+            Some((_, odom)) if cut => odom,
+            Some((from, odom)) => noise.sample(&from, truth, &odom, rng),
+        };
+        self.last = Some((*truth, odom));
+        Ok(Some(odom))
+    }
+}
+
+/// One located scan of a sequential run.
+#[derive(Clone, Copy, Debug)]
+pub struct SeqOutcome {
+    pub outcome: Outcome,
+    /// The located scan's place in its start, from 1.
+    pub in_start: usize,
+    pub answer: SequentialAnswer,
+}
+
+/// A sequential run over scans, with its restarts.
+pub struct SeqRun {
+    pub sequential: Sequential,
+    restart_every: Option<usize>,
+    located: usize,
+    pub outcomes: Vec<SeqOutcome>,
+}
+
+impl SeqRun {
+    pub fn new(sequential: Sequential, restart_every: Option<usize>) -> Self {
+        SeqRun { sequential, restart_every, located: 0, outcomes: Vec::new() }
+    }
+
+    /// Segments and locates `scan`, whose odometry is `odometry`; a cold start first when one
+    /// is due.
+    pub fn locate(&mut self, segmenter: &mut dyn Segmenter, scan: &LaserScan, odometry: Option<Pose>) -> SeqOutcome {
+        if self.restart_every.is_some_and(|n| self.located.is_multiple_of(n)) {
+            self.sequential.reset();
+        }
+        self.located += 1;
+        let in_start = self.restart_every.map_or(self.located, |n| (self.located - 1) % n + 1);
+        let start = Instant::now();
+        let view = scan.view();
+        let seg = segmenter.segment(&view);
+        let answer = self.sequential.locate(&view, seg, odometry);
+        let micros = start.elapsed().as_secs_f64() * 1e6;
+        let pose = answer.pose.filter(|_| answer.status != Status::Failed);
+        let outcome = Outcome::of(answer.status, pose, scan.truth, micros);
+        let o = SeqOutcome { outcome, in_start, answer };
+        self.outcomes.push(o);
+        o
+    }
+
+    pub fn summary(&self) -> SeqSummary {
+        SeqSummary::of(&self.outcomes)
+    }
+}
+
+/// The figures of a sequential run.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct SeqSummary {
+    pub scans: usize,
+    pub starts: usize,
+    /// Per start: the located scans to its first right `ok` (none within the start: `None`).
+    pub to_first_fix: Vec<Option<usize>>,
+    pub wrong_ok: usize,
+    pub ok: usize,
+    /// Scans after a start's first right `ok`, and those of them whose pose is right.
+    pub after_fix: usize,
+    pub right_after_fix: usize,
+    /// Microseconds of the scans that tracked (no global search).
+    pub tracking_micros: Vec<f64>,
+    pub all_micros: Vec<f64>,
+    pub has_truth: bool,
+}
+
+impl SeqSummary {
+    pub fn of(outcomes: &[SeqOutcome]) -> Self {
+        let mut s = SeqSummary { scans: outcomes.len(), ..Default::default() };
+        let mut fixed = false;
+        for o in outcomes {
+            if o.in_start == 1 {
+                s.starts += 1;
+                s.to_first_fix.push(None);
+                fixed = false;
+            }
+            let right = o.outcome.success();
+            let ok = o.answer.status == Status::Ok;
+            s.has_truth |= o.outcome.has_truth;
+            s.ok += usize::from(ok);
+            s.wrong_ok += usize::from(ok && o.outcome.has_truth && !right);
+            if fixed {
+                s.after_fix += 1;
+                s.right_after_fix += usize::from(right);
+            } else if ok && right {
+                fixed = true;
+                if let Some(last) = s.to_first_fix.last_mut() {
+                    *last = Some(o.in_start);
+                }
+            }
+            if !o.answer.global {
+                s.tracking_micros.push(o.outcome.micros);
+            }
+            s.all_micros.push(o.outcome.micros);
+        }
+        s
+    }
+
+    /// The median located scans to a start's first right `ok` (a start with none counts as
+    /// never).
+    pub fn median_to_fix(&self) -> Option<f64> {
+        let mut v: Vec<f64> = self.to_first_fix.iter().map(|f| f.map_or(f64::INFINITY, |n| n as f64)).collect();
+        (!v.is_empty()).then(|| quantile(&mut v, 0.5))
+    }
+
+    /// The share of starts with a right `ok` within `n` located scans.
+    pub fn fixed_within(&self, n: usize) -> f64 {
+        let hits = self.to_first_fix.iter().filter(|f| f.is_some_and(|k| k <= n)).count();
+        hits as f64 / self.starts.max(1) as f64
+    }
+
+    pub fn wrong_ok_share(&self) -> f64 {
+        self.wrong_ok as f64 / self.scans.max(1) as f64
+    }
+
+    pub fn right_after_fix_share(&self) -> Option<f64> {
+        (self.after_fix > 0).then(|| self.right_after_fix as f64 / self.after_fix as f64)
+    }
+
+    pub fn tracking(&self) -> Option<(f64, f64)> {
+        let mut v = self.tracking_micros.clone();
+        (!v.is_empty()).then(|| (quantile(&mut v, 0.5), quantile(&mut v, 0.99)))
+    }
+
+    /// The lines `gema2 locate --sequential` prints.
+    pub fn render(&self) -> String {
+        let mut s = String::new();
+        let mut all = self.all_micros.clone();
+        s += &format!(
+            "sequential: {} scans, {} starts; ok {}; median {:.0} us a scan\n",
+            self.scans,
+            self.starts,
+            self.ok,
+            if all.is_empty() { 0.0 } else { quantile(&mut all, 0.5) }
+        );
+        match self.tracking() {
+            Some((p50, p99)) => {
+                s += &format!(
+                    "tracking (no global search) on {} scans: median {p50:.0} us, p99 {p99:.0} us\n",
+                    self.tracking_micros.len()
+                )
+            }
+            None => s += "tracking: never (every scan ran the global search)\n",
+        }
+        if self.has_truth {
+            let median =
+                self.median_to_fix()
+                    .map_or("-".into(), |m| if m.is_finite() { format!("{m:.0}") } else { "never".into() });
+            let after = self.right_after_fix_share().map_or("- (no fix)".into(), |p| format!("{:.2} %", 100.0 * p));
+            s += &format!(
+                "first right ok after a median of {median} located scans; within 3 on {:.1} % of starts; wrong ok {} ({:.2} % of scans); right after the first fix {after} (within {SUCCESS_POSITION} m and {SUCCESS_HEADING_DEG} deg)\n",
+                100.0 * self.fixed_within(3),
+                self.wrong_ok,
+                100.0 * self.wrong_ok_share(),
+            );
+        }
+        s
+    }
+}
+
+/// How one kidnapping went: the robot located along one stretch, then carried elsewhere with
+/// no odometry across the cut.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Kidnap {
+    /// The last scan after the cut (1 = the first scan after it) with a wrong `ok`: on the old
+    /// place, or anywhere else; 0 when none was.
+    pub last_wrong_ok: usize,
+    /// The first scan after the cut with a right `ok` on the new place.
+    pub new_fix: Option<usize>,
+}
+
+impl Kidnap {
+    /// Judges the outcomes after a cut.
+    pub fn judge(after: &[SeqOutcome]) -> Self {
+        let mut k = Kidnap::default();
+        for (i, o) in after.iter().enumerate() {
+            if o.answer.status != Status::Ok {
+                continue;
+            }
+            if !o.outcome.success() {
+                k.last_wrong_ok = i + 1;
+            }
+            if o.outcome.success() && k.new_fix.is_none() {
+                k.new_fix = Some(i + 1);
+            }
+        }
+        k
+    }
+}
