@@ -251,25 +251,30 @@ impl SeqSummary {
 /// no odometry across the cut.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Kidnap {
-    /// The last scan after the cut (1 = the first scan after it) with a wrong `ok`: on the old
-    /// place, or anywhere else; 0 when none was.
-    pub last_wrong_ok: usize,
+    /// The last scan after the cut (1 = the first scan after it) still `ok` on the old place:
+    /// within 3 m of the last true pose before the cut; 0 when none was.
+    pub last_old_ok: usize,
+    /// The wrong `ok` answers after the cut, wherever they lie.
+    pub wrong_ok: usize,
     /// The first scan after the cut with a right `ok` on the new place.
     pub new_fix: Option<usize>,
 }
 
 impl Kidnap {
-    /// Judges the outcomes after a cut.
-    pub fn judge(after: &[SeqOutcome]) -> Self {
+    /// Judges the outcomes after a cut; `old` is the last true pose before it.
+    pub fn judge(after: &[SeqOutcome], old: &Pose) -> Self {
         let mut k = Kidnap::default();
         for (i, o) in after.iter().enumerate() {
             if o.answer.status != Status::Ok {
                 continue;
             }
-            if !o.outcome.success() {
-                k.last_wrong_ok = i + 1;
+            let right = o.outcome.success();
+            let near_old = o.answer.pose.is_some_and(|p| (p.translation.vector - old.translation.vector).norm() < 3.0);
+            if near_old && !right {
+                k.last_old_ok = i + 1;
             }
-            if o.outcome.success() && k.new_fix.is_none() {
+            k.wrong_ok += usize::from(!right);
+            if right && k.new_fix.is_none() {
                 k.new_fix = Some(i + 1);
             }
         }

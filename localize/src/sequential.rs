@@ -58,10 +58,15 @@ pub struct SequentialConfig {
     pub min_inliers_ok: f64,
     /// The fewest beams agreeing with the map for a track to hold on a scan.
     pub min_inliers_held: f64,
-    /// Refinement starts from headings this far apart at least (radians), at most this many
-    /// on either side of the predicted one.
+    /// The poses screened about a predicted one: headings this far apart (radians), at most
+    /// this many either side, and positions this far apart (metres), at most this many either
+    /// side along x and y, over `gate_sigmas` of the motion's spread.
     pub start_step: f64,
     pub max_start_sides: i32,
+    pub position_step: f64,
+    pub max_position_sides: i32,
+    /// The screened poses refined per track.
+    pub refined: usize,
     /// The least [`crate::refine::position_constraint`] of an `ok` answer, in points' worth of
     /// refinement's: below it the scan leaves a direction free (a corridor), along which only
     /// drifting odometry says where the robot is.
@@ -85,7 +90,10 @@ impl Default for SequentialConfig {
             min_inliers_ok: 0.65,
             min_inliers_held: 0.5,
             start_step: 3f64.to_radians(),
-            max_start_sides: 5,
+            max_start_sides: 12,
+            position_step: 0.2,
+            max_position_sides: 2,
+            refined: 3,
             min_constraint: 12.0,
         }
     }
@@ -200,29 +208,33 @@ impl Sequential {
         let (spread, turn) = cfg.motion.spread(a, b);
         let gate = cfg.gate_position + cfg.gate_sigmas * spread;
         let gate_heading = cfg.gate_heading + cfg.gate_sigmas * turn;
-        // a turn's heading is the odometry's least sure part, and refinement's narrowest
-        // reach: each track is refined from headings across its spread, the best kept
-        let step = turn.clamp(cfg.start_step, 2.0 * cfg.start_step);
-        let sides = ((cfg.gate_sigmas * turn / step).ceil() as i32).clamp(0, cfg.max_start_sides);
-        let starts = (2 * sides + 1) as usize;
-        self.poses.clear();
+        // odometry's motion is off by its spread, and refinement reaches a few decimetres and
+        // degrees: each track is screened at headings and positions across the spread about
+        // where odometry puts it, and the few best refined
+        let sides =
+            |spread: f64, step: f64, most: i32| ((cfg.gate_sigmas * spread / step).ceil() as i32).clamp(0, most);
+        let turns = sides(turn, cfg.start_step, cfg.max_start_sides);
+        let shifts = sides((spread - cfg.position_step).max(0.0), cfg.position_step, cfg.max_position_sides);
+        let mut starts = Vec::new();
+        let mut predictions = Vec::with_capacity(self.tracks.len());
+        let mut best_of = Vec::with_capacity(self.tracks.len());
         for t in &self.tracks {
             let predicted = t.pose * delta;
-            for k in -sides..=sides {
-                let turned = nalgebra::Isometry2::new(
-                    predicted.translation.vector,
-                    pose_theta(&predicted) + f64::from(k) * step,
-                );
-                self.poses.push(turned);
+            starts.clear();
+            let (c, heading) = (predicted.translation.vector, pose_theta(&predicted));
+            for k in -turns..=turns {
+                for i in -shifts..=shifts {
+                    for j in -shifts..=shifts {
+                        let at = c + nalgebra::Vector2::new(f64::from(i), f64::from(j)) * cfg.position_step;
+                        starts.push(nalgebra::Isometry2::new(at, heading + f64::from(k) * cfg.start_step));
+                    }
+                }
             }
+            self.localizer.search_around(scan, seg, &starts, cfg.refined, &mut self.scored);
+            let fallback = (predicted, Cost { value: f64::INFINITY, inliers: 0.0, through: 1.0, beams: 0 });
+            predictions.push(predicted);
+            best_of.push(self.scored.first().copied().unwrap_or(fallback));
         }
-        self.localizer.refine_at(scan, seg, &self.poses, &mut self.scored);
-        let predictions: Vec<Pose> = self.poses.chunks(starts).map(|c| c[sides as usize]).collect();
-        let best_of: Vec<(Pose, Cost)> = self
-            .scored
-            .chunks(starts)
-            .map(|c| *c.iter().min_by(|a, b| a.1.value.total_cmp(&b.1.value)).unwrap_or(&c[0]))
-            .collect();
         self.poses = predictions;
         self.scored = best_of;
         let min_inliers = self.config.min_inliers_held;

@@ -387,7 +387,7 @@ fn sequential_suite(a: &EvaluateArgs, dir: &Path, config: &Gema2Config) -> Resul
         "tracking median us",
         "tracking p99 us",
         "median us",
-        "kidnaps: last wrong ok / right ok within 5",
+        "kidnaps: last ok on the old place / wrong ok after the cut / right ok within 5",
     ];
     let mut table = format!("### {title}\n\n| {} |\n|{}\n", head.join(" | "), "---|".repeat(head.len()));
     println!("{}", head.join(" | "));
@@ -494,14 +494,16 @@ fn kidnap_all(
                 after.push(o);
             }
         }
-        results.push(Kidnap::judge(&after));
+        let Some(old) = odd[i + STRETCH - 1].scan.truth else { continue };
+        results.push(Kidnap::judge(&after, &old));
     }
     if results.is_empty() {
         return Ok("- (no two stretches 10 m apart)".into());
     }
-    let worst = results.iter().map(|r| r.last_wrong_ok).max().unwrap_or(0);
+    let worst = results.iter().map(|r| r.last_old_ok).max().unwrap_or(0);
+    let wrong: usize = results.iter().map(|r| r.wrong_ok).sum();
     let found = results.iter().filter(|r| r.new_fix.is_some_and(|f| f <= 5)).count();
-    Ok(format!("{worst} / {found} of {}", results.len()))
+    Ok(format!("{worst} / {wrong} / {found} of {}", results.len()))
 }
 
 /// The log's odometry for the `m`-th scan after a cut from scan `a` to scan `b` of `odd`: where

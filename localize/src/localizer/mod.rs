@@ -338,6 +338,49 @@ impl Localizer {
         }
     }
 
+    /// Screens each of `starts` by the distance field, as a search screens its candidates,
+    /// then refines the `keep` best and costs them by the full eq. 7: a search over the poses
+    /// a track may have reached, for the sequential localizer ([`crate::sequential`]). `out`
+    /// gets (pose, cost) of the refined ones, cheapest first.
+    pub fn search_around(
+        &mut self,
+        scan: &ScanView<'_>,
+        seg: &Segmentation,
+        starts: &[Pose],
+        keep: usize,
+        out: &mut Vec<(Pose, Cost)>,
+    ) {
+        out.clear();
+        self.prepare(scan, seg);
+        self.lines.clear();
+        self.lines.extend(seg.lines.iter().map(SlideLine::from));
+        let cfg = self.config;
+        screen_points(seg, &self.lines, cfg.screen_points, cfg.screen_long_line, &mut self.screen_pts);
+        let model = Arc::clone(&self.model);
+        let screen = Screen::new(&model, &cfg);
+        self.best_sums.clear();
+        self.candidates.clear();
+        for p in starts {
+            let limit = self.best_sums.kth(keep);
+            if let Some(sum) = screen.sum(p, &self.screen_pts, limit) {
+                self.best_sums.offer(sum, keep);
+                self.candidates.push(Candidate { pose: *p, score: sum, scan_corner: 0, map_corner: 0 });
+            }
+        }
+        self.candidates.sort_by(|a, b| a.score.total_cmp(&b.score));
+        self.candidates.truncate(keep);
+        let final_cfg = self.final_cost_config();
+        for c in &self.candidates {
+            let refined = refine(&model, &self.refine_pts, &c.pose, &cfg.refine).0;
+            let cost =
+                cost(scan, &refined, &model.caster, &self.error, &final_cfg, &mut self.scratch, &mut self.expected);
+            if cost.value.is_finite() {
+                out.push((refined, cost));
+            }
+        }
+        out.sort_by(|a, b| a.1.value.total_cmp(&b.1.value));
+    }
+
     /// How well the last scan refined or located pins down the position at `pose`
     /// ([`crate::refine::position_constraint`], over refinement's points).
     pub fn position_constraint(&self, pose: &Pose) -> f64 {
