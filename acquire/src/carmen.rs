@@ -1,5 +1,5 @@
 //! CARMEN text logs (the format of the public Radish data sets): `ROBOTLASER1` and `FLASER`
-//! lines become scans; every other line (PARAM, ODOM, comments...) is skipped. Files ending in
+//! lines become scans, with odometry; every other line (PARAM, comments...) is skipped. Files ending in
 //! `.gz` are decompressed on the fly. A malformed laser line is an error naming the file and
 //! line; nothing is guessed.
 //!
@@ -12,6 +12,12 @@
 //! `FLASER n r1..rn x y theta odom_x odom_y odom_theta timestamp host logger_timestamp`: a 180
 //! degree scan from -pi/2, step pi/(n-1) for n in {181, 361}, pi/n for n in {180, 360}
 //! (overridable with [`FlaserLayout`]).
+//!
+//! Odometry: a FLASER line's `odom_*` fields, a ROBOTLASER1 line's robot pose; and when the log
+//! has `ODOM x y theta tv rv accel timestamp host logger_timestamp` lines, those, interpolated
+//! at the scan's timestamp between the ODOM lines either side of it (a corrected log may have
+//! overwritten the laser lines' own with corrected poses; ODOM lines are the wheels'). An ODOM
+//! line that cannot be read is passed over: it is no scan.
 
 use laser::{LaserScan, Pose, ScanGeometry};
 use std::fmt::Write as _;
@@ -154,10 +160,17 @@ pub struct LogScan {
     /// 1-based line number in the file.
     pub line: usize,
     pub scan: LaserScan,
-    /// The odometry pose a FLASER line carries beside its laser pose. (A SLAM-corrected log
-    /// often overwrites both, so the two being equal does not tell raw odometry.)
+    /// The robot's odometry pose at the scan: from the log's ODOM lines when it has them, else
+    /// the one the laser line carries (FLASER's `odom_*`, ROBOTLASER1's robot pose). A
+    /// SLAM-corrected log often overwrites a laser line's own, so its being equal to the truth
+    /// does not tell raw odometry.
     pub odometry: Option<Pose>,
 }
+
+/// How far past the last ODOM line a scan may lie and still wait for the next one, seconds;
+/// and the most scans that wait.
+const ODOM_WAIT: f64 = 1.0;
+const ODOM_PENDING: usize = 64;
 
 /// Streams the laser lines of a CARMEN log.
 pub struct CarmenReader {
@@ -167,6 +180,12 @@ pub struct CarmenReader {
     buf: LineBuf,
     layout: FlaserLayout,
     no_truth: bool,
+    /// The last ODOM line (timestamp, pose).
+    odom: Option<(f64, Pose)>,
+    /// Items read but not yet given out, in order: scans wait here for the ODOM line after
+    /// them (`true`), and whatever follows a waiting scan waits behind it.
+    pending: std::collections::VecDeque<(Result<LogScan, LogError>, bool)>,
+    ended: bool,
 }
 
 impl CarmenReader {
@@ -177,7 +196,17 @@ impl CarmenReader {
 
     /// Reads from any source; `path` names it in errors.
     pub fn from_reader(reader: Box<dyn BufRead + Send>, path: &Path, layout: FlaserLayout) -> Self {
-        CarmenReader { reader, path: path.to_owned(), line: 0, buf: LineBuf::default(), layout, no_truth: false }
+        CarmenReader {
+            reader,
+            path: path.to_owned(),
+            line: 0,
+            buf: LineBuf::default(),
+            layout,
+            no_truth: false,
+            odom: None,
+            pending: std::collections::VecDeque::new(),
+            ended: false,
+        }
     }
 
     fn error(&self, message: impl Into<String>) -> LogError {
@@ -185,10 +214,10 @@ impl CarmenReader {
     }
 }
 
-impl Iterator for CarmenReader {
-    type Item = Result<LogScan, LogError>;
-
-    fn next(&mut self) -> Option<Self::Item> {
+impl CarmenReader {
+    /// The next item as the file has it, ODOM lines taken in ([`Self::take_odom`]); `None` at
+    /// the end.
+    fn read(&mut self) -> Option<Result<LogScan, LogError>> {
         loop {
             if let Err(e) = next_line(&mut self.reader, &mut self.buf, &mut self.line, &self.path)? {
                 return Some(Err(e));
@@ -199,8 +228,16 @@ impl Iterator for CarmenReader {
             }
             let mut tokens = self.buf.text.split_ascii_whitespace();
             let parsed = match tokens.next() {
-                Some("ROBOTLASER1") => parse_robotlaser1(&tokens.collect::<Vec<_>>()).map(|s| (s, None)),
+                Some("ROBOTLASER1") => parse_robotlaser1(&tokens.collect::<Vec<_>>()),
                 Some("FLASER") => parse_flaser(&tokens.collect::<Vec<_>>(), &self.layout),
+                Some("ODOM") => {
+                    // not a scan: one that cannot be read leaves the scans around it their own
+                    // odometry, and no item (items count laser lines)
+                    if let Ok(odom) = parse_odom(&tokens.collect::<Vec<_>>()) {
+                        self.take_odom(odom);
+                    }
+                    continue;
+                }
                 _ => continue,
             };
             return Some(match parsed {
@@ -212,6 +249,76 @@ impl Iterator for CarmenReader {
                 }
                 Err(message) => Err(self.error(message)),
             });
+        }
+    }
+
+    /// An ODOM line: the scans waiting for it get their odometry, interpolated between the
+    /// last ODOM line and this one.
+    fn take_odom(&mut self, (stamp, pose): (f64, Pose)) {
+        let before = self.odom.replace((stamp, pose));
+        for (item, waiting) in self.pending.iter_mut() {
+            let Ok(scan) = item else { continue };
+            if !*waiting || scan.scan.stamp > stamp {
+                continue;
+            }
+            *waiting = false;
+            scan.odometry = Some(match before {
+                Some((t0, p0)) if stamp > t0 => {
+                    interpolate(&p0, &pose, ((scan.scan.stamp - t0) / (stamp - t0)).clamp(0.0, 1.0))
+                }
+                _ => pose,
+            });
+        }
+    }
+}
+
+/// The pose a fraction `f` of the way from `a` to `b`.
+fn interpolate(a: &Pose, b: &Pose, f: f64) -> Pose {
+    let (ta, tb) = (laser::pose_theta(a), laser::pose_theta(b));
+    let t = a.translation.vector + (b.translation.vector - a.translation.vector) * f;
+    laser::pose(t.x, t.y, ta + laser::angle_diff(tb, ta) * f)
+}
+
+/// `ODOM x y theta tv rv accel timestamp ...`: the timestamp and the pose.
+fn parse_odom(t: &[&str]) -> Result<(f64, Pose), String> {
+    let pose = finite_pose(num(t, 0, "ODOM x")?, num(t, 1, "ODOM y")?, num(t, 2, "ODOM theta")?)?;
+    let stamp = num(t, 6, "ODOM timestamp")?;
+    if !stamp.is_finite() {
+        return Err("ODOM timestamp is not finite".into());
+    }
+    Ok((stamp, pose))
+}
+
+impl Iterator for CarmenReader {
+    type Item = Result<LogScan, LogError>;
+
+    fn next(&mut self) -> Option<Self::Item> {
+        loop {
+            // the first in line goes out once it waits no more; the log's end, or too long a
+            // wait, releases it with the odometry its own line carries
+            if let Some((_, waiting)) = self.pending.front() {
+                let overdue = self.pending.len() > ODOM_PENDING
+                    || self.pending.back().is_some_and(|(item, _)| match (item, self.odom) {
+                        (Ok(s), Some((t, _))) => s.scan.stamp > t + ODOM_WAIT,
+                        _ => false,
+                    });
+                if !*waiting || self.ended || overdue {
+                    return self.pending.pop_front().map(|(item, _)| item);
+                }
+            } else if self.ended {
+                return None;
+            }
+            match self.read() {
+                None => self.ended = true,
+                Some(item) => {
+                    // with ODOM lines, a scan waits for the one after it
+                    let waiting = self.odom.is_some() && item.as_ref().is_ok_and(|s| s.scan.stamp.is_finite());
+                    if !waiting && self.pending.is_empty() {
+                        return Some(item);
+                    }
+                    self.pending.push_back((item, waiting));
+                }
+            }
         }
     }
 }
@@ -245,7 +352,8 @@ fn finite_pose(x: f64, y: f64, t: f64) -> Result<Pose, String> {
     }
 }
 
-fn parse_robotlaser1(t: &[&str]) -> Result<LaserScan, String> {
+/// A ROBOTLASER1 line's scan and the robot pose beside its laser pose.
+fn parse_robotlaser1(t: &[&str]) -> Result<(LaserScan, Option<Pose>), String> {
     // with laser_type first the reading count is token 7, without it token 6
     let with_type = t.len() > 7 && t[0].parse::<u32>().is_ok() && layout_fits(t, 7);
     let base = if with_type {
@@ -285,7 +393,9 @@ fn parse_robotlaser1(t: &[&str]) -> Result<LaserScan, String> {
         ));
     }
     let stamp = t.get(p + 11).and_then(|s| s.parse::<f64>().ok()).unwrap_or(f64::NAN);
-    Ok(LaserScan { geometry, ranges: r, stamp, truth: Some(truth) })
+    let odometry =
+        (|| finite_pose(num(t, p + 3, "robot_x")?, num(t, p + 4, "robot_y")?, num(t, p + 5, "robot_theta")?))().ok();
+    Ok((LaserScan { geometry, ranges: r, stamp, truth: Some(truth) }, odometry))
 }
 
 /// Whether the reading count at `k` and the remission count after the readings leave room for
@@ -438,6 +548,58 @@ mod tests {
         write_robotlaser1(&mut out, &got.scan).unwrap();
         let again = read(&String::from_utf8(out).unwrap()).remove(0).unwrap();
         assert_eq!(again.scan.geometry, got.scan.geometry);
+    }
+
+    /// A FLASER line of three readings at `stamp`, its own odometry (9, 9, 0).
+    fn flaser_at(stamp: f64) -> String {
+        format!("FLASER 3 1 2 3 0 0 0 9 9 0 {stamp} h {stamp}\n")
+    }
+
+    fn odometry_of(item: &Result<LogScan, LogError>) -> (f64, f64, f64) {
+        let p = item.as_ref().expect("a scan").odometry.expect("odometry");
+        (p.translation.x, p.translation.y, laser::pose_theta(&p))
+    }
+
+    #[test]
+    fn a_robotlaser1_line_gives_its_robot_pose_as_odometry() {
+        let line = "ROBOTLASER1 0 -1.57 3.14 1.57 80 0.01 0 3 1.0 2.0 3.0 0 1 2 0.3 4 5 0.6 0 0 0 0 0 5.0 h 5.0\n";
+        let got = odometry_of(&read(line)[0]);
+        assert!((got.0 - 4.0).abs() < 1e-9 && (got.1 - 5.0).abs() < 1e-9 && (got.2 - 0.6).abs() < 1e-9);
+    }
+
+    /// With ODOM lines, a scan's odometry lies between the ODOM lines either side of its time;
+    /// before the first and after the last, the laser line's own.
+    #[test]
+    fn odom_lines_are_interpolated_at_the_scans_time() {
+        let text = [
+            flaser_at(9.0),
+            "ODOM 0 0 0 0 0 0 10.0 h 10.0\n".into(),
+            flaser_at(10.25),
+            "FLASER 3 1 2\n".into(),
+            flaser_at(10.5),
+            "ODOM 1 0 0.2 0 0 0 11.0 h 11.0\n".into(),
+            flaser_at(11.5),
+        ]
+        .concat();
+        let items = read(&text);
+        assert_eq!(items.len(), 5);
+        assert_eq!(odometry_of(&items[0]), (9.0, 9.0, 0.0));
+        let quarter = odometry_of(&items[1]);
+        assert!((quarter.0 - 0.25).abs() < 1e-9 && quarter.1.abs() < 1e-9 && (quarter.2 - 0.05).abs() < 1e-9);
+        // a malformed line keeps its place among the scans that waited
+        assert!(items[2].is_err());
+        let half = odometry_of(&items[3]);
+        assert!((half.0 - 0.5).abs() < 1e-9 && (half.2 - 0.1).abs() < 1e-9);
+        // after the last ODOM line, nothing to interpolate towards: the line's own
+        assert_eq!(odometry_of(&items[4]), (9.0, 9.0, 0.0));
+    }
+
+    /// Items count laser lines: an ODOM line that cannot be read is passed over.
+    #[test]
+    fn a_malformed_odom_line_is_passed_over() {
+        let items = read(&["ODOM 1 x 0 0 0 0 11.0 h 11.0\n".to_string(), flaser_at(1.0)].concat());
+        assert_eq!(items.len(), 1);
+        assert_eq!(odometry_of(&items[0]), (9.0, 9.0, 0.0));
     }
 
     #[test]
