@@ -8,6 +8,10 @@
 //! they are at most [`MAX_TRUTH_GAP_NS`] apart. A scan between poses further apart, or outside
 //! them, has no truth. With the laser's place on the robot (`laser_pose`), the truth is the
 //! robot's pose and the scan's is that composed with it.
+//!
+//! Odometry comes the same way from a second such topic (`nav_msgs/Odometry` as a robot's base
+//! publishes it), matched to each scan by stamp: the sequential localizer reads only the motion
+//! between two scans, in whatever frame it is.
 
 use crate::bag::{Bag, BagError, Messages};
 use crate::msg;
@@ -47,6 +51,8 @@ pub struct ScanTopics {
     pub truth: Option<String>,
     /// The laser's pose in the frame of the truth's pose (x, y, yaw), when they differ.
     pub laser_pose: Option<(f64, f64, f64)>,
+    /// An Odometry or PoseStamped topic holding the robot's odometry.
+    pub odometry: Option<String>,
 }
 
 /// One scan of the bag.
@@ -55,6 +61,8 @@ pub struct BagScan {
     /// Its number among the bag's LaserScan messages on its topic, from 0.
     pub index: usize,
     pub scan: LaserScan,
+    /// The odometry pose at the scan's stamp, with an odometry topic.
+    pub odometry: Option<Pose>,
 }
 
 /// True poses by stamp.
@@ -109,6 +117,7 @@ pub struct BagScans {
     messages: Messages,
     topic: String,
     truth: Option<Truth>,
+    odometry: Option<Truth>,
     laser_pose: Option<Pose>,
     index: usize,
     /// Messages of the bag read so far (scans and others), for matching truth.
@@ -117,7 +126,7 @@ pub struct BagScans {
     ranks: std::collections::HashMap<i64, usize>,
     /// Scans the bag holds on the topic, when its summaries say.
     pub total: Option<u64>,
-    /// Messages of the truth topic that did not decode.
+    /// Messages of the truth and odometry topics that did not decode.
     pub bad_truth: usize,
 }
 
@@ -149,37 +158,38 @@ impl BagScans {
             },
         };
         let mut bad_truth = 0;
-        let truth = match &topics.truth {
-            None => None,
-            Some(name) => {
-                let Some(t) = all.iter().find(|t| &t.name == name) else {
-                    return Err(refused(format!("no truth topic {name} in the bag; it has {}", listing())));
-                };
-                if t.ros_type != msg::PoseStamped::TYPE && t.ros_type != msg::Odometry::TYPE {
-                    return Err(refused(format!(
-                        "the truth topic {name} holds {}, not PoseStamped or Odometry",
-                        t.ros_type
-                    )));
-                }
-                let mut poses = Vec::new();
-                for (order, m) in bag.messages(&[&topic.name, name]).enumerate() {
-                    let m = m?;
-                    if *m.topic == **name {
-                        match stamped_pose(&m.ros_type, &m.data) {
-                            Ok((stamp, p)) => poses.push((stamp, order, p)),
-                            Err(_) => bad_truth += 1,
-                        }
+        let mut read = |name: &String, what: &str| -> Result<Truth, BagScanError> {
+            let Some(t) = all.iter().find(|t| &t.name == name) else {
+                return Err(refused(format!("no {what} topic {name} in the bag; it has {}", listing())));
+            };
+            if t.ros_type != msg::PoseStamped::TYPE && t.ros_type != msg::Odometry::TYPE {
+                return Err(refused(format!(
+                    "the {what} topic {name} holds {}, not PoseStamped or Odometry",
+                    t.ros_type
+                )));
+            }
+            let mut poses = Vec::new();
+            for (order, m) in bag.messages(&[&topic.name, name]).enumerate() {
+                let m = m?;
+                if *m.topic == **name {
+                    match stamped_pose(&m.ros_type, &m.data) {
+                        Ok((stamp, p)) => poses.push((stamp, order, p)),
+                        Err(_) => bad_truth += 1,
                     }
                 }
-                poses.sort_by_key(|p| (p.0, p.1));
-                Some(Truth { poses })
             }
+            poses.sort_by_key(|p| (p.0, p.1));
+            Ok(Truth { poses })
         };
+        let truth = topics.truth.as_ref().map(|name| read(name, "truth")).transpose()?;
+        let odometry = topics.odometry.as_ref().map(|name| read(name, "odometry")).transpose()?;
+        // the scans' order among the truth topic's messages, as `read` counted it
         let wanted: Vec<&str> = [Some(topic.name.as_str()), topics.truth.as_deref()].into_iter().flatten().collect();
         Ok(BagScans {
             messages: bag.messages(&wanted),
             topic: topic.name.clone(),
             truth,
+            odometry,
             laser_pose: topics.laser_pose.map(|(x, y, t)| pose(x, y, t)),
             index: 0,
             order: 0,
@@ -223,11 +233,12 @@ impl Iterator for BagScans {
             let stamp = message.header.stamp.nanos();
             let rank = self.ranks.entry(stamp).or_default();
             scan.truth = self.truth.as_ref().and_then(|t| t.at(stamp, *rank, order));
+            let odometry = self.odometry.as_ref().and_then(|t| t.at(stamp, *rank, order));
             *rank += 1;
             if let (Some(truth), Some(mount)) = (scan.truth.as_mut(), self.laser_pose) {
                 *truth *= mount;
             }
-            return Some(Ok(BagScan { index, scan }));
+            return Some(Ok(BagScan { index, scan, odometry }));
         }
     }
 }

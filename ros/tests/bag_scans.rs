@@ -127,12 +127,26 @@ fn two_laser_topics_need_choosing_and_truth_comes_by_stamp() {
         other => panic!("{:?}", other.map(|_| ())),
     }
     for (topic, y) in [("/truth", 0.0), ("/odom", 1.0)] {
-        let topics =
-            ScanTopics { scan: Some("/front".into()), truth: Some(topic.into()), laser_pose: Some((0.5, 0.0, 0.0)) };
+        let topics = ScanTopics {
+            scan: Some("/front".into()),
+            truth: Some(topic.into()),
+            laser_pose: Some((0.5, 0.0, 0.0)),
+            odometry: None,
+        };
         let scans: Vec<_> = BagScans::open(&bag, &topics).unwrap().map(|s| s.unwrap().scan.truth.unwrap()).collect();
         // at its own stamp, and halfway between two; the laser half a metre ahead of the robot
         assert_eq!(scans.len(), 2);
         assert!((scans[0].translation.x - 1.5).abs() < 1e-9 && (scans[0].translation.y - y).abs() < 1e-9);
         assert!((scans[1].translation.x - 2.5).abs() < 1e-9, "{:?}", scans[1]);
+    }
+    // odometry by stamp as the truth is, without the laser's mounting: the robot's own
+    let topics = ScanTopics { scan: Some("/front".into()), odometry: Some("/odom".into()), ..Default::default() };
+    let odometry: Vec<_> = BagScans::open(&bag, &topics).unwrap().map(|s| s.unwrap().odometry.unwrap()).collect();
+    assert!((odometry[0].translation.x - 1.0).abs() < 1e-9 && (odometry[0].translation.y - 1.0).abs() < 1e-9);
+    assert!((odometry[1].translation.x - 2.0).abs() < 1e-9);
+    let wrong = ScanTopics { scan: Some("/front".into()), odometry: Some("/rear".into()), ..Default::default() };
+    match BagScans::open(&bag, &wrong) {
+        Err(BagScanError::Topic { message: e, .. }) => assert!(e.contains("odometry topic /rear holds"), "{e}"),
+        other => panic!("{:?}", other.map(|_| ())),
     }
 }

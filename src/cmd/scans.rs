@@ -24,6 +24,10 @@ pub struct BagArgs {
     /// the robot's pose rather than the laser's.
     #[arg(long, requires = "truth_topic", value_parser = ros::planar_pose_arg, allow_hyphen_values = true)]
     pub laser_pose: Option<(f64, f64, f64)>,
+    /// A nav_msgs/Odometry (or PoseStamped) topic of the bag holding the robot's odometry,
+    /// matched to each scan by stamp: what `--sequential` moves its hypotheses by.
+    #[arg(long, requires = "bag")]
+    pub odom_topic: Option<String>,
 }
 
 /// Why a scan was not read.
@@ -55,14 +59,19 @@ impl Source {
                 scan: bag.scan_topic.clone(),
                 truth: bag.truth_topic.clone(),
                 laser_pose: bag.laser_pose,
+                odometry: bag.odom_topic.clone(),
             };
             let scans = ros::BagScans::open(&opened, &topics)?;
             if scans.bad_truth > 0 {
-                eprintln!("{}: {} messages of the truth topic did not decode", path.display(), scans.bad_truth);
+                eprintln!(
+                    "{}: {} messages of the truth and odometry topics did not decode",
+                    path.display(),
+                    scans.bad_truth
+                );
             }
             let total = scans.total;
             let items = scans.map(|item| match item {
-                Ok(s) => Ok(LogScan { line: s.index, scan: s.scan, odometry: None }),
+                Ok(s) => Ok(LogScan { line: s.index, scan: s.scan, odometry: s.odometry }),
                 Err(e) if e.is_one_message() => Err(SourceError::Skip(e.to_string())),
                 Err(e) => Err(SourceError::Stop(e.into())),
             });
