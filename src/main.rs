@@ -36,7 +36,7 @@ enum Command {
     /// Simulate a laser in a map and write a ROBOTLASER1 log with the true poses.
     Sim(cmd::sim::SimArgs),
     /// Localize every scan of a log offline and report time and accuracy.
-    Locate(cmd::locate::LocateArgs),
+    Locate(Box<cmd::locate::LocateArgs>),
     /// Run the pipeline of separate processes over shared memory (supervisor).
     Run(supervisor::RunArgs),
     /// What a rerun recording of a run holds (through the `viewer` program).
@@ -97,7 +97,7 @@ fn main() -> anyhow::Result<()> {
     match cli.command {
         Some(Command::Map(c)) => cmd::map::run(c),
         Some(Command::Sim(a)) => cmd::sim::run(a),
-        Some(Command::Locate(a)) => cmd::locate::run(a),
+        Some(Command::Locate(a)) => cmd::locate::run(*a),
         Some(Command::Bench(a)) => cmd::bench::run_bench(a),
         Some(Command::Demo(a)) => cmd::demo::run(a),
         Some(Command::Evaluate(a)) => cmd::evaluate::run(a),

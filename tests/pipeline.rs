@@ -154,6 +154,45 @@ fn the_pipeline_publishes_exactly_what_locate_computes_offline() {
     assert!(stage_pids("segment", &p).is_empty(), "stages left running");
 }
 
+/// The sequential localizer in the pipeline (`implementation = "sequential"`): the odometry
+/// each scan carries reaches it through the segment stage, and it answers as `gema2 locate
+/// --sequential` does, its `scans` column included.
+#[test]
+fn the_sequential_localizer_in_the_pipeline_answers_as_offline() {
+    let dir = tempfile::tempdir().unwrap();
+    let (log, pipeline) = setup(dir.path(), 60, "max");
+    let text = std::fs::read_to_string(&pipeline).unwrap();
+    let text = text.replace("kind = \"localize\"\n", "kind = \"localize\"\nimplementation = \"sequential\"\n");
+    std::fs::write(&pipeline, text).unwrap();
+    let (online, offline) = (dir.path().join("online.csv"), dir.path().join("offline.csv"));
+    let p = prefix("sequential");
+    let out = gema2(&[
+        "run",
+        "--pipeline",
+        pipeline.to_str().unwrap(),
+        "--prefix",
+        &p,
+        "--scans",
+        "60",
+        "--timeout",
+        "120",
+        "--out",
+        online.to_str().unwrap(),
+    ]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let log = log.to_str().unwrap();
+    let out = gema2(&["locate", "--map", "office", "--log", log, "--sequential", "--out", offline.to_str().unwrap()]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let (a, b) = (rows(&online), rows(&offline));
+    assert_eq!((a.len(), b.len()), (60, 60));
+    for (x, y) in a.iter().zip(&b) {
+        let same = x.iter().zip(y).enumerate().all(|(k, (u, v))| k == 6 || u == v);
+        assert!(same, "pipeline {x:?}\noffline  {y:?}");
+    }
+    // with the simulator's exact odometry the answers come to rest on several scans
+    assert!(a.iter().any(|r| r[11].parse::<u32>().unwrap() > 3), "{a:?}");
+}
+
 /// The README's main job: `gema2` with no arguments runs the pipeline of processes on the
 /// embedded default and reports each stage's and hop's latency, the success rate, and where to
 /// go next. The only test that uses the default prefix.

@@ -43,6 +43,10 @@ pub struct AcquireArgs {
     /// The bag's LaserScan topic (default: its only one).
     #[arg(long, requires = "bag")]
     pub scan_topic: Option<String>,
+    /// The bag's nav_msgs/Odometry topic: each scan carries the odometry at its stamp, for the
+    /// sequential localizer (a log's odometry travels without asking).
+    #[arg(long, requires = "bag")]
+    pub odom_topic: Option<String>,
     /// Read a real Hokuyo URG-04LX on this serial port (SCIP 2.0).
     #[arg(long, conflicts_with = "tcp")]
     pub serial: Option<String>,
@@ -107,7 +111,9 @@ pub fn thinning(beams: usize) -> usize {
 /// [`thinning`]-th beam, over the whole field of view, with the angle between beams widened to
 /// match: the localizer works with any number of beams, and cutting the scan short would
 /// lose part of its view.
-pub fn scan_to_msg(scan: &LaserScan, seq: u64, stamp_ns: u64, m: &mut ScanMsg) {
+///
+/// `odometry` is the robot's odometry pose at the scan, when the source has it.
+pub fn scan_to_msg(scan: &LaserScan, odometry: Option<&laser::Pose>, seq: u64, stamp_ns: u64, m: &mut ScanMsg) {
     m.header = Header::new(seq, stamp_ns);
     let g = &scan.geometry;
     let every = thinning(scan.ranges.len());
@@ -125,6 +131,10 @@ pub fn scan_to_msg(scan: &LaserScan, seq: u64, stamp_ns: u64, m: &mut ScanMsg) {
         m.has_truth = 1;
         m.truth = PoseMsgXyt { x: t.translation.x, y: t.translation.y, theta: pose_theta(t) };
     }
+    (m.has_odometry, m.odometry) = match odometry {
+        Some(o) => (1, PoseMsgXyt { x: o.translation.x, y: o.translation.y, theta: pose_theta(o) }),
+        None => (0, PoseMsgXyt::default()),
+    };
 }
 
 /// A scan of a source that could not be read, the ones after it still can: a bag message that
@@ -139,7 +149,8 @@ fn is_malformed_line(e: &anyhow::Error) -> bool {
     matches!(e.downcast_ref::<crate::LogError>(), Some(crate::LogError::Line { .. })) || e.is::<Skipped>()
 }
 
-type Source = Box<dyn Iterator<Item = Result<LaserScan>>>;
+/// Scans, each with the robot's odometry pose when the source has it.
+type Source = Box<dyn Iterator<Item = Result<(LaserScan, Option<laser::Pose>)>>>;
 
 /// How often a sensor source waiting to reconnect looks for SIGINT/SIGTERM.
 const STOP_POLL: Duration = Duration::from_millis(20);
@@ -156,7 +167,7 @@ fn sensor<C: crate::scip::source::Connector + 'static>(mut sensor: crate::scip::
                 }
                 !stop_requested()
             })
-            .map(|r| r.map_err(anyhow::Error::from))
+            .map(|r| r.map(|scan| (scan, None)).map_err(anyhow::Error::from))
     }))
 }
 
@@ -169,10 +180,11 @@ fn source(a: &AcquireArgs) -> Result<(Source, &'static str)> {
     }
     if let Some(path) = &a.bag {
         let bag = ros::Bag::open(path)?;
-        let topics = ros::ScanTopics { scan: a.scan_topic.clone(), ..Default::default() };
+        let topics =
+            ros::ScanTopics { scan: a.scan_topic.clone(), odometry: a.odom_topic.clone(), ..Default::default() };
         let scans = ros::BagScans::open(&bag, &topics)?;
         let items = scans.map(|item| {
-            item.map(|s| s.scan).map_err(|e| match e.is_one_message() {
+            item.map(|s| (s.scan, s.odometry)).map_err(|e| match e.is_one_message() {
                 true => anyhow::Error::new(Skipped(e.to_string())),
                 false => e.into(),
             })
@@ -181,15 +193,26 @@ fn source(a: &AcquireArgs) -> Result<(Source, &'static str)> {
     }
     if let Some(path) = &a.urg_log {
         let reader = crate::urg_log::UrgLogReader::open(path)?;
-        return Ok((Box::new(reader.map(|r| r.map_err(anyhow::Error::from))), "urg04lx-log"));
+        return Ok((Box::new(reader.map(|r| r.map(|scan| (scan, None)).map_err(anyhow::Error::from))), "urg04lx-log"));
     }
     if let Some(path) = &a.log {
         let reader = CarmenReader::open(path, a.flaser.layout()?)?;
-        return Ok((Box::new(reader.map(|r| r.map(|s| s.scan).map_err(anyhow::Error::from))), "carmen-log"));
+        return Ok((
+            Box::new(reader.map(|r| r.map(|s| (s.scan, s.odometry)).map_err(anyhow::Error::from))),
+            "carmen-log",
+        ));
     }
     let map = mapio::load_map(&a.map)?;
     let mut sim = Simulator::new(&map, SensorModel::urg04lx(), a.scenario, a.seed);
-    Ok((Box::new(std::iter::from_fn(move || Some(Ok(sim.next_scan())))), "simulator"))
+    // the simulator's robot is where it says, and so is its odometry
+    Ok((
+        Box::new(std::iter::from_fn(move || {
+            let scan = sim.next_scan();
+            let odometry = scan.truth;
+            Some(Ok((scan, odometry)))
+        })),
+        "simulator",
+    ))
 }
 
 static STOP: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
@@ -297,9 +320,9 @@ pub fn run(a: AcquireArgs) -> Result<()> {
             break;
         }
         let mut enter = monotonic_ns();
-        let scan = match scans.next() {
+        let (scan, odometry) = match scans.next() {
             None => break,
-            Some(Ok(scan)) => scan,
+            Some(Ok(item)) => item,
             Some(Err(e)) if is_malformed_line(&e) => {
                 skipped += 1;
                 eprintln!("acquire: skipped {e} ({skipped} so far)");
@@ -314,7 +337,7 @@ pub fn run(a: AcquireArgs) -> Result<()> {
             }
             enter = monotonic_ns();
         }
-        out.publish(&scan, seq, enter)?;
+        out.publish(&scan, odometry.as_ref(), seq, enter)?;
         seq += 1;
     }
     if let Some(w) = out.carmen.as_mut() {
@@ -418,7 +441,7 @@ struct Publishing {
 
 impl Publishing {
     /// Writes `scan` to the log and publishes it as scan `seq`, acquired at `enter`.
-    fn publish(&mut self, scan: &LaserScan, seq: u64, enter: u64) -> Result<()> {
+    fn publish(&mut self, scan: &LaserScan, odometry: Option<&laser::Pose>, seq: u64, enter: u64) -> Result<()> {
         if let Some(w) = self.carmen.as_mut() {
             crate::write_robotlaser1(w, scan).context("acquire: writing --carmen-out")?;
         }
@@ -433,7 +456,7 @@ impl Publishing {
         let producer = self.producer;
         self.scans
             .send(|m: &mut ScanMsg| {
-                scan_to_msg(scan, seq, enter, m);
+                scan_to_msg(scan, odometry, seq, enter, m);
                 m.header.span(Stage::Acquire).enter_ns = enter;
                 m.header.span(Stage::Acquire).leave_ns = monotonic_ns();
                 m.header.set_producer(producer);
@@ -536,14 +559,14 @@ mod tests {
         };
         for beams in [1, 682, MAX_BEAMS] {
             let s = scan(beams);
-            scan_to_msg(&s, 7, 0, &mut m);
+            scan_to_msg(&s, None, 7, 0, &mut m);
             assert_eq!(m.count as usize, beams);
             assert_eq!(m.angle_increment, s.geometry.angle_increment);
             assert_eq!(&m.ranges[..beams], &s.ranges[..]);
         }
         for (beams, every) in [(MAX_BEAMS + 1, 2), (3240, 2), (4 * MAX_BEAMS + 5, 5)] {
             let s = scan(beams);
-            scan_to_msg(&s, 7, 0, &mut m);
+            scan_to_msg(&s, None, 7, 0, &mut m);
             let n = m.count as usize;
             assert_eq!(thinning(beams), every);
             assert_eq!(n, beams.div_ceil(every));

@@ -32,7 +32,9 @@ pub use matching::pose_from_corners;
 
 /// The localize stage's implementations, what `gema2 swap` takes for one: a swap to the same
 /// name starts a fresh process (a new build, once installed) beside the running one.
-pub const LOCALIZERS: [&str; 1] = ["gema2"];
+/// `sequential` is [`Sequential`]: hypotheses carried from scan to scan by the odometry the
+/// scans carry.
+pub const LOCALIZERS: [&str; 2] = ["gema2", "sequential"];
 pub use refine::RefineConfig;
 pub use sequential::{Sequential, SequentialAnswer, SequentialConfig};
 pub use slide::{SlideConfig, FROM_SLIDE};

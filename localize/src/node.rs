@@ -40,6 +40,76 @@ pub struct LocalizeArgs {
     /// segmentation's error model and `wall_ends` must match the segment stage's.
     #[arg(long = "set", value_name = "KEY=VALUE")]
     pub set: Vec<String>,
+    /// The implementation: `gema2`, one scan at a time, or `sequential`, hypotheses carried
+    /// from scan to scan by the odometry the scans carry (`localize::sequential`).
+    #[arg(long = "impl", default_value = "gema2", value_parser = implementation)]
+    pub implementation: String,
+}
+
+/// Parses `--impl`: one of [`crate::LOCALIZERS`].
+fn implementation(s: &str) -> Result<String, String> {
+    crate::LOCALIZERS.contains(&s).then(|| s.to_owned()).ok_or_else(|| format!("{s}: one of {:?}", crate::LOCALIZERS))
+}
+
+/// The localizer the stage runs.
+enum Engine {
+    Single(Box<Localizer>),
+    Sequential(Box<(crate::Sequential, Localization)>),
+}
+
+impl Engine {
+    fn new(model: Arc<MapModel>, config: &Gema2Config, sequential: bool) -> Self {
+        let localizer = Localizer::new(model, config.localizer);
+        if !sequential {
+            return Engine::Single(Box::new(localizer));
+        }
+        let empty = Localization {
+            hypotheses: Vec::new(),
+            status: Status::Failed,
+            candidates: 0,
+            times: Default::default(),
+            all_candidates: Vec::new(),
+            slide_step: None,
+        };
+        Engine::Sequential(Box::new((crate::Sequential::new(localizer, crate::SequentialConfig::default()), empty)))
+    }
+
+    fn set_model(&mut self, model: Arc<MapModel>) {
+        match self {
+            Engine::Single(l) => l.set_model(model),
+            Engine::Sequential(b) => b.0.set_model(model),
+        }
+    }
+
+    /// Locates one scan; the answer and how many scans it rests on.
+    fn locate(
+        &mut self,
+        view: &ScanView<'_>,
+        seg: &Segmentation,
+        lines: impl IntoIterator<Item = SlideLine>,
+        odometry: Option<laser::Pose>,
+    ) -> (&Localization, u32) {
+        match self {
+            Engine::Single(l) => {
+                let loc = l.locate_with_lines(view, seg, lines);
+                let scans = u32::from(loc.status != Status::Failed);
+                (loc, scans)
+            }
+            Engine::Sequential(b) => {
+                let (s, out) = &mut **b;
+                let answer = s.locate_with_lines(view, seg, lines, odometry);
+                out.status = answer.status;
+                out.hypotheses.clear();
+                out.hypotheses.extend(s.tracks().iter().map(|t| crate::Hypothesis {
+                    pose: t.pose,
+                    cost: t.cost,
+                    scan_corner: 0,
+                    map_corner: 0,
+                }));
+                (out, answer.scans)
+            }
+        }
+    }
 }
 
 /// Parses `--track`: a radius in metres above 0 (tracking within none would fail every scan
@@ -65,7 +135,7 @@ pub fn run(a: LocalizeArgs) -> Result<()> {
     let mut pose_out =
         Outlet::<PoseMsg>::open(&node, &a.stage.prefix, Topic::Pose, BackpressureStrategy::RetryUntilDelivered)?;
 
-    let mut state = Located::new(config);
+    let mut state = Located::new(config, a.implementation == "sequential");
     let mut failure: Option<anyhow::Error> = None;
     let on_event = |woken: &[bool]| {
         // both queues in each pass (messages::Look)
@@ -138,7 +208,9 @@ struct Lease;
 /// the first map), the model blocks it reads, and what tells a scan seen before.
 struct Located {
     config: Gema2Config,
-    localizer: Option<(Localizer, u32)>,
+    /// Whether the stage runs the sequential localizer.
+    sequential: bool,
+    localizer: Option<(Engine, u32)>,
     /// The blocks the models in use view; the oldest is released once its model is dropped.
     blocks: Vec<HeldBlock>,
     seg: Segmentation,
@@ -150,9 +222,10 @@ struct Located {
 }
 
 impl Located {
-    fn new(config: Gema2Config) -> Self {
+    fn new(config: Gema2Config, sequential: bool) -> Self {
         Located {
             config,
+            sequential,
             localizer: None,
             blocks: Vec::new(),
             seg: Segmentation::default(),
@@ -209,7 +282,7 @@ impl Located {
                 false
             }
             None => {
-                self.localizer = Some((Localizer::new(model, self.config.localizer), header.map_version));
+                self.localizer = Some((Engine::new(model, &self.config, self.sequential), header.map_version));
                 true
             }
         };
@@ -267,9 +340,12 @@ impl Located {
             return Ok(());
         }
         self.found_by_poll += u64::from(look.found_by_poll());
-        let Some((result, version)) = self.locate(msg) else { return Ok(()) };
-        out.send(|p: &mut PoseMsg| write_pose(p, msg, result, version, enter))
-            .map_err(|e| anyhow!("localize: publishing pose {}: {e}", msg.scan.header.seq))?;
+        let Some((result, scans, version)) = self.locate(msg) else { return Ok(()) };
+        out.send(|p: &mut PoseMsg| {
+            write_pose(p, msg, result, version, enter);
+            p.scans = scans;
+        })
+        .map_err(|e| anyhow!("localize: publishing pose {}: {e}", msg.scan.header.seq))?;
         if let Some(started) = self.started.take() {
             eprintln!("localize: first pose {:.1} ms after the stage started", started.elapsed().as_secs_f64() * 1e3);
         }
@@ -306,7 +382,7 @@ impl Located {
     /// Locates the scan of an admitted `msg` ([`admit`](Self::admit)), with the version of the
     /// map it was located in; `None` before any map, and for a scan that cannot be read
     /// (reported).
-    fn locate(&mut self, msg: &CornersMsg) -> Option<(&Localization, u32)> {
+    fn locate(&mut self, msg: &CornersMsg) -> Option<(&Localization, u32, u32)> {
         let (loc, version) = self.localizer.as_mut()?;
         let view = match scan_view(&msg.scan) {
             Ok(v) => v,
@@ -317,7 +393,12 @@ impl Located {
         };
         segmentation_from(msg, &view, &self.config, &mut self.seg);
         let lines = msg.lines[..(msg.line_count as usize).min(msg.lines.len())].iter().filter_map(slide_line);
-        Some((loc.locate_with_lines(&view, &self.seg, lines), *version))
+        let odometry = (msg.scan.has_odometry == 1)
+            .then_some(msg.scan.odometry)
+            .filter(|o| o.x.is_finite() && o.y.is_finite() && o.theta.is_finite())
+            .map(|o| laser::pose(o.x, o.y, o.theta));
+        let (result, scans) = loc.locate(&view, &self.seg, lines, odometry);
+        Some((result, scans, *version))
     }
 }
 

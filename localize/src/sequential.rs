@@ -21,6 +21,7 @@
 
 use crate::cost::Cost;
 use crate::localizer::{same_pose, Localizer, Status};
+use crate::slide::SlideLine;
 use laser::motion::{motion, OdometryNoise};
 use laser::{angle_diff, pose_theta, Pose, ScanView};
 use segment::Segmentation;
@@ -159,6 +160,12 @@ impl Sequential {
         }
     }
 
+    /// Switches to another map (from the next scan on): the tracks lie in the old one.
+    pub fn set_model(&mut self, model: std::sync::Arc<crate::model::MapModel>) {
+        self.localizer.set_model(model);
+        self.reset();
+    }
+
     /// Forgets every track: the next scan starts cold.
     pub fn reset(&mut self) {
         self.tracks.clear();
@@ -172,6 +179,29 @@ impl Sequential {
     /// Locates one scan, whose odometry pose (any frame, the robot's or the sensor's: only the
     /// motion between two scans is read) is `odometry` when known.
     pub fn locate(&mut self, scan: &ScanView<'_>, seg: &Segmentation, odometry: Option<Pose>) -> SequentialAnswer {
+        self.localizer.set_lines(seg.lines.iter().map(SlideLine::from));
+        self.locate_set_lines(scan, seg, odometry)
+    }
+
+    /// [`locate`](Self::locate) for a segmentation whose lines arrive separately (the
+    /// pipeline's localizer; `seg.lines` is ignored).
+    pub fn locate_with_lines(
+        &mut self,
+        scan: &ScanView<'_>,
+        seg: &Segmentation,
+        lines: impl IntoIterator<Item = SlideLine>,
+        odometry: Option<Pose>,
+    ) -> SequentialAnswer {
+        self.localizer.set_lines(lines);
+        self.locate_set_lines(scan, seg, odometry)
+    }
+
+    fn locate_set_lines(
+        &mut self,
+        scan: &ScanView<'_>,
+        seg: &Segmentation,
+        odometry: Option<Pose>,
+    ) -> SequentialAnswer {
         let t0 = Instant::now();
         let moved = match (self.last_odometry, odometry) {
             (Some(a), Some(b)) => Some((motion(&a, &b), a, b)),
@@ -283,7 +313,7 @@ impl Sequential {
     fn search(&mut self, scan: &ScanView<'_>, seg: &Segmentation) -> Option<(Status, Pose)> {
         let (position, heading) = (self.localizer.config.distinct_position, self.localizer.config.distinct_heading);
         let min_inliers = self.localizer.config.min_inliers;
-        let loc = self.localizer.locate(scan, seg);
+        let loc = self.localizer.locate_set_lines(scan, seg);
         if loc.status == Status::Failed {
             return None;
         }

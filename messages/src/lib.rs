@@ -25,7 +25,7 @@ mod waiting;
 /// The wire contract's version: raised with any change to a payload's layout, a topic's name
 /// or settings, or what a message means. A stage program answers it to `--wire-version`, and
 /// the supervisor swaps in only a program that answers its own.
-pub const WIRE_VERSION: u32 = 2;
+pub const WIRE_VERSION: u32 = 3;
 
 pub use inlet::{run_stage, Inlet, WaitError, MAX_LISTENERS};
 pub use model::{open_model_topic, publish_model, ModelHeader, ModelPorts, MODEL_ALIGN, MODEL_HELD};

@@ -115,6 +115,11 @@ pub struct ScanMsg {
     pub count: u32,
     pub truth: PoseMsgXyt,
     pub ranges: [f32; MAX_BEAMS],
+    /// 1 when `odometry` holds the robot's odometry pose at the scan (a log's, a bag's): any
+    /// frame, only the motion between two scans is read (the sequential localizer).
+    pub has_odometry: u32,
+    pub _pad: u32,
+    pub odometry: PoseMsgXyt,
 }
 
 /// One fitted line.
@@ -227,7 +232,9 @@ pub struct PoseMsg {
     /// Version of the map localized against.
     pub map_version: u32,
     pub has_truth: u32,
-    pub _pad: u32,
+    /// How many scans the answer rests on: 1 for one scan's, more for the sequential
+    /// localizer's, 0 with none.
+    pub scans: u32,
     pub truth: PoseMsgXyt,
     pub hypotheses: [HypothesisMsg; MAX_HYPOTHESES],
 }
@@ -426,7 +433,9 @@ mod tests {
         assert_eq!(offset_of!(ScanMsg, has_truth), 128);
         assert_eq!(offset_of!(ScanMsg, truth), 136);
         assert_eq!(offset_of!(ScanMsg, ranges), 160);
-        assert_eq!((size_of::<ScanMsg>(), align_of::<ScanMsg>()), (8352, 8));
+        assert_eq!((offset_of!(ScanMsg, has_odometry), offset_of!(ScanMsg, odometry)), (8352, 8360));
+        assert_eq!((size_of::<ScanMsg>(), align_of::<ScanMsg>()), (8384, 8));
+        assert_eq!(offset_of!(PoseMsg, scans), 116);
         // SAFETY: as above.
         assert_eq!(unsafe { <ScanMsg as ZeroCopySend>::type_name() }, "gema2::ScanMsg");
     }

@@ -349,7 +349,7 @@ fn scans_in(context: &Context, a: &Ros2Args, shared: &Mutex<Shared>, stop: &Atom
                 s.stamps.push_back((seq, header));
             }
             out.send(|m: &mut ScanMsg| {
-                acquire::node::scan_to_msg(&scan, seq, enter, m);
+                acquire::node::scan_to_msg(&scan, None, seq, enter, m);
                 m.header.span(Stage::Acquire).enter_ns = enter;
                 m.header.span(Stage::Acquire).leave_ns = monotonic_ns();
                 m.header.set_producer("ros2");

@@ -64,7 +64,7 @@ pub fn spawn(spec: &StageSpec, prefix: &str, implementation: Option<&str>, insta
         cmd.arg("--priority").arg(p.to_string());
     }
     if let Some(i) = implementation.or(spec.implementation.as_deref()) {
-        if spec.kind == Kind::Segment {
+        if matches!(spec.kind, Kind::Segment | Kind::Localize) {
             cmd.arg("--impl").arg(i);
         }
     }

@@ -63,7 +63,7 @@ impl Monitor {
             micros,
             p.count as usize,
             p.candidates as usize,
-            u32::from(best.is_some()),
+            if best.is_some() { p.scans.max(1) } else { 0 },
         ));
     }
 

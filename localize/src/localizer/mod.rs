@@ -244,9 +244,10 @@ impl Localizer {
         self.locate_lines_given(scan, seg)
     }
 
-    /// [`locate`](Self::locate) with every search kept to poses within `radius` of `centre`,
-    /// as tracking keeps them (`track`): the sequential localizer's search about a track whose
-    /// refined pose left the odometry's spread ([`crate::sequential`]).
+    /// [`locate_set_lines`](Self::locate_set_lines) with every search kept to poses within
+    /// `radius` of `centre`, as tracking keeps them (`track`): the sequential localizer's
+    /// search about a track whose refined pose left the odometry's spread
+    /// ([`crate::sequential`]).
     pub fn locate_near(
         &mut self,
         scan: &ScanView<'_>,
@@ -257,9 +258,22 @@ impl Localizer {
         let (prior, track) = (self.prior, self.config.track_radius);
         self.prior = Some(centre);
         self.config.track_radius = Some(radius);
-        self.locate(scan, seg);
+        self.locate_lines_given(scan, seg);
         (self.prior, self.config.track_radius) = (prior, track);
         &self.out
+    }
+
+    /// The scan's lines for [`locate_set_lines`](Self::locate_set_lines),
+    /// [`locate_near`](Self::locate_near) and [`search_around`](Self::search_around), which the
+    /// sequential localizer runs on one scan.
+    pub fn set_lines(&mut self, lines: impl IntoIterator<Item = SlideLine>) {
+        self.lines.clear();
+        self.lines.extend(lines);
+    }
+
+    /// [`locate`](Self::locate) with the lines of [`set_lines`](Self::set_lines).
+    pub fn locate_set_lines(&mut self, scan: &ScanView<'_>, seg: &Segmentation) -> &Localization {
+        self.locate_lines_given(scan, seg)
     }
 
     /// [`locate`](Self::locate) for a segmentation whose lines arrive separately (the
@@ -338,8 +352,9 @@ impl Localizer {
         }
     }
 
-    /// Screens each of `starts` by the distance field, as a search screens its candidates,
-    /// then refines the `keep` best and costs them by the full eq. 7: a search over the poses
+    /// Screens each of `starts` by the distance field (with the lines of
+    /// [`set_lines`](Self::set_lines)), as a search screens its candidates, then refines the
+    /// `keep` best and costs them by the full eq. 7: a search over the poses
     /// a track may have reached, for the sequential localizer ([`crate::sequential`]). `out`
     /// gets (pose, cost) of the refined ones, cheapest first.
     pub fn search_around(
@@ -352,8 +367,6 @@ impl Localizer {
     ) {
         out.clear();
         self.prepare(scan, seg);
-        self.lines.clear();
-        self.lines.extend(seg.lines.iter().map(SlideLine::from));
         let cfg = self.config;
         screen_points(seg, &self.lines, cfg.screen_points, cfg.screen_long_line, &mut self.screen_pts);
         let model = Arc::clone(&self.model);
