@@ -438,8 +438,18 @@ fn parse_flaser(t: &[&str], layout: &FlaserLayout) -> Result<(LaserScan, Option<
     Ok((LaserScan { geometry, ranges: r, stamp, truth: Some(truth) }, odometry))
 }
 
-/// Writes a scan as a `ROBOTLASER1` line (laser pose = truth, or zeros when unknown).
+/// Writes a scan as a `ROBOTLASER1` line (laser pose = truth, or zeros when unknown; the robot
+/// pose, read back as odometry, the same).
 pub fn write_robotlaser1(w: &mut impl Write, scan: &LaserScan) -> std::io::Result<()> {
+    write_robotlaser1_with_odometry(w, scan, scan.truth.as_ref())
+}
+
+/// [`write_robotlaser1`] with `odometry` as the robot pose (zeros when none).
+pub fn write_robotlaser1_with_odometry(
+    w: &mut impl Write,
+    scan: &LaserScan,
+    odometry: Option<&Pose>,
+) -> std::io::Result<()> {
     let g = &scan.geometry;
     let n = scan.ranges.len();
     let fov = g.angle_increment * n.saturating_sub(1) as f64;
@@ -454,7 +464,8 @@ pub fn write_robotlaser1(w: &mut impl Write, scan: &LaserScan) -> std::io::Resul
         None => (0.0, 0.0, 0.0),
     };
     let stamp = if scan.stamp.is_finite() { scan.stamp } else { 0.0 };
-    let _ = writeln!(s, " 0 {x:.6} {y:.6} {th:.6} {x:.6} {y:.6} {th:.6} 0 0 0 0 0 {stamp:.6} gema2 {stamp:.6}");
+    let (ox, oy, oth) = odometry.map_or((0.0, 0.0, 0.0), |p| (p.translation.x, p.translation.y, laser::pose_theta(p)));
+    let _ = writeln!(s, " 0 {x:.6} {y:.6} {th:.6} {ox:.6} {oy:.6} {oth:.6} 0 0 0 0 0 {stamp:.6} gema2 {stamp:.6}");
     w.write_all(s.as_bytes())
 }
 

@@ -11,6 +11,7 @@ pub mod sim;
 pub mod urg_log;
 
 pub use carmen::{
-    write_robotlaser1, CarmenReader, FlaserArgs, FlaserError, FlaserLayout, LogError, LogScan, NO_TRUTH_MARKER,
+    write_robotlaser1, write_robotlaser1_with_odometry, CarmenReader, FlaserArgs, FlaserError, FlaserLayout, LogError,
+    LogScan, NO_TRUTH_MARKER,
 };
 pub use sim::{Obstacles, Scenario, SensorModel, Simulator};

@@ -556,6 +556,9 @@ mod tests {
             count: 0,
             truth: PoseMsgXyt::default(),
             ranges: [0.0; MAX_BEAMS],
+            has_odometry: 0,
+            _pad: 0,
+            odometry: PoseMsgXyt::default(),
         };
         for beams in [1, 682, MAX_BEAMS] {
             let s = scan(beams);

@@ -180,6 +180,54 @@ impl Simulator {
         scan
     }
 
+    /// A scan from the next pose of a robot walking through the main free space
+    /// ([`walk`](Self::walk)), with the scenario's obstacles; the first from a random pose.
+    pub fn next_scan_walking(&mut self, from: Option<&Pose>, step: f64) -> LaserScan {
+        let p = match from {
+            Some(from) => self.walk(from, step),
+            None => self.random_pose(),
+        };
+        let obstacles = match self.scenario {
+            Scenario::Clean => Obstacles::default(),
+            Scenario::People => self.people(&p),
+            Scenario::Furniture => self.furniture(&p),
+        };
+        let scan = self.scan_at(&p, &obstacles);
+        self.obstacles = obstacles;
+        scan
+    }
+
+    /// Where a robot at `from` is after driving about `step` metres: ahead with a small turn
+    /// when the way stays clear of the walls, else after a larger turn (on the spot when no
+    /// turn clears the way).
+    pub fn walk(&mut self, from: &Pose, step: f64) -> Pose {
+        let at = Point2::from(from.translation.vector);
+        let heading = from.rotation.angle();
+        for attempt in 0..24 {
+            let turn = if attempt == 0 {
+                0.25 * self.rng.normal()
+            } else {
+                self.rng.range(-std::f64::consts::PI, std::f64::consts::PI)
+            };
+            let h = heading + turn;
+            let to = at + Vector2::new(h.cos(), h.sin()) * step;
+            if self.clear_way(at, to) {
+                return pose(to.x, to.y, h);
+            }
+        }
+        pose(at.x, at.y, heading + self.rng.range(-std::f64::consts::PI, std::f64::consts::PI))
+    }
+
+    /// Whether the way from `a` to `b` keeps clear of the walls and within the main free space.
+    fn clear_way(&self, a: Point2<f64>, b: Point2<f64>) -> bool {
+        let steps = ((b - a).norm() / 0.05).ceil().max(1.0) as usize;
+        (1..=steps).all(|k| {
+            let q = a + (b - a) * (k as f64 / steps as f64);
+            self.field.distance(q) >= self.clearance
+                && self.main_region.is_none_or(|main| self.free_space.region(q) == Some(main))
+        })
+    }
+
     /// A uniformly drawn pose in the main free space.
     pub fn random_pose(&mut self) -> Pose {
         let (lo, hi) = self.bounds;
@@ -417,6 +465,26 @@ mod tests {
             let q = sim.random_pose().translation.vector;
             assert!(!((3.0..=7.0).contains(&q.x) && (1.0..=5.0).contains(&q.y)), "pose inside the block: {q}");
         }
+    }
+
+    /// A walk keeps clear of the walls, within the main free space, a step at a time, and
+    /// gets somewhere.
+    #[test]
+    fn a_walk_keeps_clear_of_the_walls() {
+        let map = worlds::by_name("office").unwrap();
+        let mut sim = Simulator::new(&map, SensorModel::urg04lx(), Scenario::Clean, 9);
+        let start = sim.random_pose();
+        let mut at = start;
+        let mut furthest: f64 = 0.0;
+        for _ in 0..300 {
+            let next = sim.walk(&at, 0.2);
+            let (a, b) = (Point2::from(at.translation.vector), Point2::from(next.translation.vector));
+            assert!((b - a).norm() <= 0.2 + 1e-9);
+            assert!(sim.clear_way(a, b) || a == b, "{a} to {b}");
+            furthest = furthest.max((b - Point2::from(start.translation.vector)).norm());
+            at = next;
+        }
+        assert!(furthest > 3.0, "the walk stayed within {furthest} m");
     }
 
     #[test]

@@ -23,7 +23,7 @@ fn scan(k: u32, increment: f32) -> msg::LaserScan {
         range_min: 0.05,
         range_max: 10.0,
         ranges: vec![1.0 + k as f32, f32::INFINITY, f32::NAN, 20.0, 0.01],
-        intensities: if k % 2 == 0 { vec![] } else { vec![100.0; 5] },
+        intensities: if k.is_multiple_of(2) { vec![] } else { vec![100.0; 5] },
         ..Default::default()
     }
 }

@@ -47,6 +47,18 @@ pub struct SimArgs {
     /// The log to write: ROBOTLASER1 lines carrying the true poses.
     #[arg(long)]
     pub out: PathBuf,
+    /// Walk a robot through the free space, about --step metres a scan, instead of drawing each
+    /// scan's pose anew; its odometry goes in each line's robot pose (exact unless
+    /// --odom-noise).
+    #[arg(long)]
+    pub trajectory: bool,
+    /// With --trajectory: metres between two scans.
+    #[arg(long, default_value_t = 0.2, requires = "trajectory")]
+    pub step: f64,
+    /// With --trajectory: wheel odometry drawn from the walk by the odometry motion model with
+    /// these alphas (AMCL's alpha1..alpha4), so that it drifts.
+    #[arg(long, value_name = "A1,A2,A3,A4", value_delimiter = ',', requires = "trajectory")]
+    pub odom_noise: Option<Vec<f64>>,
 }
 
 impl SimArgs {
@@ -107,8 +119,28 @@ pub fn run(a: SimArgs) -> Result<()> {
         a.dropout,
         if a.dropout_as_max_range { " --dropout-as-max-range" } else { "" }
     )?;
-    for _ in 0..a.scans {
-        write_robotlaser1(&mut w, &sim.next_scan())?;
+    if !a.trajectory {
+        for _ in 0..a.scans {
+            write_robotlaser1(&mut w, &sim.next_scan())?;
+        }
+    } else {
+        anyhow::ensure!(a.step.is_finite() && a.step > 0.0, "--step must be a distance above 0, not {}", a.step);
+        let noise = crate::sequential::SequentialArgs { odom_noise: a.odom_noise.clone(), ..Default::default() }
+            .noise()?
+            .unwrap_or(laser::motion::OdometryNoise::NONE);
+        writeln!(w, "# gema2 sim: --trajectory --step {} --odom-noise {:?}", a.step, noise.alphas)?;
+        let mut rng = laser::rng::Rng::new(a.seed ^ 0x0D0_0D0);
+        let mut last: Option<(laser::Pose, laser::Pose)> = None;
+        for _ in 0..a.scans {
+            let scan = sim.next_scan_walking(last.as_ref().map(|(t, _)| t), a.step);
+            let truth = scan.truth.context("a simulated scan has its pose")?;
+            let odometry = match last {
+                None => truth,
+                Some((from, odom)) => noise.sample(&from, &truth, &odom, &mut rng),
+            };
+            acquire::write_robotlaser1_with_odometry(&mut w, &scan, Some(&odometry))?;
+            last = Some((truth, odometry));
+        }
     }
     w.flush().with_context(|| format!("writing {}", a.out.display()))?;
     eprintln!("{}: {} scans of {} in {}", a.out.display(), a.scans, a.scenario, a.map);
