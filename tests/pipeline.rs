@@ -40,6 +40,17 @@ fn setup_with(dir: &Path, scans: usize, rate: &str, sim_args: &[&str]) -> (PathB
     (log, pipeline)
 }
 
+/// `gema2 run` of `pipeline` under `prefix` for `scans` scans, its poses written to `csv`;
+/// checked to succeed.
+fn run_to_csv(pipeline: &Path, prefix: &str, scans: usize, csv: &Path) -> Output {
+    let scans = scans.to_string();
+    let (pipeline, csv) = (pipeline.to_str().unwrap(), csv.to_str().unwrap());
+    let args = ["run", "--pipeline", pipeline, "--prefix", prefix, "--scans", &scans, "--timeout", "120", "--out", csv];
+    let out = gema2(&args);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    out
+}
+
 /// The run's CSV holds a pose for each of scans 0..n, each once.
 fn assert_every_pose_once(csv: &Path, n: u64) {
     let seqs: Vec<u64> = rows(csv).iter().map(|r| r[0].parse().unwrap()).collect();
@@ -125,20 +136,7 @@ fn the_pipeline_publishes_exactly_what_locate_computes_offline() {
     let (log, pipeline) = setup_with(dir.path(), 300, "max", &noise);
     let (online, offline) = (dir.path().join("online.csv"), dir.path().join("offline.csv"));
     let p = prefix("equal");
-    let out = gema2(&[
-        "run",
-        "--pipeline",
-        pipeline.to_str().unwrap(),
-        "--prefix",
-        &p,
-        "--scans",
-        "300",
-        "--timeout",
-        "120",
-        "--out",
-        online.to_str().unwrap(),
-    ]);
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let out = run_to_csv(&pipeline, &p, 300, &online);
     let report = String::from_utf8_lossy(&out.stdout);
     assert!(report.contains("poses received 300 of 300"), "{report}\n{}", String::from_utf8_lossy(&out.stderr));
     let out = gema2(&["locate", "--map", "office", "--log", log.to_str().unwrap(), "--out", offline.to_str().unwrap()]);
@@ -165,21 +163,7 @@ fn the_sequential_localizer_in_the_pipeline_answers_as_offline() {
     let text = text.replace("kind = \"localize\"\n", "kind = \"localize\"\nimplementation = \"sequential\"\n");
     std::fs::write(&pipeline, text).unwrap();
     let (online, offline) = (dir.path().join("online.csv"), dir.path().join("offline.csv"));
-    let p = prefix("sequential");
-    let out = gema2(&[
-        "run",
-        "--pipeline",
-        pipeline.to_str().unwrap(),
-        "--prefix",
-        &p,
-        "--scans",
-        "60",
-        "--timeout",
-        "120",
-        "--out",
-        online.to_str().unwrap(),
-    ]);
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    run_to_csv(&pipeline, &prefix("sequential"), 60, &online);
     let log = log.to_str().unwrap();
     let out = gema2(&["locate", "--map", "office", "--log", log, "--sequential", "--out", offline.to_str().unwrap()]);
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));

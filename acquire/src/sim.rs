@@ -170,12 +170,17 @@ impl Simulator {
     /// A scan from a random free pose with the scenario's obstacles (scans are 0.1 s apart).
     pub fn next_scan(&mut self) -> LaserScan {
         let p = self.random_pose();
+        self.scan_in_scenario(&p)
+    }
+
+    /// A scan at `p` among the scenario's obstacles, placed about it.
+    fn scan_in_scenario(&mut self, p: &Pose) -> LaserScan {
         let obstacles = match self.scenario {
             Scenario::Clean => Obstacles::default(),
-            Scenario::People => self.people(&p),
-            Scenario::Furniture => self.furniture(&p),
+            Scenario::People => self.people(p),
+            Scenario::Furniture => self.furniture(p),
         };
-        let scan = self.scan_at(&p, &obstacles);
+        let scan = self.scan_at(p, &obstacles);
         self.obstacles = obstacles;
         scan
     }
@@ -187,14 +192,7 @@ impl Simulator {
             Some(from) => self.walk(from, step),
             None => self.random_pose(),
         };
-        let obstacles = match self.scenario {
-            Scenario::Clean => Obstacles::default(),
-            Scenario::People => self.people(&p),
-            Scenario::Furniture => self.furniture(&p),
-        };
-        let scan = self.scan_at(&p, &obstacles);
-        self.obstacles = obstacles;
-        scan
+        self.scan_in_scenario(&p)
     }
 
     /// Where a robot at `from` is after driving about `step` metres: ahead with a small turn
