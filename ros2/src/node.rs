@@ -46,6 +46,10 @@ pub struct Ros2Args {
     /// Seconds between two seeds of /initialpose.
     #[arg(long, default_value_t = 10.0, value_parser = positive_seconds)]
     pub initialpose_every: f64,
+    /// The robot's nav_msgs/Odometry topic: each scan carries the odometry at its stamp, for
+    /// the sequential localizer (`localize --impl sequential`). Scans go on without it.
+    #[arg(long, default_value = "/odom")]
+    pub odom_topic: String,
     /// The map's frame, the published poses' frame_id.
     #[arg(long, default_value = "map")]
     pub map_frame: String,
@@ -298,9 +302,18 @@ fn scans_in(context: &Context, a: &Ros2Args, shared: &Mutex<Shared>, stop: &Atom
         .map_err(|e| anyhow!("ros2: /tf_static: {e:?}"))?;
     let mut tf: Subscription<msg::TfMessage> =
         dds.create_subscription(&tf_topic, None).map_err(|e| anyhow!("ros2: /tf_static: {e:?}"))?;
+    // best effort takes both a reliable publisher's and a best-effort one's
+    let odom_qos = QosProfile::subscription_default().history(History::KeepLast { depth: 50 });
+    let odom_topic = dds
+        .create_topic(&topic_name(&a.odom_topic)?, MessageTypeName::new("nav_msgs", "Odometry"), &odom_qos)
+        .map_err(|e| anyhow!("ros2: {}: {e:?}", a.odom_topic))?;
+    let mut odom: Subscription<msg::Odometry> =
+        dds.create_subscription(&odom_topic, None).map_err(|e| anyhow!("ros2: {}: {e:?}", a.odom_topic))?;
+    let mut odometry = crate::odometry::Odometry::default();
     let mut poll = Poll::new()?;
     poll.registry().register(&mut scans, Token(0), Interest::READABLE)?;
     poll.registry().register(&mut tf, Token(1), Interest::READABLE)?;
+    poll.registry().register(&mut odom, Token(2), Interest::READABLE)?;
     let node = messages::create_node("ros2-scans")?;
     let mut out =
         Outlet::<ScanMsg>::open(&node, &a.stage.prefix, Topic::Scan, BackpressureStrategy::RetryUntilDelivered)?;
@@ -325,6 +338,16 @@ fn scans_in(context: &Context, a: &Ros2Args, shared: &Mutex<Shared>, stop: &Atom
                 Err(e) => eprintln!("ros2: /tf_static: a message that does not decode: {e:?}"),
             }
         }
+        // odometry before the scans, so a scan finds the message of its own instant
+        while let Some(taken) = odom.take().transpose() {
+            match taken {
+                Ok((m, _)) => {
+                    let (x, y, yaw) = m.pose.pose.planar();
+                    odometry.add(m.header.stamp.nanos(), x, y, yaw);
+                }
+                Err(e) => eprintln!("ros2: {}: a message that does not decode: {e:?}", a.odom_topic),
+            }
+        }
         while let Some(taken) = scans.take().transpose() {
             let enter = monotonic_ns();
             let scan = match taken
@@ -341,6 +364,7 @@ fn scans_in(context: &Context, a: &Ros2Args, shared: &Mutex<Shared>, stop: &Atom
                 }
             };
             let (scan, header) = scan;
+            let at_scan = odometry.at(header.stamp.nanos());
             {
                 let mut s = shared.lock().unwrap_or_else(|p| p.into_inner());
                 if s.stamps.len() >= STAMPS_KEPT {
@@ -349,7 +373,7 @@ fn scans_in(context: &Context, a: &Ros2Args, shared: &Mutex<Shared>, stop: &Atom
                 s.stamps.push_back((seq, header));
             }
             out.send(|m: &mut ScanMsg| {
-                acquire::node::scan_to_msg(&scan, None, seq, enter, m);
+                acquire::node::scan_to_msg(&scan, at_scan.as_ref(), seq, enter, m);
                 m.header.span(Stage::Acquire).enter_ns = enter;
                 m.header.span(Stage::Acquire).leave_ns = monotonic_ns();
                 m.header.set_producer("ros2");
