@@ -63,15 +63,10 @@ impl Engine {
         if !sequential {
             return Engine::Single(Box::new(localizer));
         }
-        let empty = Localization {
-            hypotheses: Vec::new(),
-            status: Status::Failed,
-            candidates: 0,
-            times: Default::default(),
-            all_candidates: Vec::new(),
-            slide_step: None,
-        };
-        Engine::Sequential(Box::new((crate::Sequential::new(localizer, crate::SequentialConfig::default()), empty)))
+        Engine::Sequential(Box::new((
+            crate::Sequential::new(localizer, crate::SequentialConfig::default()),
+            Localization::none(),
+        )))
     }
 
     fn set_model(&mut self, model: Arc<MapModel>) {
@@ -465,14 +460,7 @@ mod tests {
         for status in [Status::Ok, Status::Ambiguous, Status::Failed] {
             let mut p: Box<PoseMsg> = messages::zeroed_box();
             let corners: Box<CornersMsg> = messages::zeroed_box();
-            let result = Localization {
-                hypotheses: Vec::new(),
-                status,
-                candidates: 0,
-                times: Default::default(),
-                all_candidates: Vec::new(),
-                slide_step: None,
-            };
+            let result = Localization { status, ..Localization::none() };
             write_pose(&mut p, &corners, &result, 1, 0);
             assert_eq!(messages::status_name(p.status), status.as_str());
         }

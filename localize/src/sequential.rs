@@ -3,18 +3,19 @@
 //! One scan in a symmetric place cannot be told from its twin; a robot that moves a metre
 //! sees the difference, and its wheel odometry says how it moved. This localizer keeps the
 //! hypotheses ([`Track`]s) of an unsure scan instead of discarding them, moves them by the
-//! odometry between two scans, refines each against the new scan and costs it again by eq. 7
-//! ([`Localizer::refine_at`]). The costs add up: a track is `behind` the best by the sum, over
+//! odometry between two scans, searches for each across the motion's spread and costs it again
+//! by eq. 7 ([`Localizer::search_around`]). The costs add up: a track is `behind` the best by the sum, over
 //! the scans it lived through, of its per-beam cost less the best's. It says `ok` when one
 //! track is ahead of every distinct rival by [`SequentialConfig::margin`] on that sum.
 //!
 //! While no track is sure, every scan also runs the global search of [`Localizer::locate`] and
 //! its hypotheses join the tracks (a global pose that lands on a track refreshes it). Once
-//! sure, a scan costs a refinement and one eq. 7 per track: it tracks. A track whose refined
-//! pose leaves the odometry's spread ([`OdometryNoise::spread`]), or whose pose the scan no
-//! longer explains, misses the scan; the best missing one means the robot was moved or is
-//! lost, and the global search runs again on that very scan. A track that misses twice is
-//! dropped.
+//! sure, a scan costs that search per track: it tracks. A track whose pose leaves the
+//! odometry's spread ([`OdometryNoise::spread`]), or whose pose the scan no longer explains,
+//! misses the scan; the best missing one is searched for within the spread
+//! ([`Localizer::locate_near`]), and when it is not found there the robot was moved or is lost,
+//! and the global search runs again on that very scan. A track that misses
+//! [`SequentialConfig::lost_after`] scans in a row is dropped.
 //!
 //! Without odometry between two scans nothing can be carried over: the tracks are dropped and
 //! the scan is located from scratch.
@@ -25,7 +26,6 @@ use crate::slide::SlideLine;
 use laser::motion::{motion, OdometryNoise};
 use laser::{angle_diff, pose_theta, Pose, ScanView};
 use segment::Segmentation;
-use std::time::{Duration, Instant};
 
 /// The sequential localizer's settings.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -129,9 +129,6 @@ pub struct SequentialAnswer {
     pub global: bool,
     /// Tracks held after the scan.
     pub tracks: usize,
-    /// Time spent on tracks and on the global search.
-    pub tracking: Duration,
-    pub searching: Duration,
 }
 
 /// The sequential localizer over a single-scan [`Localizer`].
@@ -141,7 +138,7 @@ pub struct Sequential {
     tracks: Vec<Track>,
     /// The odometry of the last scan located.
     last_odometry: Option<Pose>,
-    poses: Vec<Pose>,
+    /// [`Localizer::search_around`]'s answer for one track.
     scored: Vec<(Pose, Cost)>,
     /// This scan's gate about a predicted pose (position, heading).
     gate: (f64, f64),
@@ -149,15 +146,7 @@ pub struct Sequential {
 
 impl Sequential {
     pub fn new(localizer: Localizer, config: SequentialConfig) -> Self {
-        Sequential {
-            localizer,
-            config,
-            tracks: Vec::new(),
-            last_odometry: None,
-            poses: Vec::new(),
-            scored: Vec::new(),
-            gate: (0.0, 0.0),
-        }
+        Sequential { localizer, config, tracks: Vec::new(), last_odometry: None, scored: Vec::new(), gate: (0.0, 0.0) }
     }
 
     /// Switches to another map (from the next scan on): the tracks lie in the old one.
@@ -202,7 +191,6 @@ impl Sequential {
         seg: &Segmentation,
         odometry: Option<Pose>,
     ) -> SequentialAnswer {
-        let t0 = Instant::now();
         let moved = match (self.last_odometry, odometry) {
             (Some(a), Some(b)) => Some((motion(&a, &b), a, b)),
             _ => None,
@@ -216,23 +204,19 @@ impl Sequential {
         if let Some((delta, a, b)) = moved {
             missed_best = self.follow(scan, seg, &delta, &a, &b);
         }
-        let t1 = Instant::now();
         let global = self.tracks.is_empty() || missed_best || !self.settled();
         let mut single = None;
         if global {
             single = self.search(scan, seg);
         }
-        let t2 = Instant::now();
         self.settle_lags();
         let mut answer = self.answer(single);
         answer.global = global;
-        answer.tracking = t1 - t0;
-        answer.searching = t2 - t1;
         answer
     }
 
-    /// Moves every track by the odometry's motion, refines it on the scan and costs it;
-    /// returns whether the best track missed the scan.
+    /// Moves every track by the odometry's motion, searches for it across the motion's spread
+    /// and costs it; returns whether the best track (the first) missed the scan.
     fn follow(&mut self, scan: &ScanView<'_>, seg: &Segmentation, delta: &Pose, a: &Pose, b: &Pose) -> bool {
         let cfg = self.config;
         let (spread, turn) = cfg.motion.spread(a, b);
@@ -246,8 +230,8 @@ impl Sequential {
         let turns = sides(turn, cfg.start_step, cfg.max_start_sides);
         let shifts = sides((spread - cfg.position_step).max(0.0), cfg.position_step, cfg.max_position_sides);
         let mut starts = Vec::new();
-        let mut predictions = Vec::with_capacity(self.tracks.len());
-        let mut best_of = Vec::with_capacity(self.tracks.len());
+        // per track: where odometry puts it, and the best pose found about there
+        let mut found = Vec::with_capacity(self.tracks.len());
         for t in &self.tracks {
             let predicted = t.pose * delta;
             starts.clear();
@@ -262,14 +246,10 @@ impl Sequential {
             }
             self.localizer.search_around(scan, seg, &starts, cfg.refined, &mut self.scored);
             let fallback = (predicted, Cost { value: f64::INFINITY, inliers: 0.0, through: 1.0, beams: 0 });
-            predictions.push(predicted);
-            best_of.push(self.scored.first().copied().unwrap_or(fallback));
+            found.push((predicted, self.scored.first().copied().unwrap_or(fallback)));
         }
-        self.poses = predictions;
-        self.scored = best_of;
         let min_inliers = self.config.min_inliers_held;
-        let best_before = self.best_index();
-        for ((track, predicted), (refined, cost)) in self.tracks.iter_mut().zip(&self.poses).zip(&self.scored) {
+        for (track, (predicted, (refined, cost))) in self.tracks.iter_mut().zip(&found) {
             let held = (refined.translation.vector - predicted.translation.vector).norm() <= gate
                 && angle_diff(pose_theta(refined), pose_theta(predicted)).abs() <= gate_heading
                 && cost.value.is_finite()
@@ -287,25 +267,28 @@ impl Sequential {
         }
         // the best track lost by refinement alone: search the odometry's spread about where it
         // should be, before taking it for lost
-        if let Some(k) = best_before.filter(|&k| self.tracks[k].misses > 0) {
-            let predicted = self.poses[k];
+        // the best track (the first: the tracks are sorted by lag) lost by its search: look
+        // for it within the odometry's spread with the cascade, before taking it for lost
+        let Some((best, &(predicted, _))) = self.tracks.first_mut().zip(found.first()) else {
+            return false;
+        };
+        if best.misses > 0 {
             let centre = nalgebra::Point2::from(predicted.translation.vector);
             let loc = self.localizer.locate_near(scan, seg, centre, gate);
             // only a pose with no rival within the spread: a twin there is no track
-            let found = loc.hypotheses.iter().take(1).find(|h| {
+            let near = loc.hypotheses.iter().take(1).find(|h| {
                 loc.status == Status::Ok
                     && h.cost.inliers >= min_inliers
                     && angle_diff(pose_theta(&h.pose), pose_theta(&predicted)).abs() <= gate_heading
             });
-            if let Some(h) = found {
-                let t = &mut self.tracks[k];
-                (t.pose, t.cost) = (h.pose, h.cost);
-                t.scans += 1;
-                t.misses = 0;
+            if let Some(h) = near {
+                (best.pose, best.cost) = (h.pose, h.cost);
+                best.scans += 1;
+                best.misses = 0;
             }
         }
         self.gate = (gate, gate_heading);
-        best_before.is_some_and(|k| self.tracks[k].misses > 0)
+        best.misses > 0
     }
 
     /// The global search; its hypotheses join the tracks. Returns the single-scan status and
@@ -387,11 +370,6 @@ impl Sequential {
         self.tracks.truncate(kept.min(cfg.max_tracks));
     }
 
-    /// The track ahead (the first after [`settle_lags`](Self::settle_lags)).
-    fn best_index(&self) -> Option<usize> {
-        (!self.tracks.is_empty()).then_some(0)
-    }
-
     /// Whether the best track is sure and old enough to stop the global search.
     fn settled(&self) -> bool {
         self.tracks.first().is_some_and(|t| t.scans >= self.config.settle_scans) && self.lead() >= self.config.margin
@@ -418,8 +396,6 @@ impl Sequential {
             scans: 0,
             global: false,
             tracks: self.tracks.len(),
-            tracking: Duration::ZERO,
-            searching: Duration::ZERO,
         };
         let Some(best) = self.tracks.first().filter(|t| t.misses == 0) else {
             if !self.tracks.is_empty() {

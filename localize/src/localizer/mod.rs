@@ -141,6 +141,18 @@ pub struct Localization {
 }
 
 impl Localization {
+    /// No answer yet: no hypothesis, `failed`.
+    pub fn none() -> Self {
+        Localization {
+            hypotheses: Vec::new(),
+            status: Status::Failed,
+            candidates: 0,
+            times: LocateTimes::default(),
+            all_candidates: Vec::new(),
+            slide_step: None,
+        }
+    }
+
     pub fn best(&self) -> Option<&Hypothesis> {
         match self.status {
             Status::Failed => None,
@@ -216,14 +228,7 @@ impl Localizer {
             expected: Vec::new(),
             error: config.error,
             cost: config.cost,
-            out: Localization {
-                hypotheses: Vec::new(),
-                status: Status::Failed,
-                candidates: 0,
-                times: LocateTimes::default(),
-                all_candidates: Vec::new(),
-                slide_step: None,
-            },
+            out: Localization::none(),
         }
     }
 
@@ -325,7 +330,7 @@ impl Localizer {
         CostConfig { sigma_floor: self.cost.sigma_floor.max(self.model.map.sigma), ..self.cost }
     }
 
-    /// The per-scan state every search and [`refine_at`](Self::refine_at) read: eq. 7's
+    /// The per-scan state every search and [`search_around`](Self::search_around) read: eq. 7's
     /// e(d) and form for this scan, and the points refinement fits.
     fn prepare(&mut self, scan: &ScanView<'_>, seg: &Segmentation) {
         // a scan noisier than the configured e(d) would count the right pose's beams as seeing
@@ -335,21 +340,6 @@ impl Localizer {
         let drops = self.config.surface_dropouts;
         self.cost.skip_no_returns = drops > 0 && crate::cost::surface_dropouts(scan, &self.error) >= drops;
         subsample(seg, self.config.refine_points, &mut self.refine_pts);
-    }
-
-    /// Refines each of `poses` against the map with this scan's points and costs it by the
-    /// full eq. 7, as a search does its kept hypotheses: the sequential localizer's step for
-    /// the poses it already holds ([`crate::sequential`]). `out` gets one (pose, cost) each.
-    pub fn refine_at(&mut self, scan: &ScanView<'_>, seg: &Segmentation, poses: &[Pose], out: &mut Vec<(Pose, Cost)>) {
-        out.clear();
-        self.prepare(scan, seg);
-        let model = Arc::clone(&self.model);
-        let final_cfg = self.final_cost_config();
-        for p in poses {
-            let refined = refine(&model, &self.refine_pts, p, &self.config.refine).0;
-            let c = cost(scan, &refined, &model.caster, &self.error, &final_cfg, &mut self.scratch, &mut self.expected);
-            out.push((refined, c));
-        }
     }
 
     /// Screens each of `starts` by the distance field (with the lines of
@@ -403,7 +393,7 @@ impl Localizer {
     /// Whether `pose` lies where the robot cannot be (outside a closed building or the
     /// surveyed free space), when answers are kept to where it can.
     pub fn off_limits(&self, pose: &Pose) -> bool {
-        self.config.inside_only && self.model.off_limits(Point2::from(pose.translation.vector))
+        ranking::is_outside(&self.model, self.config.inside_only, pose)
     }
 
     fn locate_lines_given(&mut self, scan: &ScanView<'_>, seg: &Segmentation) -> &Localization {

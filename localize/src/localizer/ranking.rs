@@ -3,10 +3,10 @@
 //! `ambiguous` when a distinct pose explains it about as well or the best sees through too
 //! many walls to be trusted, `failed` when no pose explains it.
 
-use super::{same_pose, Hypothesis, Localizer, Status};
+use super::{same_pose, Localizer, Status};
 use crate::model::MapModel;
 use crate::slide::FROM_SLIDE;
-use laser::{angle_diff, pose_theta};
+use laser::{angle_diff, pose_theta, Pose};
 use nalgebra::Point2;
 
 impl Localizer {
@@ -57,7 +57,7 @@ impl Localizer {
         // poses outside the building are never the answer, but one that explains the scan as
         // well as the answer says the scan does not single the answer out: they stay in the
         // list, behind the answer, until the scan's last search is ranked
-        let Some(at) = hyps.iter().position(|h| !is_outside(&self.model, cfg.inside_only, h)) else {
+        let Some(at) = hyps.iter().position(|h| !is_outside(&self.model, cfg.inside_only, &h.pose)) else {
             self.out.status = Status::Failed;
             return;
         };
@@ -82,21 +82,21 @@ impl Localizer {
     /// reported number of the others.
     pub(super) fn report(&mut self) {
         let (model, inside_only) = (&self.model, self.config.inside_only);
-        self.out.hypotheses.retain(|h| !is_outside(model, inside_only, h));
+        self.out.hypotheses.retain(|h| !is_outside(model, inside_only, &h.pose));
         self.out.hypotheses.truncate(self.config.max_hypotheses);
     }
 }
 
-/// Whether `h` lies where the robot cannot be ([`MapModel::off_limits`]), when answers are
+/// Whether `pose` lies where the robot cannot be ([`MapModel::off_limits`]), when answers are
 /// kept to where it can.
-fn is_outside(model: &MapModel, inside_only: bool, h: &Hypothesis) -> bool {
-    inside_only && model.off_limits(Point2::from(h.pose.translation.vector))
+pub(super) fn is_outside(model: &MapModel, inside_only: bool, pose: &Pose) -> bool {
+    inside_only && model.off_limits(Point2::from(pose.translation.vector))
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::{Cost, LocalizerConfig};
+    use crate::{Cost, Hypothesis, LocalizerConfig};
     use laser::Pose;
     use std::sync::Arc;
 
