@@ -9,8 +9,9 @@ use clap::Args;
 use laser::motion::OdometryNoise;
 use laser::rng::Rng;
 use laser::{LaserScan, Pose};
-use localize::{Sequential, SequentialAnswer, Status};
+use localize::{Gema2, Gema2Config, MapModel, Sequential, SequentialAnswer, SequentialConfig, Status};
 use segment::Segmenter;
+use std::sync::Arc;
 use std::time::Instant;
 
 /// The odometry and restarts of a sequential run.
@@ -99,6 +100,7 @@ pub struct SeqOutcome {
 
 /// A sequential run over scans, with its restarts.
 pub struct SeqRun {
+    segmenter: Box<dyn Segmenter>,
     pub sequential: Sequential,
     restart_every: Option<usize>,
     located: usize,
@@ -106,13 +108,17 @@ pub struct SeqRun {
 }
 
 impl SeqRun {
-    pub fn new(sequential: Sequential, restart_every: Option<usize>) -> Self {
-        SeqRun { sequential, restart_every, located: 0, outcomes: Vec::new() }
+    /// The segmenter and sequential localizer of `config` on `model`, as `gema2 locate` makes
+    /// its [`Gema2`], with a cold start every `restart_every` located scans.
+    pub fn new(model: Arc<MapModel>, config: &Gema2Config, restart_every: Option<usize>) -> Self {
+        let Gema2 { segmenter, localizer } = Gema2::new(model, config.segmenter, config.localizer);
+        let sequential = Sequential::new(localizer, SequentialConfig::default());
+        SeqRun { segmenter, sequential, restart_every, located: 0, outcomes: Vec::new() }
     }
 
     /// Segments and locates `scan`, whose odometry is `odometry`; a cold start first when one
     /// is due.
-    pub fn locate(&mut self, segmenter: &mut dyn Segmenter, scan: &LaserScan, odometry: Option<Pose>) -> SeqOutcome {
+    pub fn locate(&mut self, scan: &LaserScan, odometry: Option<Pose>) -> SeqOutcome {
         if self.restart_every.is_some_and(|n| self.located.is_multiple_of(n)) {
             self.sequential.reset();
         }
@@ -120,7 +126,7 @@ impl SeqRun {
         let in_start = self.restart_every.map_or(self.located, |n| (self.located - 1) % n + 1);
         let start = Instant::now();
         let view = scan.view();
-        let seg = segmenter.segment(&view);
+        let seg = self.segmenter.segment(&view);
         let answer = self.sequential.locate(&view, seg, odometry);
         let micros = start.elapsed().as_secs_f64() * 1e6;
         let pose = answer.pose.filter(|_| answer.status != Status::Failed);
@@ -186,10 +192,24 @@ impl SeqSummary {
     }
 
     /// The median located scans to a start's first right `ok` (a start with none counts as
-    /// never).
-    pub fn median_to_fix(&self) -> Option<f64> {
+    /// never), as printed: a count, `never`, or `-` with no start.
+    pub fn median_to_fix(&self) -> String {
         let mut v: Vec<f64> = self.to_first_fix.iter().map(|f| f.map_or(f64::INFINITY, |n| n as f64)).collect();
-        (!v.is_empty()).then(|| quantile(&mut v, 0.5))
+        match (!v.is_empty()).then(|| quantile(&mut v, 0.5)) {
+            None => "-".into(),
+            Some(m) if m.is_finite() => format!("{m:.0}"),
+            Some(_) => "never".into(),
+        }
+    }
+
+    /// The median time a scan, microseconds (0 with none).
+    pub fn median_micros(&self) -> f64 {
+        let mut all = self.all_micros.clone();
+        if all.is_empty() {
+            0.0
+        } else {
+            quantile(&mut all, 0.5)
+        }
     }
 
     /// The share of starts with a right `ok` within `n` located scans.
@@ -214,13 +234,12 @@ impl SeqSummary {
     /// The lines `gema2 locate --sequential` prints.
     pub fn render(&self) -> String {
         let mut s = String::new();
-        let mut all = self.all_micros.clone();
         s += &format!(
             "sequential: {} scans, {} starts; ok {}; median {:.0} us a scan\n",
             self.scans,
             self.starts,
             self.ok,
-            if all.is_empty() { 0.0 } else { quantile(&mut all, 0.5) }
+            self.median_micros()
         );
         match self.tracking() {
             Some((p50, p99)) => {
@@ -232,9 +251,7 @@ impl SeqSummary {
             None => s += "tracking: never (every scan ran the global search)\n",
         }
         if self.has_truth {
-            let median =
-                self.median_to_fix()
-                    .map_or("-".into(), |m| if m.is_finite() { format!("{m:.0}") } else { "never".into() });
+            let median = self.median_to_fix();
             let after = self.right_after_fix_share().map_or("- (no fix)".into(), |p| format!("{:.2} %", 100.0 * p));
             s += &format!(
                 "first right ok after a median of {median} located scans; within 3 on {:.1} % of starts; wrong ok {} ({:.2} % of scans); right after the first fix {after} (within {SUCCESS_POSITION} m and {SUCCESS_HEADING_DEG} deg)\n",

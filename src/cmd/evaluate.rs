@@ -398,38 +398,34 @@ fn sequential_suite(a: &EvaluateArgs, dir: &Path, config: &Gema2Config) -> Resul
             items.push(malformed.take(item)?);
         }
         let model = Arc::new(MapModel::new(built_map(&log, 0)?, &config.map_corners));
-        let mut segmenter = segment::LineVisibilitySegmenter::new(config.segmenter);
-        let localizer = localize::Localizer::new(model, config.localizer);
-        let mut run = SeqRun::new(
-            localize::Sequential::new(localizer, localize::SequentialConfig::default()),
-            a.seq.restart_every,
-        );
+        let mut run = SeqRun::new(Arc::clone(&model), config, a.seq.restart_every);
         let mut odometry = Odometry::new(noise, a.seq.odom_seed);
         let stem = log_stem(&log);
-        let mut progress = crate::progress::Progress::scans(&stem, Some((items.len() / 2) as u64));
-        for item in items.iter().skip(1).step_by(2).flatten() {
+        // the odd scans, as `gema2 locate --every 2 --offset 1` takes them
+        let odd: Vec<&acquire::LogScan> = items.iter().skip(1).step_by(2).flatten().collect();
+        let mut progress = crate::progress::Progress::scans(&stem, Some(odd.len() as u64));
+        for item in &odd {
             let odom = odometry.next(item.odometry, item.scan.truth.as_ref(), false)?;
-            let o = run.locate(&mut segmenter, &item.scan, odom);
+            let o = run.locate(&item.scan, odom);
             progress.add(&o.outcome);
         }
         progress.finish();
-        let kidnaps = kidnap_all(&items, a.kidnaps, &run, config, noise, a.seq.odom_seed)?;
+        let kidnaps = kidnap_all(&odd, a.kidnaps, &model, config, noise, a.seq.odom_seed)?;
         let s = run.summary();
         let pct = |v: Option<f64>| v.map_or("-".to_string(), |v| format!("{:.1} %", 100.0 * v));
         let (t50, t99) =
             s.tracking().map_or(("-".to_string(), "-".to_string()), |(a, b)| (format!("{a:.0}"), format!("{b:.0}")));
-        let mut all = s.all_micros.clone();
         let cells = [
             stem,
             s.scans.to_string(),
             s.starts.to_string(),
-            s.median_to_fix().map_or("-".into(), |m| if m.is_finite() { format!("{m:.0}") } else { "never".into() }),
+            s.median_to_fix(),
             pct(Some(s.fixed_within(3))),
             format!("{} ({:.2} %)", s.wrong_ok, 100.0 * s.wrong_ok_share()),
             pct(s.right_after_fix_share()),
             t50,
             t99,
-            format!("{:.0}", if all.is_empty() { 0.0 } else { crate::report::quantile(&mut all, 0.5) }),
+            format!("{:.0}", s.median_micros()),
             kidnaps,
         ];
         println!("{}", cells.join(" | "));
@@ -442,14 +438,14 @@ fn sequential_suite(a: &EvaluateArgs, dir: &Path, config: &Gema2Config) -> Resul
     malformed.into_result("skipped")
 }
 
-/// `--kidnaps N`: N splices of two stretches of the log's odd scans at least 10 m apart, each
-/// located by a fresh sequential localizer on `run`'s map with no odometry across the cut.
+/// `--kidnaps N`: N splices of two stretches of the log's `odd` scans at least 10 m apart, each
+/// located by a fresh sequential localizer on `model` with no odometry across the cut.
 /// Says, over the splices, the latest scan after a cut with a wrong `ok` and how many found a
 /// right `ok` within 5 scans of it.
 fn kidnap_all(
-    items: &[Option<acquire::LogScan>],
+    odd: &[&acquire::LogScan],
     count: usize,
-    run: &crate::sequential::SeqRun,
+    model: &Arc<MapModel>,
     config: &Gema2Config,
     noise: Option<laser::motion::OdometryNoise>,
     seed: u64,
@@ -459,7 +455,6 @@ fn kidnap_all(
     if count == 0 {
         return Ok("-".into());
     }
-    let odd: Vec<&acquire::LogScan> = items.iter().skip(1).step_by(2).flatten().collect();
     let n = odd.len();
     let place = |k: usize| odd[k].scan.truth.map(|t| t.translation.vector);
     let mut results = Vec::new();
@@ -475,10 +470,7 @@ fn kidnap_all(
             .take(n)
             .find(|&j| j + STRETCH <= n && place(j).is_some_and(|p| (p - end_a).norm() >= 10.0));
         let Some(j) = far else { continue };
-        let model = std::sync::Arc::clone(run.sequential.localizer.model());
-        let mut segmenter = segment::LineVisibilitySegmenter::new(config.segmenter);
-        let localizer = localize::Localizer::new(model, config.localizer);
-        let mut fresh = SeqRun::new(localize::Sequential::new(localizer, localize::SequentialConfig::default()), None);
+        let mut fresh = SeqRun::new(Arc::clone(model), config, None);
         let mut odometry = Odometry::new(noise, seed + k as u64 + 1);
         let mut after = Vec::new();
         for (m, item) in odd[i..i + STRETCH].iter().chain(&odd[j..j + STRETCH]).enumerate() {
@@ -486,10 +478,10 @@ fn kidnap_all(
             // where it was at the cut by the second stretch's own motion
             let odom = match noise {
                 Some(_) => odometry.next(None, item.scan.truth.as_ref(), m == STRETCH)?,
-                None if m >= STRETCH => shifted(&odd, i + STRETCH - 1, j, m - STRETCH),
+                None if m >= STRETCH => shifted(odd, i + STRETCH - 1, j, m - STRETCH),
                 None => item.odometry,
             };
-            let o = fresh.locate(&mut segmenter, &item.scan, odom);
+            let o = fresh.locate(&item.scan, odom);
             if m >= STRETCH {
                 after.push(o);
             }

@@ -119,12 +119,9 @@ pub fn run(a: LocateArgs) -> Result<()> {
     };
     let mut judge = None;
     let mut progress = crate::progress::Progress::of_log("", &source.path, source.total);
-    // a malformed laser line keeps its index, so the scans after it keep theirs
-    for (index, item) in source.scans.enumerate() {
+    for (index, item) in selected_items(&a, source.scans) {
         let item = match item {
             Ok(item) => item,
-            // a line `--every` and `--offset` leave out is no concern of this run
-            Err(SourceError::Skip(_)) if !super::selected(index, a.every, a.offset) => continue,
             Err(SourceError::Skip(e)) => {
                 // one bad line loses its own scan only: the run goes on, and fails at the end.
                 // Its row says `failed`, so the CSV keeps one row per laser line (docs/design.md);
@@ -142,13 +139,6 @@ pub fn run(a: LocateArgs) -> Result<()> {
                 break;
             }
         };
-        if !super::selected(index, a.every, a.offset) {
-            continue;
-        }
-        let mut item = item;
-        if a.no_truth {
-            item.scan.truth = None;
-        }
         let scan = &item.scan;
         let start = Instant::now();
         let (seg, loc) = gema2.process(&scan.view());
@@ -183,6 +173,28 @@ pub fn run(a: LocateArgs) -> Result<()> {
         w.finish()?;
     }
     run.conclude(&a, dump)
+}
+
+/// The laser lines (or LaserScan messages) of `scans` that `--every` and `--offset` select,
+/// each with its index among all of them (a malformed line keeps its index, so the scans after
+/// it keep theirs), without truth under `--no-truth`. A line they leave out is no concern of
+/// the run, malformed or not; a source that cannot be read on ends the run wherever it stops.
+fn selected_items(
+    a: &LocateArgs,
+    scans: Box<dyn Iterator<Item = Result<acquire::LogScan, SourceError>>>,
+) -> impl Iterator<Item = (usize, Result<acquire::LogScan, SourceError>)> {
+    let (every, offset, no_truth) = (a.every, a.offset, a.no_truth);
+    scans
+        .enumerate()
+        .filter(move |(index, item)| {
+            matches!(item, Err(SourceError::Stop(_))) || super::selected(*index, every, offset)
+        })
+        .map(move |(index, mut item)| {
+            if let (Ok(item), true) = (item.as_mut(), no_truth) {
+                item.scan.truth = None;
+            }
+            (index, item)
+        })
 }
 
 /// `--out`: the CSV of docs/design.md with the `micros` column, one row per selected laser line.
@@ -307,10 +319,7 @@ fn run_sequential(a: LocateArgs) -> Result<()> {
     let map = mapio::load_map(&a.map)?;
     let config = configs(&a)?;
     let model = Arc::new(MapModel::new(map, &config.map_corners));
-    let mut segmenter = segment::LineVisibilitySegmenter::new(config.segmenter);
-    let localizer = localize::Localizer::new(Arc::clone(&model), config.localizer);
-    let mut run =
-        SeqRun::new(localize::Sequential::new(localizer, localize::SequentialConfig::default()), a.seq.restart_every);
+    let mut run = SeqRun::new(model, &config, a.seq.restart_every);
     let mut odometry = Odometry::new(a.seq.noise()?, a.seq.odom_seed);
     let source = Source::open(a.log.as_deref(), &a.bag, &a.flaser)?;
     let mut csv = a.out.as_deref().map(CsvOut::create).transpose()?;
@@ -318,10 +327,9 @@ fn run_sequential(a: LocateArgs) -> Result<()> {
     let mut summary = Summary::default();
     let mut stopped = None;
     let mut progress = crate::progress::Progress::of_log("", &source.path, source.total);
-    for (index, item) in source.scans.enumerate() {
-        let mut item = match item {
+    for (index, item) in selected_items(&a, source.scans) {
+        let item = match item {
             Ok(item) => item,
-            Err(SourceError::Skip(_)) if !super::selected(index, a.every, a.offset) => continue,
             Err(SourceError::Skip(e)) => {
                 if let Some(w) = csv.as_mut() {
                     w.unreadable(index)?;
@@ -334,14 +342,8 @@ fn run_sequential(a: LocateArgs) -> Result<()> {
                 break;
             }
         };
-        if !super::selected(index, a.every, a.offset) {
-            continue;
-        }
-        if a.no_truth {
-            item.scan.truth = None;
-        }
         let odom = odometry.next(item.odometry, item.scan.truth.as_ref(), false)?;
-        let o = run.locate(&mut segmenter, &item.scan, odom);
+        let o = run.locate(&item.scan, odom);
         if let Some(w) = csv.as_mut() {
             w.sequential_row(index, &o)?;
         }
