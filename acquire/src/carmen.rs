@@ -264,19 +264,12 @@ impl CarmenReader {
             *waiting = false;
             scan.odometry = Some(match before {
                 Some((t0, p0)) if stamp > t0 => {
-                    interpolate(&p0, &pose, ((scan.scan.stamp - t0) / (stamp - t0)).clamp(0.0, 1.0))
+                    laser::interpolate(&p0, &pose, ((scan.scan.stamp - t0) / (stamp - t0)).clamp(0.0, 1.0))
                 }
                 _ => pose,
             });
         }
     }
-}
-
-/// The pose a fraction `f` of the way from `a` to `b`.
-fn interpolate(a: &Pose, b: &Pose, f: f64) -> Pose {
-    let (ta, tb) = (laser::pose_theta(a), laser::pose_theta(b));
-    let t = a.translation.vector + (b.translation.vector - a.translation.vector) * f;
-    laser::pose(t.x, t.y, ta + laser::angle_diff(tb, ta) * f)
 }
 
 /// `ODOM x y theta tv rv accel timestamp ...`: the timestamp and the pose.

@@ -19,7 +19,7 @@ mod pose;
 pub mod rng;
 
 pub use geometry::{Reading, ScanGeometry, MAX_LOST_RETURNS, MIN_VALID_RANGE};
-pub use pose::{angle_diff, pose, pose_theta, wrap_angle, Pose};
+pub use pose::{angle_diff, interpolate, pose, pose_theta, wrap_angle, Pose};
 
 /// A scan that owns its ranges, with the ground-truth sensor pose when the source knows it
 /// (a simulator, a corrected log).

@@ -32,11 +32,28 @@ pub fn angle_diff(a: f64, b: f64) -> f64 {
     wrap_angle(a - b)
 }
 
+/// The pose a fraction `f` of the way from `a` to `b`: position along the straight line,
+/// heading through the smaller turn. What a timestamp between two poses' stamps reads.
+pub fn interpolate(a: &Pose, b: &Pose, f: f64) -> Pose {
+    let (pa, pb) = (a.translation.vector, b.translation.vector);
+    let (ta, tb) = (pose_theta(a), pose_theta(b));
+    pose(pa.x + f * (pb.x - pa.x), pa.y + f * (pb.y - pa.y), wrap_angle(ta + f * angle_diff(tb, ta)))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
     use proptest::prelude::*;
     use std::f64::consts::PI;
+
+    #[test]
+    fn interpolation_turns_the_short_way_round() {
+        let (a, b) = (pose(0.0, 0.0, 3.0), pose(2.0, -4.0, -3.0));
+        let mid = interpolate(&a, &b, 0.5);
+        assert!((mid.translation.x - 1.0).abs() < 1e-12 && (mid.translation.y + 2.0).abs() < 1e-12);
+        assert!((pose_theta(&mid).abs() - PI).abs() < 1e-9, "{}", pose_theta(&mid));
+        assert_eq!(interpolate(&a, &b, 0.0), a);
+    }
 
     proptest! {
         #[test]

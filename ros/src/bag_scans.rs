@@ -15,7 +15,7 @@
 
 use crate::bag::{Bag, BagError, Messages};
 use crate::msg;
-use laser::{pose, pose_theta, wrap_angle, LaserScan, Pose};
+use laser::{interpolate, pose, LaserScan, Pose};
 use thiserror::Error;
 
 /// The widest gap between two true poses that a scan's truth is interpolated across.
@@ -86,9 +86,7 @@ impl Truth {
             return None;
         }
         let s = (stamp - before.0) as f64 / (after.0 - before.0) as f64;
-        let (a, b) = (before.2.translation, after.2.translation);
-        let (ta, tb) = (pose_theta(&before.2), pose_theta(&after.2));
-        Some(pose(a.x + s * (b.x - a.x), a.y + s * (b.y - a.y), wrap_angle(ta + s * wrap_angle(tb - ta))))
+        Some(interpolate(&before.2, &after.2, s))
     }
 }
 
@@ -246,6 +244,7 @@ impl Iterator for BagScans {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use laser::pose_theta;
 
     fn truth(poses: &[(i64, f64)]) -> Truth {
         Truth { poses: poses.iter().enumerate().map(|(k, &(t, x))| (t, 2 * k, pose(x, 0.0, 0.0))).collect() }

@@ -1,7 +1,7 @@
 //! The robot's odometry at a scan's stamp, from the `nav_msgs/Odometry` messages heard so far:
 //! what the ros2 stage sends with each scan, for the sequential localizer.
 
-use laser::{angle_diff, pose, pose_theta, Pose};
+use laser::{interpolate, pose, Pose};
 use std::collections::VecDeque;
 
 /// Odometry messages kept: at 50 Hz, four seconds.
@@ -41,9 +41,7 @@ impl Odometry {
         match (before, self.poses.get(after)) {
             (Some(a), Some(b)) if b.0 - a.0 <= WIDEST_GAP => {
                 let f = if b.0 > a.0 { (stamp - a.0) as f64 / (b.0 - a.0) as f64 } else { 0.0 };
-                let t = a.1.translation.vector + (b.1.translation.vector - a.1.translation.vector) * f;
-                let (ta, tb) = (pose_theta(&a.1), pose_theta(&b.1));
-                Some(pose(t.x, t.y, ta + angle_diff(tb, ta) * f))
+                Some(interpolate(&a.1, &b.1, f))
             }
             (a, b) => [a, b]
                 .into_iter()
@@ -58,6 +56,7 @@ impl Odometry {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use laser::pose_theta;
 
     #[test]
     fn a_scan_takes_the_odometry_between_the_messages_around_it() {
