@@ -36,15 +36,7 @@ pub struct SequentialArgs {
 impl SequentialArgs {
     /// The drawn odometry's noise, checked.
     pub fn noise(&self) -> Result<Option<OdometryNoise>> {
-        let Some(a) = &self.odom_noise else { return Ok(None) };
-        let alphas: [f64; 4] = match a.as_slice() {
-            [a1, a2, a3, a4] => [*a1, *a2, *a3, *a4],
-            _ => bail!("--odom-noise takes four alphas, A1,A2,A3,A4"),
-        };
-        if alphas.iter().any(|v| !v.is_finite() || *v < 0.0) {
-            bail!("--odom-noise: each alpha is a finite number, 0 or more (got {a:?})");
-        }
-        Ok(Some(OdometryNoise::new(alphas)))
+        self.odom_noise.as_deref().map(odometry_noise).transpose()
     }
 
     /// Whether any sequential option was given without `--sequential`.
@@ -57,6 +49,18 @@ impl SequentialArgs {
         }
         Ok(())
     }
+}
+
+/// `--odom-noise A1,A2,A3,A4` (of `locate`, `evaluate` and `sim`), checked.
+pub fn odometry_noise(alphas: &[f64]) -> Result<OdometryNoise> {
+    let alphas: [f64; 4] = match alphas {
+        [a1, a2, a3, a4] => [*a1, *a2, *a3, *a4],
+        _ => bail!("--odom-noise takes four alphas, A1,A2,A3,A4"),
+    };
+    if alphas.iter().any(|v| !v.is_finite() || *v < 0.0) {
+        bail!("--odom-noise: each alpha is a finite number, 0 or more (got {alphas:?})");
+    }
+    Ok(OdometryNoise::new(alphas))
 }
 
 /// Where each located scan's odometry comes from: the log's, or drawn from the true motion.

@@ -125,9 +125,8 @@ pub fn run(a: SimArgs) -> Result<()> {
         }
     } else {
         anyhow::ensure!(a.step.is_finite() && a.step > 0.0, "--step must be a distance above 0, not {}", a.step);
-        let noise = crate::sequential::SequentialArgs { odom_noise: a.odom_noise.clone(), ..Default::default() }
-            .noise()?
-            .unwrap_or(laser::motion::OdometryNoise::NONE);
+        let noise = a.odom_noise.as_deref().map(crate::sequential::odometry_noise).transpose()?;
+        let noise = noise.unwrap_or(laser::motion::OdometryNoise::NONE);
         writeln!(w, "# gema2 sim: --trajectory --step {} --odom-noise {:?}", a.step, noise.alphas)?;
         let mut rng = laser::rng::Rng::new(a.seed ^ 0x0D0_0D0);
         let mut last: Option<(laser::Pose, laser::Pose)> = None;
