@@ -282,33 +282,35 @@ impl PosesOut {
     }
 }
 
+/// A subscription to the topic `name` of type `ty`; an error names the topic.
+fn subscribe<M: 'static>(
+    dds: &mut ros2_client::Node,
+    name: &str,
+    ty: MessageTypeName,
+    qos: &QosProfile,
+) -> Result<Subscription<M>> {
+    let topic = dds.create_topic(&topic_name(name)?, ty, qos).map_err(|e| anyhow!("ros2: {name}: {e:?}"))?;
+    dds.create_subscription(&topic, None).map_err(|e| anyhow!("ros2: {name}: {e:?}"))
+}
+
 /// The scan thread: LaserScans from DDS into the pipeline, static transforms into `shared`.
 fn scans_in(context: &Context, a: &Ros2Args, shared: &Mutex<Shared>, stop: &AtomicBool) -> Result<()> {
     let mut dds = context
         .new_node(NodeName::new("/", "gema2_scans").map_err(|e| anyhow!("{e:?}"))?, NodeOptions::new())
         .map_err(|e| anyhow!("ros2: creating the ROS node: {e:?}"))?;
     let sensor = QosProfile::subscription_default().history(History::KeepLast { depth: 5 });
-    let scan_topic = dds
-        .create_topic(&topic_name(&a.scan_topic)?, MessageTypeName::new("sensor_msgs", "LaserScan"), &sensor)
-        .map_err(|e| anyhow!("ros2: {}: {e:?}", a.scan_topic))?;
     let mut scans: Subscription<msg::LaserScan> =
-        dds.create_subscription(&scan_topic, None).map_err(|e| anyhow!("ros2: {}: {e:?}", a.scan_topic))?;
+        subscribe(&mut dds, &a.scan_topic, MessageTypeName::new("sensor_msgs", "LaserScan"), &sensor)?;
     let latched = QosProfile::publisher_default()
         .reliability_reliable(WhenFull::DEFAULT)
         .durability(Durability::TransientLocal)
         .history(History::KeepLast { depth: 100 });
-    let tf_topic = dds
-        .create_topic(&topic_name("/tf_static")?, MessageTypeName::new("tf2_msgs", "TFMessage"), &latched)
-        .map_err(|e| anyhow!("ros2: /tf_static: {e:?}"))?;
     let mut tf: Subscription<msg::TfMessage> =
-        dds.create_subscription(&tf_topic, None).map_err(|e| anyhow!("ros2: /tf_static: {e:?}"))?;
+        subscribe(&mut dds, "/tf_static", MessageTypeName::new("tf2_msgs", "TFMessage"), &latched)?;
     // best effort takes both a reliable publisher's and a best-effort one's
     let odom_qos = QosProfile::subscription_default().history(History::KeepLast { depth: 50 });
-    let odom_topic = dds
-        .create_topic(&topic_name(&a.odom_topic)?, MessageTypeName::new("nav_msgs", "Odometry"), &odom_qos)
-        .map_err(|e| anyhow!("ros2: {}: {e:?}", a.odom_topic))?;
     let mut odom: Subscription<msg::Odometry> =
-        dds.create_subscription(&odom_topic, None).map_err(|e| anyhow!("ros2: {}: {e:?}", a.odom_topic))?;
+        subscribe(&mut dds, &a.odom_topic, MessageTypeName::new("nav_msgs", "Odometry"), &odom_qos)?;
     let mut odometry = crate::odometry::Odometry::default();
     let mut poll = Poll::new()?;
     poll.registry().register(&mut scans, Token(0), Interest::READABLE)?;
