@@ -60,6 +60,9 @@ enum Command {
     /// Success over a suite of simulated logs (bundled and generated maps, every scenario) and
     /// optionally real logs: the README's accuracy figures from one command.
     Evaluate(cmd::evaluate::EvaluateArgs),
+    /// Nav2's AMCL (PyPI `amcl`) and the sequential localizer side by side from a global start:
+    /// scans, metres and seconds until each pose is right and stays right.
+    Amcl(Box<cmd::amcl::AmclArgs>),
 }
 
 #[derive(Subcommand)]
@@ -78,7 +81,8 @@ enum StageCommand {
 
 /// Lets a closed stdout end the process quietly, as it ends `ls` or `grep`: `gema2 map info M
 /// | head -1` would otherwise panic on the broken pipe. Not for the pipeline's processes, which
-/// handle their own signals and must not die with a consumer that stopped reading.
+/// handle their own signals and must not die with a consumer that stopped reading, nor for
+/// `gema2 amcl`, whose worker dying must be an error that says so.
 fn exit_quietly_on_a_closed_pipe() {
     // SAFETY: restoring a signal's default disposition, before any thread starts
     unsafe {
@@ -90,7 +94,7 @@ fn main() -> anyhow::Result<()> {
     let cli = Cli::parse();
     if !matches!(
         cli.command,
-        None | Some(Command::Run(_) | Command::Stage(_) | Command::EmulateUrg(_) | Command::Swap(_))
+        None | Some(Command::Run(_) | Command::Stage(_) | Command::EmulateUrg(_) | Command::Swap(_) | Command::Amcl(_))
     ) {
         exit_quietly_on_a_closed_pipe();
     }
@@ -101,6 +105,7 @@ fn main() -> anyhow::Result<()> {
         Some(Command::Bench(a)) => cmd::bench::run_bench(a),
         Some(Command::Demo(a)) => cmd::demo::run(a),
         Some(Command::Evaluate(a)) => cmd::evaluate::run(a),
+        Some(Command::Amcl(a)) => cmd::amcl::run(*a),
         Some(Command::Settings(a)) => cmd::settings::run(a),
         Some(Command::Run(a)) => supervisor::run(a),
         Some(Command::EmulateUrg(a)) => cmd::emulate::run(a),

@@ -325,7 +325,7 @@ fn locate_all(name: &str, map: &WallMap, config: &Gema2Config, scans: &[LaserSca
 }
 
 /// The CARMEN logs in `dir`, by name.
-fn carmen_logs(dir: &Path) -> Result<Vec<PathBuf>> {
+pub(crate) fn carmen_logs(dir: &Path) -> Result<Vec<PathBuf>> {
     let mut logs: Vec<PathBuf> = std::fs::read_dir(dir)
         .with_context(|| format!("reading {}", dir.display()))?
         .map(|e| e.map(|e| e.path()))
@@ -342,7 +342,7 @@ fn carmen_logs(dir: &Path) -> Result<Vec<PathBuf>> {
     Ok(logs)
 }
 
-fn log_stem(log: &Path) -> String {
+pub(crate) fn log_stem(log: &Path) -> String {
     let name = log.file_name().and_then(|n| n.to_str()).unwrap_or("log");
     name.trim_end_matches(".gz").trim_end_matches(".log").to_string()
 }
@@ -358,7 +358,7 @@ fn grid_map(log: &Path, offset: usize) -> Result<WallMap> {
 /// The map `gema2 map build` makes of every other scan of `log` from `offset`, as its file
 /// reads back. The log's malformed lines are left out unreported: [`run`] reported them when
 /// it read the log.
-fn built_map(log: &Path, offset: usize) -> Result<WallMap> {
+pub(crate) fn built_map(log: &Path, offset: usize) -> Result<WallMap> {
     let map = build_map::build(&BuildArgs::every_other(log, offset)?, &mut Malformed::silent())?.map;
     Ok(WallMap::parse(&map.to_json("built"), log)?)
 }

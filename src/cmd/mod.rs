@@ -1,5 +1,6 @@
 //! One module per subcommand.
 
+pub mod amcl;
 pub mod bench;
 pub mod build_map;
 pub mod corners;
