@@ -29,6 +29,14 @@ fn quiet_iceoryx2() {
     set_log_level_from_env_or(LogLevel::Error);
 }
 
+/// How many connections to publishers that have gone each subscriber keeps until what it holds
+/// from them is returned. iceoryx2's default, 128, costs every subscriber about 470 KB of its
+/// own memory (a slot per connection, each a few KB of names), more than a localizer needs for
+/// anything else; a connection kept here is only one whose publisher went while this process
+/// still held its samples, and a subscriber holds at most [`crate::MODEL_HELD`] (the model)
+/// or 2 (iceoryx2's default elsewhere), so 8 covers every publisher that can go at once.
+pub const EXPIRED_CONNECTIONS: usize = 8;
+
 /// Creates this process's node. Termination signals (SIGINT, SIGTERM) are left to iceoryx2,
 /// which records them for the node; [`crate::run_waitset`] and [`crate::sleep`] then return so
 /// the process can finish cleanly (and, unlike iceoryx2's own loops, only then).
@@ -36,7 +44,10 @@ pub fn create_node(name: &str) -> Result<Node<ipc::Service>, RuntimeError> {
     quiet_iceoryx2();
     let node_name =
         NodeName::new(name).map_err(|e| RuntimeError::Node { name: name.into(), message: format!("{e:?}") })?;
+    let mut config = Config::global_config().clone();
+    config.defaults.publish_subscribe.subscriber_expired_connection_buffer = EXPIRED_CONNECTIONS;
     NodeBuilder::new()
+        .config(&config)
         .name(&node_name)
         .signal_handling_mode(SignalHandlingMode::HandleTerminationRequests)
         .create::<ipc::Service>()
