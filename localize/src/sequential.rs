@@ -229,20 +229,27 @@ impl Sequential {
             |spread: f64, step: f64, most: i32| ((cfg.gate_sigmas * spread / step).ceil() as i32).clamp(0, most);
         let turns = sides(turn, cfg.start_step, cfg.max_start_sides);
         let shifts = sides((spread - cfg.position_step).max(0.0), cfg.position_step, cfg.max_position_sides);
-        let mut starts = Vec::new();
+        // the grid's steps, nearest the prediction first: the screen then knows a good sum
+        // early and gives up on most far starts part way through their points
+        let mut steps = Vec::new();
+        for k in -turns..=turns {
+            for i in -shifts..=shifts {
+                for j in -shifts..=shifts {
+                    steps.push((k, i, j));
+                }
+            }
+        }
+        steps.sort_by_key(|&(k, i, j)| k * k + i * i + j * j);
+        let mut starts = Vec::with_capacity(steps.len());
         // per track: where odometry puts it, and the best pose found about there
         let mut found = Vec::with_capacity(self.tracks.len());
         for t in &self.tracks {
             let predicted = t.pose * delta;
             starts.clear();
             let (c, heading) = (predicted.translation.vector, pose_theta(&predicted));
-            for k in -turns..=turns {
-                for i in -shifts..=shifts {
-                    for j in -shifts..=shifts {
-                        let at = c + nalgebra::Vector2::new(f64::from(i), f64::from(j)) * cfg.position_step;
-                        starts.push(nalgebra::Isometry2::new(at, heading + f64::from(k) * cfg.start_step));
-                    }
-                }
+            for &(k, i, j) in &steps {
+                let at = c + nalgebra::Vector2::new(f64::from(i), f64::from(j)) * cfg.position_step;
+                starts.push(nalgebra::Isometry2::new(at, heading + f64::from(k) * cfg.start_step));
             }
             self.localizer.search_around(scan, seg, &starts, cfg.refined, &mut self.scored);
             let fallback = (predicted, Cost { value: f64::INFINITY, inliers: 0.0, through: 1.0, beams: 0 });
