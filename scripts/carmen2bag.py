@@ -7,7 +7,8 @@ Topics:
   /truth  geometry_msgs/msg/PoseStamped, frame `map`: the laser pose the line carries (the
           corrected pose of a SLAM-corrected log), unless the log says its poses are not
           ground truth;
-  /odom   nav_msgs/msg/Odometry, frame `odom`: a FLASER line's odometry pose.
+  /odom   nav_msgs/msg/Odometry, frame `odom`: a FLASER line's odometry pose, a ROBOTLASER1
+          line's robot pose (gema2 reads both as odometry).
 
 The scans are read as gema2 reads them (docs/sensors.md): a FLASER line's n readings start at
 -90 degrees and span 180 (pi/n apart for 180 or 360 readings, pi/(n-1) otherwise), unless
@@ -65,7 +66,8 @@ def flaser(t, args):
 
 
 def robotlaser1(t):
-    """A ROBOTLASER1 line's scan, with or without the laser_type field."""
+    """A ROBOTLASER1 line's scan, with or without the laser_type field: (start, increment,
+    range_max, ranges, laser pose, robot pose, stamp)."""
 
     def fits(k):
         try:
@@ -87,9 +89,10 @@ def robotlaser1(t):
     m = int(t[b + 7 + n])
     p = b + 8 + n + m
     laser = tuple(float(v) for v in t[p : p + 3])
+    robot = tuple(float(v) for v in t[p + 3 : p + 6]) if len(t) >= p + 6 else None
     inc = res if res != 0.0 else (fov / (n - 1) if n > 1 else 0.0)
     stamp = float(t[p + 11]) if len(t) > p + 11 else math.nan
-    return start, inc, max_range, ranges, laser, None, stamp
+    return start, inc, max_range, ranges, laser, robot, stamp
 
 
 def stamp_of(seconds):

@@ -7,6 +7,8 @@ It publishes, as ROS 2 does:
                  (ROBOTLASER1 lines, e.g. from `gema2 sim`) at --rate, stamped 0.025 s apart;
   rt/tf_static   tf2_msgs::msg::dds_::TFMessage_ (reliable, transient local): base_link ->
                  laser at --laser-pose;
+  rt/odom        with --odom, nav_msgs::msg::dds_::Odometry_ (reliable): each line's robot pose
+                 (ROBOTLASER1's odometry), stamped as its scan and written just before it;
 and, with --grid, a map_server map (YAML and PGM) on rt/map as nav_msgs::msg::dds_::OccupancyGrid_
 (reliable, transient local), as a ROS 2 map_server does; and subscribes to rt/gema2/pose and
 rt/initialpose (PoseWithCovarianceStamped, reliable).
@@ -16,7 +18,8 @@ and the latency from publishing the scan to receiving its pose (ms); then, on st
 latency's p50 and p99. Run every DDS participant of a test in a network namespace (the test
 does): discovery multicasts.
 
-Usage: ros2_peer.py LOG [--rate HZ] [--laser-pose x,y,yaw] [--grid MAP.yaml] [--wait S] [--domain N]
+Usage: ros2_peer.py LOG [--rate HZ] [--laser-pose x,y,yaw] [--grid MAP.yaml] [--odom] [--wait S]
+       [--domain N]
 """
 
 import argparse
@@ -103,6 +106,26 @@ class PoseWithCovarianceStamped(IdlStruct, typename="geometry_msgs::msg::dds_::P
 
 
 @dataclass
+class Twist(IdlStruct, typename="geometry_msgs::msg::dds_::Twist_"):
+    linear: Vector3
+    angular: Vector3
+
+
+@dataclass
+class TwistWithCovariance(IdlStruct, typename="geometry_msgs::msg::dds_::TwistWithCovariance_"):
+    twist: Twist
+    covariance: array[float64, 36]
+
+
+@dataclass
+class Odometry(IdlStruct, typename="nav_msgs::msg::dds_::Odometry_"):
+    header: Header
+    child_frame_id: str
+    pose: PoseWithCovariance
+    twist: TwistWithCovariance
+
+
+@dataclass
 class MapMetaData(IdlStruct, typename="nav_msgs::msg::dds_::MapMetaData_"):
     map_load_time: Time
     resolution: float32
@@ -151,7 +174,7 @@ STEP = 0.025  # between stamps
 
 
 def scans_of(log):
-    """(start, increment, range_max, ranges) of each ROBOTLASER1 line."""
+    """(start, increment, range_max, ranges, robot pose) of each ROBOTLASER1 line."""
     sys.path.insert(0, str(__import__("pathlib").Path(__file__).parent))
     from carmen2bag import robotlaser1  # the converter's parser: one reading of the format
 
@@ -159,8 +182,8 @@ def scans_of(log):
     for line in open(log):
         t = line.split()
         if t and t[0] == "ROBOTLASER1":
-            start, inc, max_range, ranges, _, _, _ = robotlaser1(t)
-            out.append((start, inc, max_range, ranges))
+            start, inc, max_range, ranges, _, robot, _ = robotlaser1(t)
+            out.append((start, inc, max_range, ranges, robot))
     return out
 
 
@@ -226,12 +249,14 @@ def main():
     ap.add_argument("--domain", type=int, default=0)
     ap.add_argument("--grid", help="a map_server YAML map to publish on rt/map")
     ap.add_argument("--regrid-after", type=int, help="publish the grid again after this many scans (a map update)")
+    ap.add_argument("--odom", action="store_true", help="publish each line's robot pose on rt/odom")
     args = ap.parse_args()
     mount = [float(v) for v in args.laser_pose.split(",")]
     scans = scans_of(args.log)
 
     dp = DomainParticipant(args.domain)
     scan_w = DataWriter(dp, Topic(dp, "rt/scan", LaserScan), qos=SENSOR)
+    odom_w = DataWriter(dp, Topic(dp, "rt/odom", Odometry), qos=RELIABLE) if args.odom else None
     tf_w = DataWriter(dp, Topic(dp, "rt/tf_static", TFMessage), qos=LATCHED)
     if args.grid:
         map_w = DataWriter(dp, Topic(dp, "rt/map", OccupancyGrid), qos=LATCHED)
@@ -254,7 +279,11 @@ def main():
     )
     # the bridge's scan reader and pose writer must be found before the first scan
     deadline = time.monotonic() + args.discovery
-    while not (scan_w.get_matched_subscriptions() and readers["gema2/pose"].get_matched_publications()):
+    while not (
+        scan_w.get_matched_subscriptions()
+        and readers["gema2/pose"].get_matched_publications()
+        and (odom_w is None or odom_w.get_matched_subscriptions())
+    ):
         if time.monotonic() > deadline:
             sys.exit("no gema2 bridge found on DDS")
         time.sleep(0.05)
@@ -288,14 +317,30 @@ def main():
     collector.start()
     period = 1.0 / args.rate
     t0 = time.monotonic()
-    for k, (start, inc, max_range, ranges) in enumerate(scans):
+    for k, (start, inc, max_range, ranges, robot) in enumerate(scans):
         due = t0 + k * period
         while time.monotonic() < due:
             time.sleep(min(0.001, max(0.0, due - time.monotonic())))
         stamp = START + k * STEP
         sec = int(stamp)
+        at = Time(sec=sec, nanosec=int(round((stamp - sec) * 1e9)))
+        if odom_w is not None and robot is not None:
+            x, y, yaw = robot
+            odom_w.write(
+                Odometry(
+                    header=Header(stamp=at, frame_id="odom"),
+                    child_frame_id="base_link",
+                    pose=PoseWithCovariance(
+                        pose=Pose(position=Point(x=x, y=y, z=0.0), orientation=quaternion(yaw)), covariance=[0.0] * 36
+                    ),
+                    twist=TwistWithCovariance(
+                        twist=Twist(linear=Vector3(x=0.0, y=0.0, z=0.0), angular=Vector3(x=0.0, y=0.0, z=0.0)),
+                        covariance=[0.0] * 36,
+                    ),
+                )
+            )
         msg = LaserScan(
-            header=Header(stamp=Time(sec=sec, nanosec=int(round((stamp - sec) * 1e9))), frame_id="laser"),
+            header=Header(stamp=at, frame_id="laser"),
             angle_min=start,
             angle_max=start + inc * (len(ranges) - 1),
             angle_increment=inc,

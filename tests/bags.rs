@@ -297,3 +297,34 @@ fn the_pipeline_replays_a_bag_as_fast_as_it_goes_or_as_recorded() {
         }
     }
 }
+
+/// Odometry from a bag: carmen2bag.py writes each ROBOTLASER1 line's robot pose on /odom, and
+/// `locate --bag --odom-topic /odom --sequential` carries its hypotheses by it as `--log
+/// --sequential` does by the log's own: the same rows, and answers that rest on several scans.
+/// Without the odometry topic every answer rests on its own scan.
+#[test]
+fn a_bag_s_odometry_carries_the_sequential_localizer_as_the_log_s_does() {
+    let dir = tempfile::tempdir().unwrap();
+    let log = sim(dir.path(), "walk.log", 60, &["--trajectory"]);
+    let bag = dir.path().join("walk-bag");
+    carmen2bag(&log, &bag, &[]);
+    let seq = ["--sequential"];
+    let (by_log, _) = locate(dir.path(), "walk-log", MAP, &["--log", log.to_str().unwrap()], &seq);
+    let bag_s = bag.to_str().unwrap();
+    let with_odom = ["--bag", bag_s, "--truth-topic", "/truth", "--odom-topic", "/odom"];
+    let (by_bag, _) = locate(dir.path(), "walk-bag", MAP, &with_odom, &seq);
+    assert_eq!(by_log.len(), by_bag.len());
+    let (agree, ties) = agreeing(&by_log, &by_bag);
+    assert!(agree * 100 >= by_log.len() * 95, "{agree} of {} rows agree ({ties} ties)", by_log.len());
+    // the CSV's last column: the scans an answer rests on
+    let resting = |name: &str| -> Vec<u32> {
+        let text = std::fs::read_to_string(dir.path().join(format!("{name}.csv"))).unwrap();
+        text.lines().skip(1).map(|l| l.rsplit(',').next().unwrap().parse().unwrap()).collect()
+    };
+    let (from_log, from_bag) = (resting("walk-log"), resting("walk-bag"));
+    assert_eq!(from_log, from_bag);
+    assert!(from_bag.iter().any(|&n| n >= 10), "{from_bag:?}");
+    // no odometry topic: nothing carried from scan to scan
+    let (_, _) = locate(dir.path(), "walk-bare", MAP, &["--bag", bag_s, "--truth-topic", "/truth"], &seq);
+    assert!(resting("walk-bare").iter().all(|&n| n <= 1), "{:?}", resting("walk-bare"));
+}

@@ -188,3 +188,63 @@ fn the_map_comes_from_a_ros_2_map_server() {
         .count();
     assert!(right * 10 >= truth.len() * 8, "{right} of {} scans located right: {context}", truth.len());
 }
+
+/// Odometry over DDS: Cyclone DDS publishes the robot's nav_msgs/Odometry on /odom with each
+/// scan, the ros2 stage gives every scan the odometry at its stamp, and the sequential localizer
+/// (`implementation = "sequential"`) carries its hypotheses from scan to scan by it: its answers
+/// come to rest on several scans. Without odometry every scan would rest on itself alone.
+#[test]
+fn odometry_over_dds_carries_the_sequential_localizer_from_scan_to_scan() {
+    if !namespaces_work() {
+        common::skipped(
+            "odometry_over_dds_carries_the_sequential_localizer_from_scan_to_scan",
+            "no network namespace (unshare --net)",
+        );
+        return;
+    }
+    let python = common::python();
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    // a robot walking the office, its exact odometry in each line's robot pose
+    let log = d.join("walk.log");
+    let sim = Command::new(exe())
+        .args(["sim", "--map", "office", "--trajectory", "--scans", "100", "--seed", "4"])
+        .args(["--out", log.to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert!(sim.status.success(), "{}", String::from_utf8_lossy(&sim.stderr));
+    let text = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/pipelines/ros2.toml")).unwrap();
+    let text = text.replace("kind = \"localize\"\n", "kind = \"localize\"\nimplementation = \"sequential\"\n");
+    assert!(text.contains("implementation = \"sequential\""), "{text}");
+    let pipeline = d.join("ros2-sequential.toml");
+    std::fs::write(&pipeline, text).unwrap();
+    let peer = concat!(env!("CARGO_MANIFEST_DIR"), "/scripts/ros2_peer.py");
+    let prefix = format!("tros2odom_{}", std::process::id());
+    let script = format!(
+        "cd {dir}\n\
+         GEMA2_MAP=office {exe} run --pipeline {pipeline} --prefix {prefix} --scans 100 --timeout 90 --out online.csv \
+           > run.out 2> run.err &\n\
+         run=$!\n\
+         {python} {peer} {log} --rate 20 --odom > peer.out 2> peer.err\n\
+         echo peer $?\n\
+         wait $run\n\
+         echo run $?\n",
+        dir = d.display(),
+        exe = exe(),
+        pipeline = pipeline.display(),
+        python = python.display(),
+        log = log.display(),
+    );
+    let out = in_namespace(&script);
+    let said = String::from_utf8_lossy(&out.stdout);
+    let logs = |f: &str| std::fs::read_to_string(d.join(f)).unwrap_or_default();
+    let context = format!("{said}\nrun: {}\npeer: {}", logs("run.err"), logs("peer.err"));
+    assert!(said.contains("peer 0") && said.contains("run 0"), "{context}");
+    let online = rows(&d.join("online.csv"));
+    assert_eq!(online.first().map(|h| h[11].as_str()), Some("scans"), "{context}");
+    let located: Vec<&Vec<String>> = online.iter().skip(1).filter(|r| r[5] != "failed").collect();
+    assert!(located.len() >= 90, "{} of 100 located: {context}", located.len());
+    let resting = |n: u32| located.iter().filter(|r| r[11].parse::<u32>().unwrap_or(0) >= n).count();
+    assert!(resting(2) * 2 >= located.len(), "{} of {} rest on 2 scans or more: {context}", resting(2), located.len());
+    assert!(resting(10) > 0, "none rests on 10 scans: {context}");
+}
