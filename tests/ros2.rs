@@ -38,13 +38,42 @@ fn rows(path: &Path) -> Vec<Vec<String>> {
         .collect()
 }
 
+/// Runs, in a new network namespace and in `d`, the pipeline file `pipeline` on the office for
+/// `scans` scans beside the Cyclone peer sending `log` (with `peer_args`), and checks that both
+/// ended well. Returns what the run and the peer said, for the checks that follow.
+fn office_beside_the_peer(d: &Path, pipeline: &Path, name: &str, scans: usize, log: &Path, peer_args: &str) -> String {
+    let python = common::python();
+    let peer = concat!(env!("CARGO_MANIFEST_DIR"), "/scripts/ros2_peer.py");
+    let prefix = format!("{name}_{}", std::process::id());
+    let script = format!(
+        "cd {dir}\n\
+         GEMA2_MAP=office {exe} run --pipeline {pipeline} --prefix {prefix} --scans {scans} --timeout 90 --out online.csv \
+           > run.out 2> run.err &\n\
+         run=$!\n\
+         {python} {peer} {log} {peer_args} > peer.out 2> peer.err\n\
+         echo peer $?\n\
+         wait $run\n\
+         echo run $?\n",
+        dir = d.display(),
+        exe = exe(),
+        pipeline = pipeline.display(),
+        python = python.display(),
+        log = log.display(),
+    );
+    let out = in_namespace(&script);
+    let said = String::from_utf8_lossy(&out.stdout);
+    let logs = |f: &str| std::fs::read_to_string(d.join(f)).unwrap_or_default();
+    let context = format!("{said}\nrun: {}\npeer: {}", logs("run.err"), logs("peer.err"));
+    assert!(said.contains("peer 0") && said.contains("run 0"), "{context}");
+    context
+}
+
 #[test]
 fn cyclone_dds_scans_in_and_poses_out_with_none_lost() {
     if !namespaces_work() {
         common::skipped("cyclone_dds_scans_in_and_poses_out_with_none_lost", "no network namespace (unshare --net)");
         return;
     }
-    let python = common::python();
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     // a UST-10LX's scans: 1081 beams over 270 degrees, to 10 m
@@ -55,28 +84,9 @@ fn cyclone_dds_scans_in_and_poses_out_with_none_lost() {
         .output()
         .unwrap();
     assert!(sim.status.success(), "{}", String::from_utf8_lossy(&sim.stderr));
-    let pipeline = concat!(env!("CARGO_MANIFEST_DIR"), "/pipelines/ros2.toml");
-    let peer = concat!(env!("CARGO_MANIFEST_DIR"), "/scripts/ros2_peer.py");
-    let prefix = format!("tros2_{}", std::process::id());
-    let script = format!(
-        "cd {dir}\n\
-         GEMA2_MAP=office {exe} run --pipeline {pipeline} --prefix {prefix} --scans 200 --timeout 90 --out online.csv \
-           > run.out 2> run.err &\n\
-         run=$!\n\
-         {python} {peer} {log} --rate 40 --laser-pose 0.2,0.05,0.1 > peer.out 2> peer.err\n\
-         echo peer $?\n\
-         wait $run\n\
-         echo run $?\n",
-        dir = d.display(),
-        exe = exe(),
-        python = python.display(),
-        log = log.display(),
-    );
-    let out = in_namespace(&script);
-    let said = String::from_utf8_lossy(&out.stdout);
+    let pipeline = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/pipelines/ros2.toml"));
+    let context = office_beside_the_peer(d, pipeline, "tros2", 200, &log, "--rate 40 --laser-pose 0.2,0.05,0.1");
     let logs = |f: &str| std::fs::read_to_string(d.join(f)).unwrap_or_default();
-    let context = format!("{said}\nrun: {}\npeer: {}", logs("run.err"), logs("peer.err"));
-    assert!(said.contains("peer 0") && said.contains("run 0"), "{context}");
     // every scan located by the pipeline reached ROS, as the robot's pose of that scan
     let online = rows(&d.join("online.csv"));
     let located: Vec<&Vec<String>> = online.iter().skip(1).filter(|r| r[5] != "failed").collect();
@@ -202,7 +212,6 @@ fn odometry_over_dds_carries_the_sequential_localizer_from_scan_to_scan() {
         );
         return;
     }
-    let python = common::python();
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     // a robot walking the office, its exact odometry in each line's robot pose
@@ -218,28 +227,7 @@ fn odometry_over_dds_carries_the_sequential_localizer_from_scan_to_scan() {
     assert!(text.contains("implementation = \"sequential\""), "{text}");
     let pipeline = d.join("ros2-sequential.toml");
     std::fs::write(&pipeline, text).unwrap();
-    let peer = concat!(env!("CARGO_MANIFEST_DIR"), "/scripts/ros2_peer.py");
-    let prefix = format!("tros2odom_{}", std::process::id());
-    let script = format!(
-        "cd {dir}\n\
-         GEMA2_MAP=office {exe} run --pipeline {pipeline} --prefix {prefix} --scans 100 --timeout 90 --out online.csv \
-           > run.out 2> run.err &\n\
-         run=$!\n\
-         {python} {peer} {log} --rate 20 --odom > peer.out 2> peer.err\n\
-         echo peer $?\n\
-         wait $run\n\
-         echo run $?\n",
-        dir = d.display(),
-        exe = exe(),
-        pipeline = pipeline.display(),
-        python = python.display(),
-        log = log.display(),
-    );
-    let out = in_namespace(&script);
-    let said = String::from_utf8_lossy(&out.stdout);
-    let logs = |f: &str| std::fs::read_to_string(d.join(f)).unwrap_or_default();
-    let context = format!("{said}\nrun: {}\npeer: {}", logs("run.err"), logs("peer.err"));
-    assert!(said.contains("peer 0") && said.contains("run 0"), "{context}");
+    let context = office_beside_the_peer(d, &pipeline, "tros2odom", 100, &log, "--rate 20 --odom");
     let online = rows(&d.join("online.csv"));
     assert_eq!(online.first().map(|h| h[11].as_str()), Some("scans"), "{context}");
     let located: Vec<&Vec<String>> = online.iter().skip(1).filter(|r| r[5] != "failed").collect();
