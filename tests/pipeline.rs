@@ -681,7 +681,10 @@ fn a_localizer_started_late_receives_the_map() {
 }
 
 /// A new map version reaches a localizer that is locating: it switches between two scans, and
-/// no scan is lost or located twice on the way.
+/// no scan is lost or located twice on the way. Version 2 is the same map again (SIGHUP);
+/// version 3, the file rewritten with a building beside the office, has a larger model than
+/// the map server's chunks hold, so it comes from a new publisher while the localizer still
+/// holds version 2's block from the old one.
 #[test]
 fn a_new_map_version_is_taken_up_between_two_scans_and_loses_none() {
     let dir = tempfile::tempdir().unwrap();
@@ -704,10 +707,33 @@ fn a_new_map_version_is_taken_up_between_two_scans_and_loses_none() {
         // SAFETY: kill(2) on a stage of this test's pipeline.
         unsafe { libc::kill(pid as i32, libc::SIGHUP) };
     }
+    std::thread::sleep(Duration::from_millis(1000));
+    // a second building 100 m east, 40 m by 40, with a wall every 2 m: many more walls and
+    // cells than the office alone
+    let office = include_str!("../maps/office.json");
+    let mut extra = String::new();
+    for k in 0..20 {
+        let y = 2.0 * f64::from(k);
+        extra +=
+            &format!("    [100.0, {y:.1}, 140.0, {y:.1}],\n    [{:.1}, 0.0, {:.1}, 40.0],\n", 100.0 + y, 100.0 + y);
+    }
+    let larger = office.replacen("\"walls\": [\n", &format!("\"walls\": [\n{extra}"), 1);
+    assert_ne!(larger, office);
+    let next = dir.path().join("office.json.new");
+    std::fs::write(&next, larger).unwrap();
+    std::fs::rename(&next, &map).unwrap();
     let out = run.wait_with_output().unwrap();
     let said = String::from_utf8_lossy(&out.stderr);
     assert!(out.status.success(), "{said}");
     assert!(said.contains("localize: map version 2 ("), "the localizer never took version 2: {said}");
+    let block_mb = |version: u32| {
+        said.lines()
+            .find(|l| l.contains(&format!("localize: map version {version} (")))
+            .and_then(|l| l.split("): ").nth(1)?.split(" MB").next()?.parse::<f64>().ok())
+    };
+    let (two, three) = (block_mb(2), block_mb(3));
+    assert!(three.is_some(), "the localizer never took the larger version 3: {said}");
+    assert!(three > two, "version 3's model ({three:?} MB) is not larger than version 2's ({two:?} MB)");
     assert_every_pose_once(&csv, 200);
 }
 

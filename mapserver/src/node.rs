@@ -15,8 +15,8 @@ use mapio::load_map;
 use messages::iceoryx2::port::update_connections::UpdateConnections;
 use messages::iceoryx2::service::port_factory::PortFactory as _;
 use messages::{
-    open_corner_queries, open_model_topic, open_topic, publish, publish_model, CornerQuery, CornerReply, MapCornerMsg,
-    MapMsg, Topic, MAX_CORNERS, MAX_WALLS,
+    open_corner_queries, open_model_topic, open_topic, publish, CornerQuery, CornerReply, MapCornerMsg, MapMsg,
+    ModelOutlet, Topic, MAX_CORNERS, MAX_WALLS,
 };
 use nalgebra::Point2;
 use std::path::Path;
@@ -223,7 +223,7 @@ pub fn run(a: MapServerArgs) -> Result<()> {
     let publisher = topic.data.publisher_builder().create().with_context(|| format!("{}: publisher", topic.name))?;
     let notifier = topic.event.notifier_builder().create().with_context(|| format!("{}: notifier", topic.name))?;
     let model_topic = open_model_topic(&node, &a.stage.prefix)?;
-    let model_publisher = model_topic.publisher(current.block_len)?;
+    let mut model_out = ModelOutlet::new(&model_topic, current.block_len)?;
     let model_notifier =
         model_topic.event.notifier_builder().create().with_context(|| format!("{}: notifier", model_topic.name))?;
     let queries = open_corner_queries(&node, &a.stage.prefix)?;
@@ -232,8 +232,8 @@ pub fn run(a: MapServerArgs) -> Result<()> {
     // so the localizers take this one's map as a new version
     let mut version = running_version(&node, &topic)?.map_or(1, |v| v.wrapping_add(1).max(1));
     // the model first: a localizer that sees the walls' new version finds its model there
-    let send = |v: &Version, block: map::flat::FlatWriter, version: u32| -> Result<()> {
-        publish_model(&model_topic, &model_publisher, &model_notifier, version, MODEL_LAYOUT, block.bytes())?;
+    let send = |model_out: &mut ModelOutlet, v: &Version, block: map::flat::FlatWriter, version: u32| -> Result<()> {
+        model_out.publish(&model_topic, &model_notifier, version, MODEL_LAYOUT, block.bytes())?;
         let mut written = Ok(());
         let sent = publish(&publisher, &notifier, |m: &mut MapMsg| {
             written = crate::wire::map_to_msg(&v.model.map, version, m)
@@ -243,7 +243,7 @@ pub fn run(a: MapServerArgs) -> Result<()> {
             .and(sent.map(|_| ()).map_err(anyhow::Error::from))
             .with_context(|| topic.name.clone())
     };
-    send(&current, block, version)?;
+    send(&mut model_out, &current, block, version)?;
     messages::announce_ready(&node, &a.stage.prefix)?;
     let said = |v: &Version, what: &str, version: u32| {
         eprintln!(
@@ -260,7 +260,7 @@ pub fn run(a: MapServerArgs) -> Result<()> {
     // queries and late joiners are served every few milliseconds; the data path never waits here
     while messages::sleep(&node, Duration::from_millis(5)) {
         publisher.update_connections().with_context(|| topic.name.clone())?;
-        model_publisher.update_connections().with_context(|| model_topic.name.clone())?;
+        model_out.update_connections(&model_topic)?;
         // a reader that joined was just handed the history, with no wake-up of its own: wake it
         let readers = model_topic.data.dynamic_config().number_of_subscribers();
         if readers > model_readers {
@@ -291,7 +291,7 @@ pub fn run(a: MapServerArgs) -> Result<()> {
                 Ok((v, block)) => {
                     version += 1;
                     current = v;
-                    send(&current, block, version)?;
+                    send(&mut model_out, &current, block, version)?;
                     said(&current, what, version);
                 }
                 Err(e) => eprintln!("mapserver: kept version {version}: {e:#}"),

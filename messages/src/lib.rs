@@ -28,14 +28,14 @@ mod waiting;
 pub const WIRE_VERSION: u32 = 3;
 
 pub use inlet::{run_stage, Inlet, WaitError, MAX_LISTENERS};
-pub use model::{open_model_topic, publish_model, ModelHeader, ModelPorts, MODEL_ALIGN, MODEL_HELD};
+pub use model::{open_model_topic, ModelHeader, ModelOutlet, ModelPorts, MODEL_ALIGN, MODEL_HELD};
 pub use outlet::{Freshness, Outlet, SendError, CONNECT_PATIENCE, WARM_UP};
 pub use payload::*;
 pub use placement::pin_to_cpu;
 pub use publish::{publish, zeroed_box, PublishError, Zeroable};
 pub use runtime::{
     announce_ready, cleanup_dead_nodes, create_node, dead_node_pids, instance, monotonic_ns, ready_listener,
-    RuntimeError, StageArgs, MAX_INSTANCE, MISSED_WAKEUP_POLL,
+    RuntimeError, StageArgs, EXPIRED_CONNECTIONS, MAX_INSTANCE, MISSED_WAKEUP_POLL,
 };
 pub use topic::{
     open_control, open_corner_queries, open_events, open_pubsub, open_topic, service_name, OpenError, Topic,

@@ -14,6 +14,7 @@ use crate::topic::{open_event, parse_name, service_name, OpenError};
 use bytemuck::Zeroable;
 use iceoryx2::port::publisher::Publisher;
 use iceoryx2::port::subscriber::Subscriber;
+use iceoryx2::port::update_connections::UpdateConnections;
 use iceoryx2::prelude::*;
 use iceoryx2::service::port_factory::{event, publish_subscribe};
 
@@ -71,18 +72,6 @@ pub fn open_model_topic(node: &Node<ipc::Service>, prefix: &str) -> Result<Model
 }
 
 impl ModelPorts {
-    /// A publisher whose first chunks hold `block_len` bytes, growing (by powers of two) for a
-    /// larger model of a later version.
-    pub fn publisher(&self, block_len: usize) -> Result<Publisher<ipc::Service, [u8], ModelHeader>, OpenError> {
-        self.data
-            .publisher_builder()
-            .initial_max_slice_len(block_len.max(1))
-            .allocation_strategy(AllocationStrategy::PowerOfTwo)
-            .max_loaned_samples(1)
-            .create()
-            .map_err(|e| OpenError::Port { service: self.name.clone(), message: format!("publisher: {e:?}") })
-    }
-
     pub fn subscriber(&self) -> Result<Subscriber<ipc::Service, [u8], ModelHeader>, OpenError> {
         self.data
             .subscriber_builder()
@@ -91,24 +80,78 @@ impl ModelPorts {
     }
 }
 
-/// Publishes the model block `block` as `map_version` (its layout `layout`) and wakes the
-/// readers. The block is copied once, into the loaned chunk; readers read it there.
-pub fn publish_model(
-    ports: &ModelPorts,
-    publisher: &Publisher<ipc::Service, [u8], ModelHeader>,
-    notifier: &iceoryx2::port::notifier::Notifier<ipc::Service>,
-    map_version: u32,
-    layout: u64,
-    block: &[u8],
-) -> Result<(), OpenError> {
-    let fail = |what: &str, e: &dyn std::fmt::Debug| OpenError::Port {
-        service: ports.name.clone(),
-        message: format!("{what} {} bytes: {e:?}", block.len()),
-    };
-    let mut sample = publisher.loan_slice_uninit(block.len()).map_err(|e| fail("loan", &e))?;
-    *sample.user_header_mut() = ModelHeader { map_version, _pad: 0, layout, block_len: block.len() as u64 };
-    let sample = sample.write_from_slice(block);
-    sample.send().map_err(|e| fail("send", &e))?;
-    notifier.notify().map_err(|e| fail("notify", &e))?;
-    Ok(())
+/// The map server's side of the model topic: a publisher whose chunks hold the largest block
+/// sent so far, made anew (the old one first let go) when a later version's block is larger.
+///
+/// Its chunks lie in one fixed-size segment (iceoryx2's static allocation). A segment that
+/// grows instead costs every reader a table of all the segments it may grow to, about 290 KB
+/// of the reader's own memory, more than a tenth of a small map's model. A reader still
+/// holding a block of the publisher let go keeps it: it holds the expired connection
+/// ([`crate::EXPIRED_CONNECTIONS`]) until it releases the block.
+pub struct ModelOutlet {
+    publisher: Option<Publisher<ipc::Service, [u8], ModelHeader>>,
+    /// The bytes a chunk of `publisher` holds.
+    capacity: usize,
+}
+
+impl ModelOutlet {
+    /// An outlet whose chunks hold `block_len` bytes.
+    pub fn new(ports: &ModelPorts, block_len: usize) -> Result<Self, OpenError> {
+        let publisher = Self::publisher(ports, block_len)?;
+        Ok(ModelOutlet { publisher: Some(publisher), capacity: block_len.max(1) })
+    }
+
+    fn publisher(
+        ports: &ModelPorts,
+        block_len: usize,
+    ) -> Result<Publisher<ipc::Service, [u8], ModelHeader>, OpenError> {
+        ports
+            .data
+            .publisher_builder()
+            .initial_max_slice_len(block_len.max(1))
+            .allocation_strategy(AllocationStrategy::Static)
+            .max_loaned_samples(1)
+            .create()
+            .map_err(|e| OpenError::Port { service: ports.name.clone(), message: format!("publisher: {e:?}") })
+    }
+
+    /// Hands a reader that joined the history (the newest block).
+    pub fn update_connections(&self, ports: &ModelPorts) -> Result<(), OpenError> {
+        match &self.publisher {
+            Some(p) => p
+                .update_connections()
+                .map_err(|e| OpenError::Port { service: ports.name.clone(), message: format!("{e:?}") }),
+            None => Ok(()),
+        }
+    }
+
+    /// Publishes the model block `block` as `map_version` (its layout `layout`) and wakes the
+    /// readers. The block is copied once, into the loaned chunk; readers read it there. A block
+    /// larger than the chunks takes a new publisher, made after the old one is let go (the
+    /// service allows a map server and its replacement, one publisher each).
+    pub fn publish(
+        &mut self,
+        ports: &ModelPorts,
+        notifier: &iceoryx2::port::notifier::Notifier<ipc::Service>,
+        map_version: u32,
+        layout: u64,
+        block: &[u8],
+    ) -> Result<(), OpenError> {
+        let fail = |what: &str, e: &dyn std::fmt::Debug| OpenError::Port {
+            service: ports.name.clone(),
+            message: format!("{what} {} bytes: {e:?}", block.len()),
+        };
+        if block.len() > self.capacity || self.publisher.is_none() {
+            self.publisher = None;
+            self.publisher = Some(Self::publisher(ports, block.len())?);
+            self.capacity = block.len().max(1);
+        }
+        let Some(publisher) = &self.publisher else { return Err(fail("no publisher for", &())) };
+        let mut sample = publisher.loan_slice_uninit(block.len()).map_err(|e| fail("loan", &e))?;
+        *sample.user_header_mut() = ModelHeader { map_version, _pad: 0, layout, block_len: block.len() as u64 };
+        let sample = sample.write_from_slice(block);
+        sample.send().map_err(|e| fail("send", &e))?;
+        notifier.notify().map_err(|e| fail("notify", &e))?;
+        Ok(())
+    }
 }
