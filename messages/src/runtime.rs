@@ -159,7 +159,8 @@ fn ready_event(
 }
 
 /// Tells the supervisor (listening on `<prefix>/ready`) that this process's ports exist and it
-/// can take data: the event id is the instance number the supervisor gave it.
+/// can take data: the event id is the instance number the supervisor gave it. Start-up is over
+/// then, and the stack it used is given back ([`release_start_up_stack`]).
 pub fn announce_ready(node: &Node<ipc::Service>, prefix: &str) -> Result<(), crate::OpenError> {
     let port = |e: &dyn std::fmt::Debug| crate::OpenError::Port {
         service: crate::service_name(prefix, "ready"),
@@ -167,7 +168,43 @@ pub fn announce_ready(node: &Node<ipc::Service>, prefix: &str) -> Result<(), cra
     };
     let notifier = ready_event(node, prefix)?.notifier_builder().create().map_err(|e| port(&e))?;
     notifier.notify_with_custom_event_id(EventId::new(instance())).map_err(|e| port(&e))?;
+    release_start_up_stack();
     Ok(())
+}
+
+/// Stack kept below the caller's frame by [`release_start_up_stack`]: what a stage's loop
+/// reaches below where it announces itself ready.
+const STACK_KEPT: usize = 64 * 1024;
+
+/// Gives the system back the main thread's stack pages below the caller's frame (less
+/// [`STACK_KEPT`]). iceoryx2 reads its configuration and sets up a node in frames of tens of
+/// kilobytes, about 250 KB of stack that a stage then never uses again but would keep resident
+/// for its life. Nothing lives below the stack pointer, so the pages are free to drop; one
+/// touched again comes back zeroed, as new stack does. Elsewhere than on Linux's main thread
+/// it does nothing.
+pub fn release_start_up_stack() {
+    let here = 0u8;
+    let sp = std::ptr::addr_of!(here) as usize;
+    let Ok(maps) = std::fs::read_to_string("/proc/self/maps") else { return };
+    let Some((start, end)) = maps.lines().filter(|l| l.ends_with("[stack]")).find_map(|l| {
+        let (range, _) = l.split_once(' ')?;
+        let (a, b) = range.split_once('-')?;
+        Some((usize::from_str_radix(a, 16).ok()?, usize::from_str_radix(b, 16).ok()?))
+    }) else {
+        return;
+    };
+    // SAFETY: sysconf has no preconditions
+    let page = usize::try_from(unsafe { libc::sysconf(libc::_SC_PAGESIZE) }).unwrap_or(4096).max(1);
+    if !(start..end).contains(&sp) {
+        return; // not the main thread
+    }
+    let top = sp.saturating_sub(STACK_KEPT) / page * page;
+    if top > start {
+        // SAFETY: [start, top) lies in this process's stack mapping, wholly below the stack
+        // pointer less a margin, where no frame lives; MADV_DONTNEED on private anonymous
+        // memory only drops pages, which read back as zeros
+        unsafe { libc::madvise(start as *mut libc::c_void, top - start, libc::MADV_DONTNEED) };
+    }
 }
 
 /// The readiness event service the supervisor listens on.
