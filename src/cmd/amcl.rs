@@ -8,7 +8,7 @@
 //! filter, beam model and differential motion model) that this command feeds one scan at a
 //! time; the worker and its environment are the project's own (`scripts/python-env`).
 
-use super::evaluate::{built_map, carmen_logs, log_stem};
+use super::evaluate::{carmen_logs, log_stem, odd_scans_and_even_map};
 use super::Malformed;
 use crate::report::{quantile, Outcome, SUCCESS_HEADING_DEG, SUCCESS_POSITION};
 use crate::sequential::{odometry_noise, Odometry, SeqRun};
@@ -81,23 +81,21 @@ pub struct AmclArgs {
 
 /// How a start settled: the located scans up to and with the first of [`HOLD`] right poses in
 /// a row, the metres the robot drove from the start to it, and the seconds computed till then.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Settled {
     pub scans: usize,
     pub metres: f64,
     pub seconds: f64,
 }
 
-/// What one localizer did from one start.
+/// What one localizer did from one start, up to where it settled.
 #[derive(Clone, Copy, Debug, Default)]
 struct Track {
-    /// Per scan located so far: the run of right poses ending here, metres and seconds.
+    /// The scans located, metres driven and seconds computed so far.
+    so_far: Settled,
+    /// The right poses in a row up to the last scan, and where that run began.
     run: usize,
-    metres: f64,
-    seconds: f64,
-    located: usize,
-    /// Metres and seconds at each scan of the current run's first scan.
-    run_start: (usize, f64, f64),
+    run_start: Settled,
     settled: Option<Settled>,
 }
 
@@ -105,19 +103,17 @@ impl Track {
     /// Adds a located scan: whether its pose is right, the metres driven since the last scan
     /// and the seconds it took. Says whether the start has settled.
     fn add(&mut self, right: bool, metres: f64, seconds: f64) -> bool {
-        self.located += 1;
-        self.metres += metres;
-        self.seconds += seconds;
+        let s = &mut self.so_far;
+        (s.scans, s.metres, s.seconds) = (s.scans + 1, s.metres + metres, s.seconds + seconds);
         if !right {
             self.run = 0;
         } else {
             if self.run == 0 {
-                self.run_start = (self.located, self.metres, self.seconds);
+                self.run_start = self.so_far;
             }
             self.run += 1;
             if self.run >= HOLD && self.settled.is_none() {
-                let (scans, metres, seconds) = self.run_start;
-                self.settled = Some(Settled { scans, metres, seconds });
+                self.settled = Some(self.run_start);
             }
         }
         self.settled.is_some()
@@ -164,6 +160,7 @@ impl Worker {
 
     /// The filter's pose after `scan` with odometry `odom`, and its seconds.
     fn update(&mut self, item: &LogScan, odom: &Pose) -> Result<(Pose, f64)> {
+        use std::fmt::Write as _;
         let g = item.scan.geometry;
         let mut request = format!(
             "scan {} {} {} {} {} {} {} {}",
@@ -177,7 +174,7 @@ impl Worker {
             item.scan.ranges.len()
         );
         for r in &item.scan.ranges {
-            request += &format!(" {r}");
+            let _ = write!(request, " {r}");
         }
         let f = self.ask(&request, "pose")?;
         let num = |i: usize| -> Result<f64> {
@@ -229,16 +226,15 @@ pub fn run(a: AmclArgs) -> Result<()> {
         Some(p) => p.clone(),
         None => project_python()?,
     };
-    let dir = std::env::temp_dir().join(format!("gema2-amcl-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).with_context(|| format!("creating {}", dir.display()))?;
-    let _cleanup = RemoveOnDrop(dir.clone());
+    let scratch = super::ScratchDir::new("amcl")?;
+    let dir = scratch.path();
     let script = dir.join("amcl_worker.py");
     std::fs::write(&script, WORKER).with_context(|| format!("writing {}", script.display()))?;
 
     let mut malformed = Malformed::default();
-    let logs: Vec<(PathBuf, Option<usize>)> = match (&a.carmen, &a.log) {
-        (Some(d), _) => carmen_logs(d)?.into_iter().map(|l| (l, Some(1))).collect(),
-        (None, Some(l)) => vec![(l.clone(), None)],
+    let logs: Vec<PathBuf> = match (&a.carmen, &a.log) {
+        (Some(d), _) => carmen_logs(d)?,
+        (None, Some(l)) => vec![l.clone()],
         (None, None) => bail!("give --carmen DIR, or --log LOG with --map MAP"),
     };
     let odometry_said = noise.map_or("the log's".to_string(), |n| format!("drawn with noise {:?}", n.alphas));
@@ -250,8 +246,8 @@ pub fn run(a: AmclArgs) -> Result<()> {
     println!("{title}\n");
     println!("{:<28} {:>6}  {:<26} {:<26}", "log", "start", "AMCL scans / m / s", "gema2 scans / m / s");
     let mut rows = Vec::new();
-    for (log, odd) in &logs {
-        let case = load_case(log, *odd, a.map.as_deref(), noise, a.odom_seed, &mut malformed)?;
+    for log in &logs {
+        let case = load_case(log, a.map.as_deref(), noise, a.odom_seed, &mut malformed)?;
         let yaml = dir.join("map.yaml");
         let grid = mapio::OccupancyGrid::from_walls(&case.map, a.resolution, 0.0).map_err(anyhow::Error::msg)?;
         grid.save(&yaml)?;
@@ -275,26 +271,24 @@ pub fn run(a: AmclArgs) -> Result<()> {
     malformed.into_result("skipped")
 }
 
-/// The log's scans to locate, their odometry, and its map: with `odd`, the log's odd scans and
-/// the map of its even ones; else every scan and `map`.
+/// The log's scans to locate, their odometry, and its map: every scan against `map` when one
+/// is given, else the log's odd scans against the map of its even ones.
 fn load_case(
     log: &Path,
-    odd: Option<usize>,
     map: Option<&str>,
     noise: Option<laser::motion::OdometryNoise>,
     seed: u64,
     malformed: &mut Malformed,
 ) -> Result<Case> {
-    let mut items = Vec::new();
-    for item in CarmenReader::open(log, FlaserLayout::default())? {
-        items.push(malformed.take(item)?);
-    }
-    let (map, items): (WallMap, Vec<LogScan>) = match (odd, map) {
-        (Some(offset), _) => {
-            (built_map(log, 1 - offset)?, items.into_iter().skip(offset).step_by(2).flatten().collect())
+    let (map, items) = match map {
+        None => odd_scans_and_even_map(log, malformed)?,
+        Some(m) => {
+            let mut items = Vec::new();
+            for item in CarmenReader::open(log, FlaserLayout::default())? {
+                items.extend(malformed.take(item)?);
+            }
+            (mapio::load_map(m)?, items)
         }
-        (None, Some(m)) => (mapio::load_map(m)?, items.into_iter().flatten().collect()),
-        (None, None) => bail!("{}: no map to locate it in", log.display()),
     };
     let mut drawn = Odometry::new(noise, seed);
     let mut odometry = Vec::with_capacity(items.len());
@@ -349,14 +343,10 @@ fn run_start(
             let (pose, seconds) = worker.update(item, odom)?;
             let right = Outcome::of(localize::Status::Ok, Some(pose), truth, 0.0).success();
             amcl.add(right, step, seconds);
-        } else {
-            amcl.metres += step;
         }
         if ours.settled.is_none() {
             let o = gema2.locate(&item.scan, Some(*odom));
             ours.add(o.outcome.success(), step, o.outcome.micros * 1e-6);
-        } else {
-            ours.metres += step;
         }
         if amcl.settled.is_some() && ours.settled.is_some() {
             break;
@@ -441,15 +431,6 @@ fn project_python() -> Result<PathBuf> {
         bail!("{} failed: {}", script.display(), String::from_utf8_lossy(&out.stderr).trim());
     }
     Ok(PathBuf::from(String::from_utf8_lossy(&out.stdout).trim()))
-}
-
-/// Removes a scratch folder when the command ends, however it ends.
-struct RemoveOnDrop(PathBuf);
-
-impl Drop for RemoveOnDrop {
-    fn drop(&mut self) {
-        let _ = std::fs::remove_dir_all(&self.0);
-    }
 }
 
 #[cfg(test)]

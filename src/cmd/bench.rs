@@ -96,8 +96,8 @@ fn pipeline_file(layout: &Layout, warm_up_us: u64) -> String {
 }
 
 fn bench_pipeline(a: &BenchArgs) -> Result<()> {
-    let dir = std::env::temp_dir().join(format!("gema2-bench-{}", std::process::id()));
-    std::fs::create_dir_all(&dir)?;
+    let scratch = super::ScratchDir::new("bench")?;
+    let dir = scratch.path();
     let cores = std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1);
     let other = 1.min(cores - 1);
     let recorder = crate::supervisor::child::viewer_binary();
@@ -160,7 +160,6 @@ fn bench_pipeline(a: &BenchArgs) -> Result<()> {
             println!("recording: {:.1} MB", size as f64 / 1e6);
         }
     }
-    let _ = std::fs::remove_dir_all(&dir);
     Ok(())
 }
 

@@ -9,7 +9,7 @@
 use super::build_map::{self, BuildArgs};
 use super::Malformed;
 use crate::report::{Outcome, Summary};
-use acquire::{write_robotlaser1, CarmenReader, FlaserLayout, Scenario, SensorModel, Simulator};
+use acquire::{write_robotlaser1, CarmenReader, FlaserLayout, LogScan, Scenario, SensorModel, Simulator};
 use anyhow::{bail, Context, Result};
 use clap::Args;
 use laser::LaserScan;
@@ -363,6 +363,19 @@ pub(crate) fn built_map(log: &Path, offset: usize) -> Result<WallMap> {
     Ok(WallMap::parse(&map.to_json("built"), log)?)
 }
 
+/// The map `gema2 map build` makes of `log`'s even scans, and its odd scans as `gema2 locate
+/// --every 2 --offset 1` takes them: what a sequential run locates (`--sequential`, `gema2
+/// amcl`). A malformed line keeps its place, so the halves stay those; it is counted in
+/// `malformed` and located in neither.
+pub(crate) fn odd_scans_and_even_map(log: &Path, malformed: &mut Malformed) -> Result<(WallMap, Vec<LogScan>)> {
+    let mut items = Vec::new();
+    for item in CarmenReader::open(log, FlaserLayout::default())? {
+        items.push(malformed.take(item)?);
+    }
+    let odd = items.into_iter().skip(1).step_by(2).flatten().collect();
+    Ok((built_map(log, 0)?, odd))
+}
+
 /// `--sequential`: each CARMEN log's odd scans against the map of its even ones, by the
 /// sequential localizer, one row a log.
 fn sequential_suite(a: &EvaluateArgs, dir: &Path, config: &Gema2Config) -> Result<()> {
@@ -393,16 +406,12 @@ fn sequential_suite(a: &EvaluateArgs, dir: &Path, config: &Gema2Config) -> Resul
     println!("{}", head.join(" | "));
     let mut malformed = Malformed::default();
     for log in carmen_logs(dir)? {
-        let mut items = Vec::new();
-        for item in CarmenReader::open(&log, FlaserLayout::default())? {
-            items.push(malformed.take(item)?);
-        }
-        let model = Arc::new(MapModel::new(built_map(&log, 0)?, &config.map_corners));
+        let (map, odd) = odd_scans_and_even_map(&log, &mut malformed)?;
+        let model = Arc::new(MapModel::new(map, &config.map_corners));
         let mut run = SeqRun::new(Arc::clone(&model), config, a.seq.restart_every);
         let mut odometry = Odometry::new(noise, a.seq.odom_seed);
         let stem = log_stem(&log);
-        // the odd scans, as `gema2 locate --every 2 --offset 1` takes them
-        let odd: Vec<&acquire::LogScan> = items.iter().skip(1).step_by(2).flatten().collect();
+        let odd: Vec<&LogScan> = odd.iter().collect();
         let mut progress = crate::progress::Progress::scans(&stem, Some(odd.len() as u64));
         for item in &odd {
             let odom = odometry.next(item.odometry, item.scan.truth.as_ref(), false)?;

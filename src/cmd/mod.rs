@@ -15,6 +15,29 @@ pub mod scans;
 pub mod settings;
 pub mod sim;
 
+/// A scratch folder of this run, `<temp>/gema2-<what>-<pid>`, removed when dropped, however
+/// the command ends.
+pub struct ScratchDir(std::path::PathBuf);
+
+impl ScratchDir {
+    pub fn new(what: &str) -> anyhow::Result<Self> {
+        use anyhow::Context;
+        let dir = std::env::temp_dir().join(format!("gema2-{what}-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).with_context(|| format!("creating {}", dir.display()))?;
+        Ok(ScratchDir(dir))
+    }
+
+    pub fn path(&self) -> &std::path::Path {
+        &self.0
+    }
+}
+
+impl Drop for ScratchDir {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.0);
+    }
+}
+
 /// Parses a count that must be at least 1: `--every` (every 0th scan selects nothing),
 /// `sim --scans` (an empty log is no test of anything).
 pub fn positive_count(s: &str) -> Result<usize, String> {
