@@ -219,11 +219,13 @@ impl Simulator {
     /// Whether the way from `a` to `b` keeps clear of the walls and within the main free space.
     fn clear_way(&self, a: Point2<f64>, b: Point2<f64>) -> bool {
         let steps = ((b - a).norm() / 0.05).ceil().max(1.0) as usize;
-        (1..=steps).all(|k| {
-            let q = a + (b - a) * (k as f64 / steps as f64);
-            self.field.distance(q) >= self.clearance
-                && self.main_region.is_none_or(|main| self.free_space.region(q) == Some(main))
-        })
+        (1..=steps).all(|k| self.room_at(a + (b - a) * (k as f64 / steps as f64)))
+    }
+
+    /// Whether the robot fits at `q`: clear of the walls, in the main free space.
+    fn room_at(&self, q: Point2<f64>) -> bool {
+        self.field.distance(q) >= self.clearance
+            && self.main_region.is_none_or(|main| self.free_space.region(q) == Some(main))
     }
 
     /// A uniformly drawn pose in the main free space.
@@ -231,10 +233,7 @@ impl Simulator {
         let (lo, hi) = self.bounds;
         for _ in 0..100_000 {
             let q = Point2::new(self.rng.range(lo.x, hi.x), self.rng.range(lo.y, hi.y));
-            if self.field.distance(q) >= self.clearance
-                && self.main_region.is_none_or(|main| self.free_space.region(q) == Some(main))
-                && self.enclosed(q)
-            {
+            if self.room_at(q) && self.enclosed(q) {
                 return pose(q.x, q.y, self.rng.range(-std::f64::consts::PI, std::f64::consts::PI));
             }
         }

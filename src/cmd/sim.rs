@@ -128,17 +128,14 @@ pub fn run(a: SimArgs) -> Result<()> {
         let noise = a.odom_noise.as_deref().map(crate::sequential::odometry_noise).transpose()?;
         let noise = noise.unwrap_or(laser::motion::OdometryNoise::NONE);
         writeln!(w, "# gema2 sim: --trajectory --step {} --odom-noise {:?}", a.step, noise.alphas)?;
-        let mut rng = laser::rng::Rng::new(a.seed ^ 0x0D0_0D0);
-        let mut last: Option<(laser::Pose, laser::Pose)> = None;
+        let mut odometry = crate::sequential::Odometry::new(Some(noise), a.seed ^ 0x0D0_0D0);
+        let mut last: Option<laser::Pose> = None;
         for _ in 0..a.scans {
-            let scan = sim.next_scan_walking(last.as_ref().map(|(t, _)| t), a.step);
+            let scan = sim.next_scan_walking(last.as_ref(), a.step);
             let truth = scan.truth.context("a simulated scan has its pose")?;
-            let odometry = match last {
-                None => truth,
-                Some((from, odom)) => noise.sample(&from, &truth, &odom, &mut rng),
-            };
-            acquire::write_robotlaser1_with_odometry(&mut w, &scan, Some(&odometry))?;
-            last = Some((truth, odometry));
+            let odom = odometry.next(None, Some(&truth), false)?;
+            acquire::write_robotlaser1_with_odometry(&mut w, &scan, odom.as_ref())?;
+            last = Some(truth);
         }
     }
     w.flush().with_context(|| format!("writing {}", a.out.display()))?;
