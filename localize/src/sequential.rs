@@ -4,9 +4,9 @@
 //! sees the difference, and its wheel odometry says how it moved. This localizer keeps the
 //! hypotheses ([`Track`]s) of an unsure scan instead of discarding them, moves them by the
 //! odometry between two scans, searches for each across the motion's spread and costs it again
-//! by eq. 7 ([`Localizer::search_around`]). The costs add up: a track is `behind` the best by the sum, over
-//! the scans it lived through, of its per-beam cost less the best's. It says `ok` when one
-//! track is ahead of every distinct rival by [`SequentialConfig::margin`] on that sum.
+//! by eq. 7 ([`Localizer::search_around`]). The costs add up: a track is `behind` the best by
+//! the sum, over the scans it lived through, of its per-beam cost less the best's. It says `ok`
+//! when one track is ahead of every distinct rival by [`SequentialConfig::margin`] on that sum.
 //!
 //! While no track is sure, every scan also runs the global search of [`Localizer::locate`] and
 //! its hypotheses join the tracks (a global pose that lands on a track refreshes it). Once
@@ -272,8 +272,6 @@ impl Sequential {
                 track.misses += 1;
             }
         }
-        // the best track lost by refinement alone: search the odometry's spread about where it
-        // should be, before taking it for lost
         // the best track (the first: the tracks are sorted by lag) lost by its search: look
         // for it within the odometry's spread with the cascade, before taking it for lost
         let Some((best, &(predicted, _))) = self.tracks.first_mut().zip(found.first()) else {

@@ -141,12 +141,18 @@ impl ModelOutlet {
             service: ports.name.clone(),
             message: format!("{what} {} bytes: {e:?}", block.len()),
         };
-        if block.len() > self.capacity || self.publisher.is_none() {
+        if block.len() > self.capacity {
             self.publisher = None;
-            self.publisher = Some(Self::publisher(ports, block.len())?);
-            self.capacity = block.len().max(1);
         }
-        let Some(publisher) = &self.publisher else { return Err(fail("no publisher for", &())) };
+        let publisher = match &mut self.publisher {
+            Some(p) => p,
+            // none after a failed remake too: the next version tries again
+            none => {
+                let p = none.insert(Self::publisher(ports, block.len())?);
+                self.capacity = block.len().max(1);
+                p
+            }
+        };
         let mut sample = publisher.loan_slice_uninit(block.len()).map_err(|e| fail("loan", &e))?;
         *sample.user_header_mut() = ModelHeader { map_version, _pad: 0, layout, block_len: block.len() as u64 };
         let sample = sample.write_from_slice(block);
