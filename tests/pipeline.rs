@@ -160,8 +160,7 @@ fn the_sequential_localizer_in_the_pipeline_answers_as_offline() {
     let dir = tempfile::tempdir().unwrap();
     let (log, pipeline) = setup(dir.path(), 60, "max");
     let text = std::fs::read_to_string(&pipeline).unwrap();
-    let text = text.replace("kind = \"localize\"\n", "kind = \"localize\"\nimplementation = \"sequential\"\n");
-    std::fs::write(&pipeline, text).unwrap();
+    std::fs::write(&pipeline, common::with_stage_lines(&text, "localize", "implementation = \"sequential\"")).unwrap();
     let (online, offline) = (dir.path().join("online.csv"), dir.path().join("offline.csv"));
     run_to_csv(&pipeline, &prefix("sequential"), 60, &online);
     let log = log.to_str().unwrap();
@@ -226,9 +225,7 @@ fn a_stage_that_dies_unrestarted_fails_the_run() {
     let dir = tempfile::tempdir().unwrap();
     let (_, pipeline) = setup(dir.path(), 120, "40");
     let text = std::fs::read_to_string(&pipeline).unwrap();
-    let never = text.replace("kind = \"segment\"\n", "kind = \"segment\"\nrestart = \"never\"\n");
-    assert_ne!(never, text);
-    std::fs::write(&pipeline, never).unwrap();
+    std::fs::write(&pipeline, common::with_stage_lines(&text, "segment", "restart = \"never\"")).unwrap();
     let (csv, p) = (dir.path().join("poses.csv"), prefix("never"));
     let run = run_in_background(&pipeline, &p, 120, &csv);
     wait_for("all stages", Duration::from_secs(30), || !stage_pids("acquire", &p).is_empty());
@@ -1049,10 +1046,10 @@ fn a_realtime_pipeline_runs_each_stage_where_and_how_its_file_says() {
     let (_, plain) = setup(dir.path(), 60, "20");
     // the plain pipeline with every stage placed, the supervisor pinned and holding PM QoS
     let text = std::fs::read_to_string(&plain).unwrap();
-    let placed = format!("[supervisor]\ncpu = 0\npriority = 40\nwake_latency_us = 0\n\n{text}")
-        .replace("kind = \"localize\"\n", "kind = \"localize\"\ncpu = 0\npriority = 30\n")
-        .replace("kind = \"segment\"\n", "kind = \"segment\"\ncpu = 0\npriority = 20\n")
-        .replace("kind = \"acquire\"\n", "kind = \"acquire\"\ncpu = 0\npriority = 10\n");
+    let placed = format!("[supervisor]\ncpu = 0\npriority = 40\nwake_latency_us = 0\n\n{text}");
+    let placed = common::with_stage_lines(&placed, "localize", "cpu = 0\npriority = 30");
+    let placed = common::with_stage_lines(&placed, "segment", "cpu = 0\npriority = 20");
+    let placed = common::with_stage_lines(&placed, "acquire", "cpu = 0\npriority = 10");
     let pipeline = dir.path().join("realtime.toml");
     std::fs::write(&pipeline, placed).unwrap();
     let csv = dir.path().join("poses.csv");

@@ -223,8 +223,7 @@ fn odometry_over_dds_carries_the_sequential_localizer_from_scan_to_scan() {
         .unwrap();
     assert!(sim.status.success(), "{}", String::from_utf8_lossy(&sim.stderr));
     let text = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/pipelines/ros2.toml")).unwrap();
-    let text = text.replace("kind = \"localize\"\n", "kind = \"localize\"\nimplementation = \"sequential\"\n");
-    assert!(text.contains("implementation = \"sequential\""), "{text}");
+    let text = common::with_stage_lines(&text, "localize", "implementation = \"sequential\"");
     let pipeline = d.join("ros2-sequential.toml");
     std::fs::write(&pipeline, text).unwrap();
     let context = office_beside_the_peer(d, &pipeline, "tros2odom", 100, &log, "--rate 20 --odom");

@@ -28,6 +28,16 @@ pub fn write_pipeline(dir: &Path, name: &str, map: &str, acquire_args: &[&str]) 
     path
 }
 
+/// The pipeline file `text` with `lines` (TOML, one setting a line) added to its stage of kind
+/// `kind`, after that stage's `kind = ...` line. A file with no such stage fails the test.
+#[allow(dead_code)] // not every test file edits a pipeline
+pub fn with_stage_lines(text: &str, kind: &str, lines: &str) -> String {
+    let at = format!("kind = \"{kind}\"\n");
+    let edited = text.replace(&at, &format!("{at}{lines}\n"));
+    assert_ne!(edited, text, "no stage of kind {kind} in:\n{text}");
+    edited
+}
+
 /// The project's Python, with scripts/requirements.txt installed (made on first use by
 /// scripts/python-env in target/).
 #[allow(dead_code)] // only the interop tests run Python
