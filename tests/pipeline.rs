@@ -995,6 +995,51 @@ fn a_stage_finds_a_scan_that_came_without_a_wake_up() {
     );
 }
 
+/// A localizer that starts after the last scan still locates it: the corners topic keeps the
+/// latest scan's message, and the segment stage hands it over once the localizer is ready,
+/// so a restarted or swapped-in localizer answers at once instead of at the next scan.
+#[test]
+fn a_localizer_started_after_the_last_scan_locates_that_scan() {
+    let p = prefix("history");
+    let map = StageChild::spawn(
+        Command::new(exe()).args(["stage", "mapserver", "--map", "apartment", "--prefix", &p]).stderr(Stdio::null()),
+    );
+    let seg = StageChild::spawn(Command::new(exe()).args(["stage", "segment", "--prefix", &p]).stderr(Stdio::null()));
+    let node = messages::create_node("historytest").unwrap();
+    let mut scans = messages::Outlet::<messages::ScanMsg>::open(
+        &node,
+        &p,
+        messages::Topic::Scan,
+        messages::iceoryx2::prelude::BackpressureStrategy::DiscardData,
+    )
+    .unwrap();
+    let corners = messages::open_topic::<messages::CornersMsg>(&node, &p, messages::Topic::Corners).unwrap();
+    let corners_in = corners.data.subscriber_builder().create().unwrap();
+    let fill = |m: &mut messages::ScanMsg| {
+        m.header = messages::Header::new(7, messages::monotonic_ns());
+        (m.angle_min, m.angle_increment, m.range_min, m.range_max) = (-2.0, 0.01, 0.02, 5.6);
+        m.count = 400;
+        m.ranges[..400].fill(2.0);
+    };
+    wait_for("the segment stage's subscriber", Duration::from_secs(30), || scans.send(fill).unwrap() > 0);
+    wait_for("the scan's corners", Duration::from_secs(5), || corners_in.receive().unwrap().is_some());
+    // no scan comes after this one
+    let poses = messages::open_topic::<messages::PoseMsg>(&node, &p, messages::Topic::Pose).unwrap();
+    let pose_in = poses.data.subscriber_builder().create().unwrap();
+    let loc = StageChild::spawn(Command::new(exe()).args(["stage", "localize", "--prefix", &p]).stderr(Stdio::piped()));
+    let mut seq = None;
+    wait_for("the pose of the scan before the localizer started", Duration::from_secs(30), || {
+        seq = pose_in.receive().unwrap().map(|m| m.header.seq);
+        seq.is_some()
+    });
+    assert_eq!(seq, Some(7));
+    let out = loc.stop();
+    let said = String::from_utf8_lossy(&out.stderr);
+    assert!(said.contains("first pose") && said.contains("(scan 7,"), "{said}");
+    seg.stop();
+    map.stop();
+}
+
 /// A warm-up sent on the scan topic passes through segment and localize to the pose topic's
 /// readers, and publishes nothing on its way.
 #[test]

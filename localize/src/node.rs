@@ -1,7 +1,10 @@
 //! The localization process: corners (with their scan) and the map model in, ranked poses out
 //! (`gema2/pose`). The model arrives on `gema2/map/model` with history, built by the map
 //! server once per map version and read here in place ([`MapModel::from_block`]), so a late
-//! start, a restart or a swapped-in localizer locates from its first scan. A new version is
+//! start, a restart or a swapped-in localizer locates from its first scan. That first scan is
+//! the latest one the segment stage sent: the corners topic keeps it, and the segment stage
+//! hands it over when this stage announces itself ready; a scan that comes before the model
+//! waits for it. A new version is
 //! used from the next scan on; the old one is read until then. A model built for other corner
 //! settings than this stage's is refused. A scan seen before (two segmenters during a hot swap)
 //! is skipped; gaps are fine.
@@ -132,6 +135,8 @@ pub fn run(a: LocalizeArgs) -> Result<()> {
 
     let mut state = Located::new(config, a.implementation == "sequential");
     let mut failure: Option<anyhow::Error> = None;
+    // the latest scan that came before any model: located as soon as the model is there
+    let mut held: Option<Sample<ipc::Service, CornersMsg, ()>> = None;
     let on_event = |woken: &[bool]| {
         // both queues in each pass (messages::Look)
         let mut look = Look::new([&model_listener, &corners.listener], woken[0]);
@@ -144,8 +149,16 @@ pub fn run(a: LocalizeArgs) -> Result<()> {
                     Err(e) => Err(anyhow!("{}: receive: {e:?}", model_ports.name)),
                 };
                 match taken {
-                    // ready once there is a model to localize against
+                    // ready once there is a model to localize against: the scan that waited
+                    // for it is located now, and the segment stage hands over its latest
                     Ok(true) => {
+                        if let Some(sample) = held.take() {
+                            let enter = monotonic_ns();
+                            if let Err(e) = state.take(&sample, enter, &mut look, &mut pose_out) {
+                                failure = Some(e);
+                                return CallbackProgression::Stop;
+                            }
+                        }
                         if let Err(e) = messages::announce_ready(&node, &a.stage.prefix) {
                             eprintln!("localize: {e}");
                         }
@@ -159,6 +172,10 @@ pub fn run(a: LocalizeArgs) -> Result<()> {
             }
             loop {
                 let taken = match look.receive(&corners.subscriber) {
+                    Ok(Some((sample, _))) if state.localizer.is_none() => {
+                        state.hold(&mut held, sample);
+                        Ok(())
+                    }
                     Ok(Some((sample, enter))) => state.take(&sample, enter, &mut look, &mut pose_out),
                     Ok(None) => break,
                     Err(e) => Err(anyhow!("{}: receive: {e}", corners.name)),
@@ -342,7 +359,15 @@ impl Located {
         })
         .map_err(|e| anyhow!("localize: publishing pose {}: {e}", msg.scan.header.seq))?;
         if let Some(started) = self.started.take() {
-            eprintln!("localize: first pose {:.1} ms after the stage started", started.elapsed().as_secs_f64() * 1e3);
+            let ms = |ns: u64| ns as f64 / 1e6;
+            eprintln!(
+                "localize: first pose {:.1} ms after the stage started (scan {}, {:.1} ms old when taken, located in \
+                 {:.1} ms)",
+                started.elapsed().as_secs_f64() * 1e3,
+                msg.scan.header.seq,
+                ms(enter.saturating_sub(msg.scan.header.stamp_ns)),
+                ms(monotonic_ns().saturating_sub(enter))
+            );
         }
         Ok(())
     }
@@ -354,6 +379,21 @@ impl Located {
         }
         if let Some(r) = out.report() {
             eprintln!("localize: {r}");
+        }
+    }
+
+    /// Keeps `sample`, a scan that came before any model, in `held` to be located once the
+    /// model is there; the one it replaces is skipped (counted, and said now and then).
+    fn hold(
+        &mut self,
+        held: &mut Option<Sample<ipc::Service, CornersMsg, ()>>,
+        sample: Sample<ipc::Service, CornersMsg, ()>,
+    ) {
+        if held.replace(sample).is_some() {
+            self.waiting_for_map += 1;
+            if self.waiting_for_map == 1 || self.waiting_for_map.is_multiple_of(100) {
+                eprintln!("localize: no map yet, {} scans skipped", self.waiting_for_map);
+            }
         }
     }
 

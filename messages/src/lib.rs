@@ -25,11 +25,11 @@ mod waiting;
 /// The wire contract's version: raised with any change to a payload's layout, a topic's name
 /// or settings, or what a message means. A stage program answers it to `--wire-version`, and
 /// the supervisor swaps in only a program that answers its own.
-pub const WIRE_VERSION: u32 = 3;
+pub const WIRE_VERSION: u32 = 4;
 
 pub use inlet::{run_stage, Inlet, WaitError, MAX_LISTENERS};
 pub use model::{open_model_topic, ModelHeader, ModelOutlet, ModelPorts, MODEL_ALIGN, MODEL_HELD};
-pub use outlet::{Freshness, Outlet, SendError, CONNECT_PATIENCE, WARM_UP};
+pub use outlet::{Freshness, Outlet, SendError, CONNECT_PATIENCE, LOOK, WARM_UP};
 pub use payload::*;
 pub use placement::pin_to_cpu;
 pub use publish::{publish, zeroed_box, PublishError, Zeroable};

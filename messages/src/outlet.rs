@@ -23,6 +23,7 @@ use crate::topic::{open_topic, OpenError, Topic};
 use crate::Header;
 use iceoryx2::port::notifier::Notifier;
 use iceoryx2::port::publisher::Publisher;
+use iceoryx2::port::update_connections::UpdateConnections;
 use iceoryx2::port::{BackpressureAction, BackpressureInfo};
 use iceoryx2::prelude::*;
 use iceoryx2::service::port_factory::publish_subscribe;
@@ -77,6 +78,12 @@ pub const CONNECT_PATIENCE: Duration = Duration::from_secs(2);
 /// [`Outlet::warm_up`])
 /// and waits again. Messages are notified with iceoryx2's default id, 0.
 pub const WARM_UP: EventId = EventId::new(1);
+
+/// The event id of a wake-up that says "look at your queue": a topic's history was just
+/// handed to a subscriber that connected after its last message ([`Outlet::serve_history`]).
+/// History comes with no wake-up of its own, and a reader would otherwise find it only at its
+/// next poll ([`crate::MISSED_WAKEUP_POLL`]) or with the next message.
+pub const LOOK: EventId = EventId::new(2);
 
 /// Pause before sending again to a subscriber that has not connected yet.
 const RESEND_PAUSE: Duration = Duration::from_micros(200);
@@ -185,6 +192,17 @@ impl<T: Debug + ZeroCopySend + Zeroable + 'static> Outlet<T> {
             }
             CallbackProgression::Continue
         });
+    }
+
+    /// Hands the topic's history ([`Topic::settings`](crate::Topic::settings)) to subscribers
+    /// that connected since the last message, and wakes them to look at it ([`LOOK`]). A
+    /// publisher hands history out only when it sends or is asked to: a stage calls this when
+    /// another stage announces itself ready ([`crate::announce_ready`]), so that a restarted or
+    /// swapped-in reader has the latest message at once instead of at the next one.
+    pub fn serve_history(&self) -> Result<(), SendError> {
+        let failed = |reason| SendError { topic: self.name.clone(), reason };
+        self.publisher.update_connections().map_err(|e| failed(PublishError::Connect(e)))?;
+        self.notifier.notify_with_custom_event_id(LOOK).map(|_| ()).map_err(|e| failed(PublishError::Notify(e)))
     }
 
     /// Wakes the subscribers without a message ([`WARM_UP`]).

@@ -21,6 +21,9 @@ pub enum PublishError {
     /// The message was sent but its wake-up was not.
     #[error("notify: {0:?}")]
     Notify(iceoryx2::port::notifier::NotifierNotifyError),
+    /// A subscriber that connected late could not be handed the topic's history.
+    #[error("connecting a late subscriber: {0:?}")]
+    Connect(iceoryx2::port::update_connections::ConnectionFailure),
 }
 
 /// Payloads for which all-zero bytes are a valid value: derived (`#[derive(Zeroable)]`), so

@@ -152,7 +152,8 @@ fn ready_event(
         .event()
         .event_id_max_value(MAX_INSTANCE)
         .max_notifiers(16)
-        .max_listeners(4)
+        // the supervisor, and the segment stages, which hand a ready localizer the latest scan
+        .max_listeners(8)
         .max_nodes(32)
         .open_or_create_with_attributes(&crate::topic::wire_attributes())
         .map_err(|e| crate::OpenError::Open { service, message: format!("{e:?}") })

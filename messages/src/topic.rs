@@ -13,7 +13,8 @@ pub enum Topic {
     Scan,
     /// [`crate::LinesMsg`] from `segment`.
     Lines,
-    /// [`crate::CornersMsg`] from `segment`.
+    /// [`crate::CornersMsg`] from `segment`, with the latest kept: a localizer that starts
+    /// (or restarts, or is swapped in) locates it at once.
     Corners,
     /// [`crate::PoseMsg`] from `localize`.
     Pose,
@@ -67,6 +68,7 @@ impl Topic {
             TopicSettings { history: 0, buffer: 64, max_publishers: 3, max_subscribers: 8, safe_overflow: false };
         match self {
             Topic::Map => TopicSettings { history: 1, buffer: 2, safe_overflow: true, ..base },
+            Topic::Corners => TopicSettings { history: 1, ..base },
             _ => base,
         }
     }

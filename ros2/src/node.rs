@@ -16,7 +16,7 @@ use anyhow::{anyhow, Context as _, Result};
 use clap::Args;
 use laser::{pose, pose_theta, Pose};
 use messages::iceoryx2::prelude::*;
-use messages::{monotonic_ns, Look, Outlet, PoseMsg, ScanMsg, Stage, Topic, STATUS_FAILED, STATUS_OK};
+use messages::{monotonic_ns, Freshness, Look, Outlet, PoseMsg, ScanMsg, Stage, Topic, STATUS_FAILED, STATUS_OK};
 use ros::msg;
 use ros2_client::dds::rustdds::mio1::{Events, Interest, Poll, Token};
 use ros2_client::dds::{Context, ContextOptions, Publisher, Subscription};
@@ -139,6 +139,7 @@ pub fn run(a: Ros2Args) -> Result<()> {
         shared: Arc::clone(&shared),
         a: a.clone(),
         published: 0,
+        fresh: Freshness::default(),
         unstamped: 0,
         unmounted_said: false,
         latency_us: Vec::new(),
@@ -197,6 +198,9 @@ struct PosesOut {
     shared: Arc<Mutex<Shared>>,
     a: Ros2Args,
     published: u64,
+    /// What tells a scan's pose seen before: two localizers during a hot swap, or a restarted
+    /// one handed the latest scan again, each publish one.
+    fresh: Freshness,
     unstamped: u64,
     unmounted_said: bool,
     /// Microseconds from each scan taken off DDS to its pose handed to DDS (the latest
@@ -211,7 +215,7 @@ impl PosesOut {
     /// Publishes the robot's pose of a located scan (a failed scan has none).
     fn publish(&mut self, m: &PoseMsg) -> Result<()> {
         let count = (m.count as usize).min(m.hypotheses.len());
-        if m.status == STATUS_FAILED || count == 0 {
+        if !self.fresh.admit(&m.header) || m.status == STATUS_FAILED || count == 0 {
             return Ok(());
         }
         let (header, mount) = self.scan_header(m.header.seq);

@@ -2,7 +2,9 @@
 //! `gema2/corners`). Blocks in a WaitSet on the scan topic's event; allocates nothing per scan.
 //! Its outputs wait for room in their subscribers' buffers instead of dropping: only the
 //! source drops scans, so a pipeline that falls behind sheds load at its entry, never between
-//! stages.
+//! stages. The corners topic keeps its latest message: when a stage announces itself ready (a
+//! localizer that started, restarted or was swapped in), this stage hands it that message at
+//! once ([`Outlet::serve_history`]) rather than at the next scan.
 
 use crate::split_merge::{segmenter_by_name, SEGMENTERS};
 use crate::wire::{corner_to_msg, line_to_msg, scan_view};
@@ -48,9 +50,17 @@ pub fn run(a: SegmentArgs) -> Result<()> {
         lines_out: Outlet::open(&node, &a.stage.prefix, Topic::Lines, BackpressureStrategy::RetryUntilDelivered)?,
         corners_out: Outlet::open(&node, &a.stage.prefix, Topic::Corners, BackpressureStrategy::RetryUntilDelivered)?,
     };
+    let ready = messages::ready_listener(&node, &a.stage.prefix)?;
     messages::announce_ready(&node, &a.stage.prefix)?;
     let mut failure: Option<anyhow::Error> = None;
     let on_event = |woken: &[bool]| {
+        if woken[1] {
+            // a stage is ready: a new localizer gets the latest scan's corners now
+            let _ = ready.try_wait(|_| {});
+            if let Err(e) = stage.corners_out.serve_history() {
+                eprintln!("segment: {e}");
+            }
+        }
         let mut look = Look::new([&scans.listener], woken[0]);
         while look.next_pass() {
             loop {
@@ -73,7 +83,8 @@ pub fn run(a: SegmentArgs) -> Result<()> {
         }
         CallbackProgression::Continue
     };
-    messages::run_stage(&node, &[(&scans.name, &scans.listener)], messages::MISSED_WAKEUP_POLL, on_event)?;
+    let listeners = [(scans.name.as_str(), &scans.listener), ("the readiness event", &ready)];
+    messages::run_stage(&node, &listeners, messages::MISSED_WAKEUP_POLL, on_event)?;
     stage.report();
     match failure {
         Some(e) => Err(e),
