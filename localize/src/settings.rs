@@ -255,6 +255,13 @@ impl LocalizerConfig {
         ),
         setting!(
             LocalizerConfig,
+            "ambiguity_ratio",
+            Range::NonNegative,
+            "...or less than this share of the best's own cost more (after the last search)",
+            ambiguity_ratio
+        ),
+        setting!(
+            LocalizerConfig,
             "cornerless_tie",
             Range::NonNegative,
             "in a scan with no corner, a pose slid along the wall ties within this cost",

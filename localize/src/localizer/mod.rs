@@ -426,6 +426,9 @@ impl Localizer {
                 self.out.status = Status::Failed;
             }
         }
+        if self.out.status == Status::Ok && self.rival_within_misfit() {
+            self.out.status = Status::Ambiguous;
+        }
         self.report();
         self.prior = match (self.config.track_radius, self.out.status, self.out.hypotheses.first()) {
             (Some(_), Status::Ok, Some(h)) => Some(Point2::from(h.pose.translation.vector)),

@@ -31,6 +31,19 @@ impl Localizer {
         })
     }
 
+    /// Whether a distinct hypothesis costs less than [`LocalizerConfig::ambiguity_ratio`] of
+    /// the best one's cost more than it: a rival within the best pose's own misfit.
+    pub(super) fn rival_within_misfit(&self) -> bool {
+        let cfg = &self.config;
+        let hyps = &self.out.hypotheses;
+        let Some(best) = hyps.first() else { return false };
+        let margin = cfg.ambiguity_ratio * best.cost.value;
+        hyps[1..].iter().any(|h| {
+            !same_pose(&h.pose, &best.pose, cfg.distinct_position, cfg.distinct_heading)
+                && h.cost.value - best.cost.value < margin
+        })
+    }
+
     /// Whether the best hypothesis sees through more of a drawn map's walls than an `ok` pose
     /// may ([`LocalizerConfig::max_through_ok`]); never for a map that declares itself
     /// approximate, whose right poses see through walls that are no longer there.
@@ -123,6 +136,32 @@ mod tests {
         // the same cost off the wall's line is another place, not a tie along it
         localizer.out.hypotheses[1].pose = Pose::new(nalgebra::Vector2::new(6.0, 3.0), 0.3);
         assert!(!localizer.slides_along_a_wall());
+    }
+
+    /// A rival is judged against the best pose's own misfit: the same gap of 0.6 per beam tells
+    /// a twin apart from a pose that fits well (cost 0.5), not from one that fits badly (2.0);
+    /// the same pose again (within `distinct_position`) is no rival.
+    #[test]
+    fn a_rival_within_the_best_pose_s_misfit_is_no_clear_second() {
+        let map = map::WallMap::new(vec![map::Wall::new(0.0, 0.0, 20.0, 0.0)]);
+        let model = Arc::new(MapModel::new(map, &map::MapCornerConfig::default()));
+        let mut localizer = Localizer::new(model, LocalizerConfig::default());
+        let at = |x: f64, value: f64| Hypothesis {
+            pose: Pose::new(nalgebra::Vector2::new(x, 1.5), 0.3),
+            cost: Cost { value, inliers: 0.8, through: 0.0, beams: 680 },
+            scan_corner: 0,
+            map_corner: 0,
+        };
+        localizer.out.hypotheses = vec![at(5.0, 0.5), at(15.0, 1.1)];
+        assert!(!localizer.rival_within_misfit());
+        localizer.out.hypotheses = vec![at(5.0, 2.0), at(15.0, 2.6)];
+        assert!(localizer.rival_within_misfit());
+        localizer.out.hypotheses = vec![at(5.0, 2.0), at(5.01, 2.1)];
+        assert!(!localizer.rival_within_misfit());
+        let off = LocalizerConfig { ambiguity_ratio: 0.0, ..LocalizerConfig::default() };
+        let mut localizer = Localizer::new(Arc::clone(&localizer.model), off);
+        localizer.out.hypotheses = vec![at(5.0, 2.0), at(15.0, 2.6)];
+        assert!(!localizer.rival_within_misfit());
     }
 
     /// Beams through mapped walls: up to `max_through_ok` the best pose may be `ok`, up to
