@@ -955,6 +955,25 @@ fn the_replay_example_locates_every_scan_of_a_log() {
     assert!(!out.status.success() && err.contains("GEMA2_LOG"), "{err}");
 }
 
+/// A test's own scan source under `prefix`: it drops a scan rather than wait for a full reader.
+fn scan_outlet(
+    node: &messages::iceoryx2::prelude::Node<messages::iceoryx2::prelude::ipc::Service>,
+    prefix: &str,
+) -> messages::Outlet<messages::ScanMsg> {
+    let drop_when_full = messages::iceoryx2::prelude::BackpressureStrategy::DiscardData;
+    messages::Outlet::open(node, prefix, messages::Topic::Scan, drop_when_full).unwrap()
+}
+
+/// Writes scan `seq`, stamped now: 400 beams 0.01 rad apart, each 2 m.
+fn flat_scan(seq: u64) -> impl Fn(&mut messages::ScanMsg) + Copy {
+    move |m: &mut messages::ScanMsg| {
+        m.header = messages::Header::new(seq, messages::monotonic_ns());
+        (m.angle_min, m.angle_increment, m.range_min, m.range_max) = (-2.0, 0.01, 0.02, 5.6);
+        m.count = 400;
+        m.ranges[..400].fill(2.0);
+    }
+}
+
 /// iceoryx2 can lose a wake-up under load (`messages::MISSED_WAKEUP_POLL`): a scan whose
 /// notification never came must still be segmented, not wait forever in the queue.
 #[test]
@@ -970,12 +989,7 @@ fn a_stage_finds_a_scan_that_came_without_a_wake_up() {
     let unheard = messages::service_name(&p, "unheard");
     let unheard = node.service_builder(&unheard.as_str().try_into().unwrap()).event().open_or_create().unwrap();
     let silent = unheard.notifier_builder().create().unwrap();
-    let fill = |m: &mut messages::ScanMsg| {
-        m.header = messages::Header::new(7, messages::monotonic_ns());
-        (m.angle_min, m.angle_increment, m.range_min, m.range_max) = (-2.0, 0.01, 0.02, 5.6);
-        m.count = 400;
-        m.ranges[..400].fill(2.0);
-    };
+    let fill = flat_scan(7);
     let mut delivered = 0;
     wait_for("the segment stage's subscriber", Duration::from_secs(30), || {
         delivered = messages::publish(&publisher, &silent, fill).unwrap();
@@ -1006,21 +1020,10 @@ fn a_localizer_started_after_the_last_scan_locates_that_scan() {
     );
     let seg = StageChild::spawn(Command::new(exe()).args(["stage", "segment", "--prefix", &p]).stderr(Stdio::null()));
     let node = messages::create_node("historytest").unwrap();
-    let mut scans = messages::Outlet::<messages::ScanMsg>::open(
-        &node,
-        &p,
-        messages::Topic::Scan,
-        messages::iceoryx2::prelude::BackpressureStrategy::DiscardData,
-    )
-    .unwrap();
+    let mut scans = scan_outlet(&node, &p);
     let corners = messages::open_topic::<messages::CornersMsg>(&node, &p, messages::Topic::Corners).unwrap();
     let corners_in = corners.data.subscriber_builder().create().unwrap();
-    let fill = |m: &mut messages::ScanMsg| {
-        m.header = messages::Header::new(7, messages::monotonic_ns());
-        (m.angle_min, m.angle_increment, m.range_min, m.range_max) = (-2.0, 0.01, 0.02, 5.6);
-        m.count = 400;
-        m.ranges[..400].fill(2.0);
-    };
+    let fill = flat_scan(7);
     wait_for("the segment stage's subscriber", Duration::from_secs(30), || scans.send(fill).unwrap() > 0);
     wait_for("the scan's corners", Duration::from_secs(5), || corners_in.receive().unwrap().is_some());
     // no scan comes after this one
@@ -1048,13 +1051,7 @@ fn a_warm_up_passes_down_the_pipeline_without_a_message() {
     let seg = StageChild::spawn(Command::new(exe()).args(["stage", "segment", "--prefix", &p]).stderr(Stdio::null()));
     let loc = StageChild::spawn(Command::new(exe()).args(["stage", "localize", "--prefix", &p]).stderr(Stdio::null()));
     let node = messages::create_node("warmtest").unwrap();
-    let scans = messages::Outlet::<messages::ScanMsg>::open(
-        &node,
-        &p,
-        messages::Topic::Scan,
-        messages::iceoryx2::prelude::BackpressureStrategy::DiscardData,
-    )
-    .unwrap();
+    let scans = scan_outlet(&node, &p);
     let poses = messages::open_topic::<messages::PoseMsg>(&node, &p, messages::Topic::Pose).unwrap();
     let pose_in = poses.data.subscriber_builder().create().unwrap();
     let pose_wake = poses.event.listener_builder().create().unwrap();
