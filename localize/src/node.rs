@@ -152,9 +152,8 @@ pub fn run(a: LocalizeArgs) -> Result<()> {
                     // ready once there is a model to localize against: the scan that waited
                     // for it is located now, and the segment stage hands over its latest
                     Ok(true) => {
-                        if let Some(sample) = held.take() {
-                            let enter = monotonic_ns();
-                            if let Err(e) = state.take(&sample, enter, &mut look, &mut pose_out) {
+                        if let Some(sample) = held.take().filter(|s| state.admit(s)) {
+                            if let Err(e) = state.publish(&sample, monotonic_ns(), &mut pose_out) {
                                 failure = Some(e);
                                 return CallbackProgression::Stop;
                             }
@@ -352,6 +351,12 @@ impl Located {
             return Ok(());
         }
         self.found_by_poll += u64::from(look.found_by_poll());
+        self.publish(msg, enter, out)
+    }
+
+    /// Locates the scan of an admitted `msg`, taken at `enter`, and publishes its pose to
+    /// `out`: what [`take`](Self::take) does, and what a scan held for the model gets.
+    fn publish(&mut self, msg: &CornersMsg, enter: u64, out: &mut Outlet<PoseMsg>) -> Result<()> {
         let Some((result, scans, version)) = self.locate(msg) else { return Ok(()) };
         out.send(|p: &mut PoseMsg| {
             write_pose(p, msg, result, version, enter);
