@@ -1043,6 +1043,27 @@ fn a_localizer_started_after_the_last_scan_locates_that_scan() {
     map.stop();
 }
 
+/// The hand-over of the latest scan is a convenience: a segment stage that cannot listen for
+/// other stages' readiness (every listener slot of `<prefix>/ready` taken) says so and
+/// segments as ever.
+#[test]
+fn a_segment_stage_that_cannot_listen_for_readiness_still_segments() {
+    let p = prefix("noready");
+    let node = messages::create_node("noreadytest").unwrap();
+    let taken: Vec<_> = std::iter::from_fn(|| messages::ready_listener(&node, &p).ok()).take(64).collect();
+    assert!(taken.len() < 64, "the readiness event has no limit on listeners");
+    let seg = StageChild::spawn(Command::new(exe()).args(["stage", "segment", "--prefix", &p]).stderr(Stdio::piped()));
+    let mut scans = scan_outlet(&node, &p);
+    let corners = messages::open_topic::<messages::CornersMsg>(&node, &p, messages::Topic::Corners).unwrap();
+    let corners_in = corners.data.subscriber_builder().create().unwrap();
+    wait_for("the segment stage's subscriber", Duration::from_secs(30), || scans.send(flat_scan(3)).unwrap() > 0);
+    wait_for("the scan's corners", Duration::from_secs(5), || corners_in.receive().unwrap().is_some());
+    let out = seg.stop();
+    let said = String::from_utf8_lossy(&out.stderr);
+    assert!(said.contains("a new localizer will wait for the next scan"), "{said}");
+    drop(taken);
+}
+
 /// A warm-up sent on the scan topic passes through segment and localize to the pose topic's
 /// readers, and publishes nothing on its way.
 #[test]

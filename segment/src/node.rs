@@ -50,11 +50,14 @@ pub fn run(a: SegmentArgs) -> Result<()> {
         lines_out: Outlet::open(&node, &a.stage.prefix, Topic::Lines, BackpressureStrategy::RetryUntilDelivered)?,
         corners_out: Outlet::open(&node, &a.stage.prefix, Topic::Corners, BackpressureStrategy::RetryUntilDelivered)?,
     };
-    let ready = messages::ready_listener(&node, &a.stage.prefix)?;
+    // without it the stage still segments; a new localizer then waits for the next scan
+    let ready = messages::ready_listener(&node, &a.stage.prefix)
+        .map_err(|e| eprintln!("segment: a new localizer will wait for the next scan: {e}"))
+        .ok();
     messages::announce_ready(&node, &a.stage.prefix)?;
     let mut failure: Option<anyhow::Error> = None;
     let on_event = |woken: &[bool]| {
-        if woken[1] {
+        if let Some(ready) = ready.as_ref().filter(|_| woken.get(1) == Some(&true)) {
             // a stage is ready: a new localizer gets the latest scan's corners now
             let _ = ready.try_wait(|_| {});
             if let Err(e) = stage.corners_out.serve_history() {
@@ -83,7 +86,8 @@ pub fn run(a: SegmentArgs) -> Result<()> {
         }
         CallbackProgression::Continue
     };
-    let listeners = [(scans.name.as_str(), &scans.listener), ("the readiness event", &ready)];
+    let mut listeners = vec![(scans.name.as_str(), &scans.listener)];
+    listeners.extend(ready.as_ref().map(|r| ("the readiness event", r)));
     messages::run_stage(&node, &listeners, messages::MISSED_WAKEUP_POLL, on_event)?;
     stage.report();
     match failure {
