@@ -126,7 +126,7 @@ impl LocalizerConfig {
             LocalizerConfig,
             "first_corners",
             Range::Count,
-            "scan corners of the cheap first look (0: no first look)",
+            "scan corners of the cheap first look (0: no first look; never on a map built from scans)",
             first_look.corners
         ),
         setting!(

@@ -505,6 +505,26 @@ fn the_first_look_settles_clean_scans_and_defers_furnished_ones() {
     }
 }
 
+/// On a map built from scans (one that declares itself approximate) the first look never
+/// settles a scan: every scan runs the full search, even the clean ones the first look settles
+/// on the drawn map.
+#[test]
+fn the_first_look_never_settles_a_scan_on_a_map_built_from_scans() {
+    let drawn = worlds::apartment();
+    let built = WallMap { sigma: map::APPROXIMATE_MAP, ..drawn.clone() };
+    assert!(built.is_approximate());
+    let (mut on_drawn, mut on_built) =
+        (gema2(&drawn, LocalizerConfig::default()), gema2(&built, LocalizerConfig::default()));
+    let mut sim = Simulator::new(&drawn, SensorModel::urg04lx(), Scenario::Clean, 31);
+    let (mut settled_drawn, n) = (0, 20);
+    for _ in 0..n {
+        let scan = sim.next_scan();
+        settled_drawn += usize::from(!on_drawn.process(&scan.view()).1.times.full_search());
+        assert!(on_built.process(&scan.view()).1.times.full_search(), "the first look settled a scan on a built map");
+    }
+    assert!(settled_drawn >= n / 2, "the first look settled only {settled_drawn} of {n} on the drawn map");
+}
+
 /// The thorough search ([`LocalizerConfig::thorough`]) finds poses the default budgets pass
 /// over: in this furnished warehouse scan the boxes hide the corners and the default search
 /// ends on a wrong pose; the wider one finds the true pose, which eq. 7 rates better than

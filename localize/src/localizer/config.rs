@@ -379,7 +379,8 @@ impl LocalizerConfig {
 /// furnished office scans and changed no scan's success. The full search exists for scans whose
 /// best corner is a box or a person: its pose sees through walls and is not confirmed. A
 /// settled scan's ambiguity is judged among the first look's hypotheses only, so a twin pose
-/// that only another scan corner would find goes unseen.
+/// that only another scan corner would find goes unseen. On a map built from scans a twin
+/// does not see through walls either, so there the first look does not run (see the cascade).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct FirstLook {
     /// Scan corners matched; 0 turns the first look off.

@@ -443,7 +443,10 @@ impl Localizer {
     fn run_cascade(&mut self, scan: &ScanView<'_>, seg: &Segmentation) -> Ran {
         let mut ran = Ran::default();
         for spec in CASCADE {
-            if spec.after.is_some_and(|before| !ran.contains(before)) || !spec.step.switched_on(&self.config) {
+            if spec.after.is_some_and(|before| !ran.contains(before))
+                || !spec.step.switched_on(&self.config)
+                || (spec.step == Step::FirstLook && self.model.map.is_approximate())
+            {
                 continue;
             }
             let due = match spec.when {
