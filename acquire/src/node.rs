@@ -295,7 +295,7 @@ pub fn run(a: AcquireArgs) -> Result<()> {
     if a.handover {
         match take_over(&node, &out.scans, &a.stage.prefix, a.first_seq)? {
             Some(next) => {
-                eprintln!("acquire: took over from the source it replaces at scan {next}");
+                messages::say!("acquire: took over from the source it replaces at scan {next}");
                 seq = next;
             }
             None => return Ok(()), // SIGINT or SIGTERM while waiting
@@ -325,7 +325,7 @@ pub fn run(a: AcquireArgs) -> Result<()> {
             Some(Ok(item)) => item,
             Some(Err(e)) if is_malformed_line(&e) => {
                 skipped += 1;
-                eprintln!("acquire: skipped {e} ({skipped} so far)");
+                messages::say!("acquire: skipped {e} ({skipped} so far)");
                 continue;
             }
             Some(Err(e)) => return Err(e.context("acquire: reading the source")),
@@ -343,7 +343,7 @@ pub fn run(a: AcquireArgs) -> Result<()> {
     if let Some(w) = out.carmen.as_mut() {
         std::io::Write::flush(w).context("acquire: writing --carmen-out")?;
     }
-    eprintln!("acquire: published {} scans", seq - a.first_seq);
+    messages::say!("acquire: published {} scans", seq - a.first_seq);
     if !signalled && !stop_requested() && seq > a.first_seq && a.linger > 0.0 {
         // the scans still in the segment stage's queue live in this process's memory
         messages::sleep(&node, Duration::from_secs_f64(a.linger.min(3600.0)));
@@ -352,10 +352,10 @@ pub fn run(a: AcquireArgs) -> Result<()> {
         std::thread::sleep(STOPPED_LINGER.min(Duration::from_secs_f64(a.linger)));
     }
     if skipped > 0 {
-        eprintln!("acquire: skipped {skipped} malformed log lines");
+        messages::say!("acquire: skipped {skipped} malformed log lines");
     }
     if let Some(r) = out.scans.report() {
-        eprintln!("acquire: {r}");
+        messages::say!("acquire: {r}");
     }
     Ok(())
 }
@@ -448,7 +448,7 @@ impl Publishing {
         let every = thinning(scan.ranges.len());
         if every > 1 && !self.thinned {
             self.thinned = true;
-            eprintln!(
+            messages::say!(
                 "acquire: scans of {} beams keep one beam in {every} to fit a message of {MAX_BEAMS}",
                 scan.ranges.len()
             );

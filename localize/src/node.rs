@@ -159,7 +159,7 @@ pub fn run(a: LocalizeArgs) -> Result<()> {
                             }
                         }
                         if let Err(e) = messages::announce_ready(&node, &a.stage.prefix) {
-                            eprintln!("localize: {e}");
+                            messages::say!("localize: {e}");
                         }
                     }
                     Ok(false) => {}
@@ -188,7 +188,7 @@ pub fn run(a: LocalizeArgs) -> Result<()> {
         // woken ahead of a scan: wake the pose's readers too
         if look.warm_up_to_pass_on() {
             if let Err(e) = pose_out.warm_up() {
-                eprintln!("localize: {e}");
+                messages::say!("localize: {e}");
             }
         }
         CallbackProgression::Continue
@@ -262,7 +262,7 @@ impl Located {
         let (model, copied) = match read {
             Ok(m) => m,
             Err(e) if self.localizer.is_some() => {
-                eprintln!(
+                messages::say!(
                     "localize: kept map version {}: refused version {}: {e:#}",
                     self.version(),
                     header.map_version
@@ -271,7 +271,7 @@ impl Located {
             }
             Err(e) => return Err(e.context(format!("map version {}", header.map_version))),
         };
-        eprintln!(
+        messages::say!(
             "localize: map version {} ({} walls, {} corners): {:.1} MB read in place, {} KB copied, in {:.1} ms{}",
             header.map_version,
             model.map.walls.len(),
@@ -365,7 +365,7 @@ impl Located {
         .map_err(|e| anyhow!("localize: publishing pose {}: {e}", msg.scan.header.seq))?;
         if let Some(started) = self.started.take() {
             let ms = |ns: u64| ns as f64 / 1e6;
-            eprintln!(
+            messages::say!(
                 "localize: first pose {:.1} ms after the stage started (scan {}, {:.1} ms old when taken, located in \
                  {:.1} ms)",
                 started.elapsed().as_secs_f64() * 1e3,
@@ -380,10 +380,10 @@ impl Located {
     /// What the stage says when it stops, with its outlet's report.
     fn report(&self, out: &Outlet<PoseMsg>) {
         if self.found_by_poll > 0 {
-            eprintln!("localize: scans found by the poll, not by a wake-up, {} times", self.found_by_poll);
+            messages::say!("localize: scans found by the poll, not by a wake-up, {} times", self.found_by_poll);
         }
         if let Some(r) = out.report() {
-            eprintln!("localize: {r}");
+            messages::say!("localize: {r}");
         }
     }
 
@@ -397,7 +397,7 @@ impl Located {
         if held.replace(sample).is_some() {
             self.waiting_for_map += 1;
             if self.waiting_for_map == 1 || self.waiting_for_map.is_multiple_of(100) {
-                eprintln!("localize: no map yet, {} scans skipped", self.waiting_for_map);
+                messages::say!("localize: no map yet, {} scans skipped", self.waiting_for_map);
             }
         }
     }
@@ -412,7 +412,7 @@ impl Located {
         if self.localizer.is_none() {
             self.waiting_for_map += 1;
             if self.waiting_for_map == 1 || self.waiting_for_map.is_multiple_of(100) {
-                eprintln!("localize: no map yet, {} scans skipped", self.waiting_for_map);
+                messages::say!("localize: no map yet, {} scans skipped", self.waiting_for_map);
             }
             return false;
         }
@@ -427,7 +427,7 @@ impl Located {
         let view = match scan_view(&msg.scan) {
             Ok(v) => v,
             Err(e) => {
-                eprintln!("localize: dropped {e}");
+                messages::say!("localize: dropped {e}");
                 return None;
             }
         };

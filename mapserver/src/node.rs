@@ -127,11 +127,11 @@ impl RosMap {
 
     /// The first grid that gives a map: a map server is ready only with one.
     fn first(&self) -> Result<map::WallMap> {
-        eprintln!("mapserver: waiting for a nav_msgs/OccupancyGrid on {}", self.topic);
+        messages::say!("mapserver: waiting for a nav_msgs/OccupancyGrid on {}", self.topic);
         loop {
             match self.grids.recv() {
                 Ok(Ok(map)) => return Ok(map),
-                Ok(Err(e)) => eprintln!("mapserver: {}: {e:#}; waiting for another", self.topic),
+                Ok(Err(e)) => messages::say!("mapserver: {}: {e:#}; waiting for another", self.topic),
                 Err(_) => bail!("{}: the map subscription ended", self.topic),
             }
         }
@@ -246,7 +246,7 @@ pub fn run(a: MapServerArgs) -> Result<()> {
     send(&mut model_out, &current, block, version)?;
     messages::announce_ready(&node, &a.stage.prefix)?;
     let said = |v: &Version, what: &str, version: u32| {
-        eprintln!(
+        messages::say!(
             "mapserver: {what} {} ({} walls, {} corners) as version {version}: model of {:.1} MB built in {:.2} s",
             a.map,
             v.model.map.walls.len(),
@@ -294,7 +294,7 @@ pub fn run(a: MapServerArgs) -> Result<()> {
                     send(&mut model_out, &current, block, version)?;
                     said(&current, what, version);
                 }
-                Err(e) => eprintln!("mapserver: kept version {version}: {e:#}"),
+                Err(e) => messages::say!("mapserver: kept version {version}: {e:#}"),
             }
         }
     }

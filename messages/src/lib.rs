@@ -34,7 +34,7 @@ pub use payload::*;
 pub use placement::pin_to_cpu;
 pub use publish::{publish, zeroed_box, PublishError, Zeroable};
 pub use runtime::{
-    announce_ready, cleanup_dead_nodes, create_node, dead_node_pids, instance, monotonic_ns, ready_listener,
+    announce_ready, cleanup_dead_nodes, create_node, dead_node_pids, instance, monotonic_ns, ready_listener, say_line,
     RuntimeError, StageArgs, EXPIRED_CONNECTIONS, MAX_INSTANCE, MISSED_WAKEUP_POLL,
 };
 pub use topic::{

@@ -52,7 +52,7 @@ pub fn run(a: SegmentArgs) -> Result<()> {
     };
     // without it the stage still segments; a new localizer then waits for the next scan
     let ready = messages::ready_listener(&node, &a.stage.prefix)
-        .map_err(|e| eprintln!("segment: a new localizer will wait for the next scan: {e}"))
+        .map_err(|e| messages::say!("segment: a new localizer will wait for the next scan: {e}"))
         .ok();
     messages::announce_ready(&node, &a.stage.prefix)?;
     let mut failure: Option<anyhow::Error> = None;
@@ -61,7 +61,7 @@ pub fn run(a: SegmentArgs) -> Result<()> {
             // a stage is ready: a new localizer gets the latest scan's corners now
             let _ = ready.try_wait(|_| {});
             if let Err(e) = stage.corners_out.serve_history() {
-                eprintln!("segment: {e}");
+                messages::say!("segment: {e}");
             }
         }
         let mut look = Look::new([&scans.listener], woken[0]);
@@ -81,7 +81,7 @@ pub fn run(a: SegmentArgs) -> Result<()> {
         // woken ahead of a scan: wake the localizer too (the lines' only reader records them)
         if look.warm_up_to_pass_on() {
             if let Err(e) = stage.corners_out.warm_up() {
-                eprintln!("segment: {e}");
+                messages::say!("segment: {e}");
             }
         }
         CallbackProgression::Continue
@@ -120,7 +120,7 @@ impl Segmenting {
             Ok(v) => v,
             Err(e) => {
                 self.bad_scans += 1;
-                eprintln!("segment: dropped {e} ({} so far)", self.bad_scans);
+                messages::say!("segment: dropped {e} ({} so far)", self.bad_scans);
                 return Ok(());
             }
         };
@@ -139,10 +139,10 @@ impl Segmenting {
     /// What the stage says when it stops.
     fn report(&self) {
         if self.found_by_poll > 0 {
-            eprintln!("segment: scans found by the poll, not by a wake-up, {} times", self.found_by_poll);
+            messages::say!("segment: scans found by the poll, not by a wake-up, {} times", self.found_by_poll);
         }
         for r in [self.lines_out.report(), self.corners_out.report()].into_iter().flatten() {
-            eprintln!("segment: {r}");
+            messages::say!("segment: {r}");
         }
     }
 }
