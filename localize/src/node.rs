@@ -135,8 +135,6 @@ pub fn run(a: LocalizeArgs) -> Result<()> {
 
     let mut state = Located::new(config, a.implementation == "sequential");
     let mut failure: Option<anyhow::Error> = None;
-    // the latest scan that came before any model: located as soon as the model is there
-    let mut held: Option<Sample<ipc::Service, CornersMsg, ()>> = None;
     let on_event = |woken: &[bool]| {
         // both queues in each pass (messages::Look)
         let mut look = Look::new([&model_listener, &corners.listener], woken[0]);
@@ -152,11 +150,9 @@ pub fn run(a: LocalizeArgs) -> Result<()> {
                     // ready once there is a model to localize against: the scan that waited
                     // for it is located now, and the segment stage hands over its latest
                     Ok(true) => {
-                        if let Some(sample) = held.take().filter(|s| state.admit(s)) {
-                            if let Err(e) = state.publish(&sample, monotonic_ns(), &mut pose_out) {
-                                failure = Some(e);
-                                return CallbackProgression::Stop;
-                            }
+                        if let Err(e) = state.locate_held(&mut pose_out) {
+                            failure = Some(e);
+                            return CallbackProgression::Stop;
                         }
                         if let Err(e) = messages::announce_ready(&node, &a.stage.prefix) {
                             messages::say!("localize: {e}");
@@ -172,7 +168,7 @@ pub fn run(a: LocalizeArgs) -> Result<()> {
             loop {
                 let taken = match look.receive(&corners.subscriber) {
                     Ok(Some((sample, _))) if state.localizer.is_none() => {
-                        state.hold(&mut held, sample);
+                        state.hold(sample);
                         Ok(())
                     }
                     Ok(Some((sample, enter))) => state.take(&sample, enter, &mut look, &mut pose_out),
@@ -224,6 +220,8 @@ struct Located {
     localizer: Option<(Engine, u32)>,
     /// The blocks the models in use view; the oldest is released once its model is dropped.
     blocks: Vec<HeldBlock>,
+    /// The latest scan that came before any model: located as soon as the model is there.
+    held: Option<Sample<ipc::Service, CornersMsg, ()>>,
     seg: Segmentation,
     fresh: Freshness,
     waiting_for_map: u64,
@@ -239,6 +237,7 @@ impl Located {
             sequential,
             localizer: None,
             blocks: Vec::new(),
+            held: None,
             seg: Segmentation::default(),
             fresh: Freshness::default(),
             waiting_for_map: 0,
@@ -387,18 +386,27 @@ impl Located {
         }
     }
 
-    /// Keeps `sample`, a scan that came before any model, in `held` to be located once the
-    /// model is there; the one it replaces is skipped (counted, and said now and then).
-    fn hold(
-        &mut self,
-        held: &mut Option<Sample<ipc::Service, CornersMsg, ()>>,
-        sample: Sample<ipc::Service, CornersMsg, ()>,
-    ) {
-        if held.replace(sample).is_some() {
-            self.waiting_for_map += 1;
-            if self.waiting_for_map == 1 || self.waiting_for_map.is_multiple_of(100) {
-                messages::say!("localize: no map yet, {} scans skipped", self.waiting_for_map);
-            }
+    /// Keeps `sample`, a scan that came before any model, to be located once the model is
+    /// there ([`locate_held`](Self::locate_held)); the one it replaces is skipped.
+    fn hold(&mut self, sample: Sample<ipc::Service, CornersMsg, ()>) {
+        if self.held.replace(sample).is_some() {
+            self.skipped_for_want_of_a_map();
+        }
+    }
+
+    /// Locates the scan [`hold`](Self::hold) kept, if any, and publishes its pose to `out`.
+    fn locate_held(&mut self, out: &mut Outlet<PoseMsg>) -> Result<()> {
+        match self.held.take() {
+            Some(sample) if self.admit(&sample) => self.publish(&sample, monotonic_ns(), out),
+            _ => Ok(()),
+        }
+    }
+
+    /// Counts a scan skipped before any map, and says so now and then.
+    fn skipped_for_want_of_a_map(&mut self) {
+        self.waiting_for_map += 1;
+        if self.waiting_for_map == 1 || self.waiting_for_map.is_multiple_of(100) {
+            messages::say!("localize: no map yet, {} scans skipped", self.waiting_for_map);
         }
     }
 
@@ -410,10 +418,7 @@ impl Located {
             return false;
         }
         if self.localizer.is_none() {
-            self.waiting_for_map += 1;
-            if self.waiting_for_map == 1 || self.waiting_for_map.is_multiple_of(100) {
-                messages::say!("localize: no map yet, {} scans skipped", self.waiting_for_map);
-            }
+            self.skipped_for_want_of_a_map();
             return false;
         }
         true
