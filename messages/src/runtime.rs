@@ -223,17 +223,15 @@ pub fn ready_listener(
 /// supervisor's stderr, and `eprintln!` writes a formatted line in pieces, between which
 /// another stage's line can land (seen under load: a map server's line inside a localizer's).
 /// One write of a line shorter than the pipe's buffer is never split. See [`crate::say`].
-pub fn say_line(line: &str) {
-    let mut text = String::with_capacity(line.len() + 1);
-    text.push_str(line);
-    text.push('\n');
+pub fn say_line(line: std::fmt::Arguments<'_>) {
+    let text = format!("{line}\n");
     let _ = std::io::Write::write_all(&mut std::io::stderr().lock(), text.as_bytes());
 }
 
-/// `eprintln!` in one write ([`say_line`]): what a stage reports with.
+/// `eprintln!` in one write ([`say_line`]): what a stage and its supervisor report with.
 #[macro_export]
 macro_rules! say {
     ($($arg:tt)*) => {
-        $crate::say_line(&format!($($arg)*))
+        $crate::say_line(format_args!($($arg)*))
     };
 }

@@ -172,10 +172,10 @@ pub fn run(a: Ros2Args) -> Result<()> {
     let waited = messages::run_stage(&node, &[(&poses.name, &poses.listener)], messages::MISSED_WAKEUP_POLL, on_event);
     stop.store(true, Ordering::Relaxed);
     let scanned = scans.join().map_err(|_| anyhow!("ros2: the scan thread panicked"))?;
-    eprintln!("ros2: published {} poses on {}", out.published, a.pose_topic);
+    messages::say!("ros2: published {} poses on {}", out.published, a.pose_topic);
     if !out.latency_us.is_empty() {
         let (p50, p99) = messages::latency::p50_p99(&out.latency_us);
-        eprintln!(
+        messages::say!(
             "ros2: latency from a LaserScan taken to its pose published, ms: p50 {:.3} p99 {:.3} (last {} poses)",
             p50 / 1e3,
             p99 / 1e3,
@@ -183,7 +183,7 @@ pub fn run(a: Ros2Args) -> Result<()> {
         );
     }
     if out.unstamped > 0 {
-        eprintln!("ros2: {} poses whose scan's stamp was no longer known were stamped when sent", out.unstamped);
+        messages::say!("ros2: {} poses whose scan's stamp was no longer known were stamped when sent", out.unstamped);
     }
     waited?;
     scanned?;
@@ -276,7 +276,7 @@ impl PosesOut {
     fn unmounted(&mut self, frame: &str) -> Option<Pose> {
         if !self.unmounted_said {
             self.unmounted_said = true;
-            eprintln!(
+            messages::say!(
                 "ros2: no transform {} -> {frame:?} on /tf_static (nor --laser-pose): publishing the laser's pose as \
                  the robot's until one comes",
                 self.a.base_frame
@@ -341,7 +341,7 @@ fn scans_in(context: &Context, a: &Ros2Args, shared: &Mutex<Shared>, stop: &Atom
                         s.frames.insert(&t.header.frame_id, &t.child_frame_id, x, y, yaw);
                     }
                 }
-                Err(e) => eprintln!("ros2: /tf_static: a message that does not decode: {e:?}"),
+                Err(e) => messages::say!("ros2: /tf_static: a message that does not decode: {e:?}"),
             }
         }
         // odometry before the scans, so a scan finds the message of its own instant
@@ -351,7 +351,7 @@ fn scans_in(context: &Context, a: &Ros2Args, shared: &Mutex<Shared>, stop: &Atom
                     let (x, y, yaw) = m.pose.pose.planar();
                     odometry.add(m.header.stamp.nanos(), x, y, yaw);
                 }
-                Err(e) => eprintln!("ros2: {}: a message that does not decode: {e:?}", a.odom_topic),
+                Err(e) => messages::say!("ros2: {}: a message that does not decode: {e:?}", a.odom_topic),
             }
         }
         while let Some(taken) = scans.take().transpose() {
@@ -364,7 +364,7 @@ fn scans_in(context: &Context, a: &Ros2Args, shared: &Mutex<Shared>, stop: &Atom
                 Err(e) => {
                     bad += 1;
                     if bad <= 10 {
-                        eprintln!("ros2: {}: dropped a LaserScan: {e} ({bad} so far)", a.scan_topic);
+                        messages::say!("ros2: {}: dropped a LaserScan: {e} ({bad} so far)", a.scan_topic);
                     }
                     continue;
                 }
@@ -388,7 +388,7 @@ fn scans_in(context: &Context, a: &Ros2Args, shared: &Mutex<Shared>, stop: &Atom
             seq += 1;
         }
     }
-    eprintln!(
+    messages::say!(
         "ros2: {} scans in from {}{}",
         seq,
         a.scan_topic,

@@ -110,7 +110,7 @@ pub fn run(a: RunArgs) -> Result<()> {
     let _placement = Placement::take(&pipeline.supervisor)?;
     let stale = messages::cleanup_dead_nodes();
     if stale > 0 {
-        eprintln!("supervisor: removed the resources of {stale} dead processes");
+        messages::say!("supervisor: removed the resources of {stale} dead processes");
     }
     let node = messages::create_node("supervisor")?;
     let control = open_control(&node, &a.prefix)?;
@@ -124,7 +124,7 @@ pub fn run(a: RunArgs) -> Result<()> {
     let mut stages: Vec<StageProcess> = pipeline.stages.into_iter().map(StageProcess::new).collect();
     start_all(&mut stages, &a.prefix, &ready, &mut seen, &mut instances)?;
     let started = Instant::now();
-    eprintln!("supervisor: {} stages running under prefix {}", stages.len(), a.prefix);
+    messages::say!("supervisor: {} stages running under prefix {}", stages.len(), a.prefix);
 
     let mut monitor = Monitor::default();
     let progress = crate::progress::Progress::scans("poses", scans.filter(|&n| n > 0));
@@ -157,7 +157,7 @@ pub fn run(a: RunArgs) -> Result<()> {
         let timed_out = a.timeout.is_some_and(|t| started.elapsed().as_secs_f64() > t);
         if all_in || quiet || timed_out {
             if timed_out {
-                eprintln!("supervisor: timed out after {:?}", started.elapsed());
+                messages::say!("supervisor: timed out after {:?}", started.elapsed());
             }
             return CallbackProgression::Stop;
         }
@@ -232,7 +232,7 @@ impl Placement {
         let wake_latency = match placement.wake_latency_us {
             Some(us) => {
                 let r = messages::placement::WakeLatencyRequest::hold(us).context("[supervisor] wake_latency_us")?;
-                eprintln!("supervisor: idle cores wake within {} us while the pipeline runs (PM QoS)", r.micros);
+                messages::say!("supervisor: idle cores wake within {} us while the pipeline runs (PM QoS)", r.micros);
                 Some(r)
             }
             None => None,
@@ -296,7 +296,7 @@ fn reap_and_restart(stages: &mut [StageProcess], prefix: &str, instances: &mut I
             st.child = None;
             if st.should_restart(&status) {
                 let removed = messages::cleanup_dead_nodes();
-                eprintln!(
+                messages::say!(
                     "supervisor: stage {} ended ({status}); restarting in {:?} ({removed} dead nodes cleaned)",
                     st.spec.name,
                     st.backoff()
@@ -306,7 +306,7 @@ fn reap_and_restart(stages: &mut [StageProcess], prefix: &str, instances: &mut I
             } else {
                 st.finished = true;
                 if !status.success() {
-                    eprintln!("supervisor: stage {} ended ({status}), not restarted", st.spec.name);
+                    messages::say!("supervisor: stage {} ended ({status}), not restarted", st.spec.name);
                     st.failed = Some(status);
                 }
             }
@@ -333,7 +333,7 @@ fn hot_swap(
         match Swap::accept(server, stages, prefix, || instances.next()) {
             Ok(s) => *swap = s,
             Err(e) => {
-                eprintln!("supervisor: {e:#}");
+                messages::say!("supervisor: {e:#}");
                 events.say(false, &format!("{e:#}"));
             }
         }
@@ -344,7 +344,7 @@ fn hot_swap(
             SwapOutcome::Done(message) => (true, message),
             SwapOutcome::Failed(message) => (false, message),
         };
-        eprintln!("supervisor: {message}");
+        messages::say!("supervisor: {message}");
         events.say(ok, &message);
         *swap = None;
     }
@@ -370,7 +370,7 @@ impl Events {
         let text = messages::cut_padded::<{ messages::EVENT_LEN }>(text);
         let m = messages::EventMsg { stamp_ns: messages::monotonic_ns(), ok: u32::from(ok), _pad: 0, text };
         if let Err(e) = messages::publish(&self.publisher, &self.notifier, |slot: &mut messages::EventMsg| *slot = m) {
-            eprintln!("supervisor: events: {e}");
+            messages::say!("supervisor: events: {e}");
         }
     }
 }

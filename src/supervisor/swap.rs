@@ -254,7 +254,7 @@ impl Swap {
             Ok(c) => c,
             Err(e) => return refuse(format!("{e:#}")),
         };
-        eprintln!("supervisor: swapping {} to {what}", spec.name);
+        messages::say!("supervisor: swapping {} to {what}", spec.name);
         Ok(Some(Swap {
             request,
             stage,

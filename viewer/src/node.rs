@@ -191,10 +191,10 @@ pub fn run(a: RecordArgs) -> Result<Counts> {
     let node = messages::create_node("viewer")?;
     let subs = Subscriptions::open(&node, &a.stage.prefix)?;
     messages::announce_ready(&node, &a.stage.prefix)?;
-    eprintln!("viewer: recording {} to {}", a.stage.prefix, describe(&a));
+    messages::say!("viewer: recording {} to {}", a.stage.prefix, describe(&a));
     if let Some(c) = a.connect.as_deref() {
         if let Some(why) = crate::output::unanswered(&crate::output::connect_url(c), LIVE_WAIT) {
-            eprintln!(
+            messages::say!(
                 "viewer: warning: no rerun viewer answers at {c} ({why}); one started later shows what \
                  comes after it connects, and the recording ends in an error"
             );
@@ -217,9 +217,9 @@ pub fn run(a: RecordArgs) -> Result<Counts> {
         let _ = recorder.note(TextLogLevel::ERROR, format!("viewer: {e}"));
     }
     let (counts, parts, closed) = recorder.finish_keeping();
-    eprintln!("viewer: stopped\n{}", counts.render());
+    messages::say!("viewer: stopped\n{}", counts.render());
     for p in &parts {
-        eprintln!("viewer: wrote {}", p.display());
+        messages::say!("viewer: wrote {}", p.display());
     }
     closed?;
     waited?;

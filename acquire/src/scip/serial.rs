@@ -72,7 +72,7 @@ impl SerialLink {
             .into_iter()
             .filter(|&r| r != self.baud)
             .find(|&r| self.retune(urg, r).is_ok() && urg.connect().is_ok())?;
-        eprintln!("acquire: {}: the sensor answers at {found} bit/s; switching it to {}", self.path, self.baud);
+        messages::say!("acquire: {}: the sensor answers at {found} bit/s; switching it to {}", self.path, self.baud);
         let switched = urg.set_bit_rate(self.baud).and_then(|()| {
             self.retune(urg, self.baud)?;
             urg.connect().cloned()

@@ -80,10 +80,10 @@ impl<C: Connector> ScipSource<C> {
         loop {
             if self.urg.is_none() {
                 match self.open() {
-                    Ok(()) => eprintln!("acquire: {} connected", self.link.name()),
+                    Ok(()) => messages::say!("acquire: {} connected", self.link.name()),
                     Err(e) if fatal(&e) => return Some(Err(e)),
                     Err(e) => {
-                        eprintln!("acquire: {}: {e}; retrying in {:?}", self.link.name(), self.backoff);
+                        messages::say!("acquire: {}: {e}; retrying in {:?}", self.link.name(), self.backoff);
                         self.urg = None;
                         if !keep_going(self.backoff) {
                             return None;
@@ -106,7 +106,7 @@ impl<C: Connector> ScipSource<C> {
                 Err(ScipError::Checksum(_)) | Err(ScipError::Malformed(_)) => continue,
                 Err(e) if fatal(&e) => return Some(Err(e)),
                 Err(e) => {
-                    eprintln!("acquire: {}: {e}; reconnecting", self.link.name());
+                    messages::say!("acquire: {}: {e}; reconnecting", self.link.name());
                     self.retire();
                 }
             }
