@@ -21,6 +21,13 @@ impl Localizer {
     /// are kept.
     pub(super) fn make_candidates(&mut self, seg: &Segmentation, source: Source, keep: usize) {
         self.candidates.clear();
+        // the buffer holds at most `held(keep)` candidates (see `Offers::offer`); one a wide
+        // search grew is given back, so a localizer does not keep the largest it ever needed
+        let held = held(keep);
+        if self.candidates.capacity() > 2 * held {
+            self.candidates.shrink_to(held);
+        }
+        self.candidates.reserve_exact(held);
         let cfg = self.config;
         let model = Arc::clone(&self.model);
         // screening in two passes: one in `prescreen_step` points for all poses, then every
@@ -33,6 +40,8 @@ impl Localizer {
             few: &self.screen_few,
             order: &mut self.screen_order,
             candidates: &mut self.candidates,
+            keep,
+            held,
         };
         // tracking: the robot is within r of its last pose
         let prior = self.prior.zip(cfg.track_radius);
@@ -70,6 +79,29 @@ struct Offers<'a> {
     /// `few` in the order the current match's poses read them.
     order: &'a mut Vec<ScreenPoint>,
     candidates: &'a mut Vec<Candidate>,
+    /// How many the search keeps.
+    keep: usize,
+    /// How many `candidates` holds before it is cut back to the `keep` best.
+    held: usize,
+}
+
+/// Adds `c` to `candidates`, first cutting them back to the `keep` best when they are `held`
+/// (more than `keep`). A candidate with `keep` better than it is not among the `keep` best, so
+/// the best `keep` of all offered are the same as when every candidate is held (but which of
+/// equal ones).
+fn hold(candidates: &mut Vec<Candidate>, c: Candidate, keep: usize, held: usize) {
+    if candidates.len() >= held {
+        candidates.select_nth_unstable_by(keep, |a, b| a.score.total_cmp(&b.score));
+        candidates.truncate(keep);
+    }
+    candidates.push(c);
+}
+
+/// The most candidates a search that keeps `keep` holds at once: the first pass lets through
+/// every pose that is among the best so far, about `keep` (1 + ln(poses / keep)) of them, and a
+/// few thousand poses of 48 bytes each are most of a localizer's own memory.
+fn held(keep: usize) -> usize {
+    keep + (keep / 2).max(16)
 }
 
 impl Offers<'_> {
@@ -81,7 +113,7 @@ impl Offers<'_> {
 
     fn offer(&mut self, pose: Pose, scan_corner: u16, map_corner: u32) {
         if let Some(score) = self.pass.score(&pose, self.order) {
-            self.candidates.push(Candidate { pose, score, scan_corner, map_corner });
+            hold(self.candidates, Candidate { pose, score, scan_corner, map_corner }, self.keep, self.held);
         }
     }
 }
@@ -196,6 +228,39 @@ fn grid_candidates(
     for heading in headings {
         for p in positions.iter() {
             offers.offer(Pose::new(p.coords, heading), FROM_GRID, u32::MAX);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    fn candidate(score: f64) -> Candidate {
+        Candidate { pose: Pose::identity(), score, scan_corner: 0, map_corner: 0 }
+    }
+
+    proptest! {
+        /// Held a few at a time, the candidates' best `keep` are those of all of them, and the
+        /// buffer never passes its bound.
+        #[test]
+        fn the_best_are_kept_however_few_are_held(
+            scores in prop::collection::vec(0.0f64..100.0, 0..3000),
+            keep in 0usize..300,
+        ) {
+            let held = held(keep);
+            let mut bounded = Vec::new();
+            for &s in &scores {
+                hold(&mut bounded, candidate(s), keep, held);
+                prop_assert!(bounded.len() <= held);
+            }
+            let best = |mut v: Vec<f64>| {
+                v.sort_by(f64::total_cmp);
+                v.truncate(keep);
+                v
+            };
+            prop_assert_eq!(best(bounded.iter().map(|c| c.score).collect()), best(scores));
         }
     }
 }
