@@ -12,7 +12,7 @@ use crate::wall::Wall;
 use laser::{Pose, ScanGeometry};
 use nalgebra::{Point2, Vector2};
 use std::f64::consts::TAU;
-use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::atomic::{AtomicU32, Ordering};
 use std::sync::OnceLock;
 
 /// Expected ranges d'_i of eq. 7: what an ideal sensor at a pose would read in the map.
@@ -42,23 +42,28 @@ struct ReachLists {
     /// the lists repeat most of the map in every cell (11 MB on freiburg-079's built map at
     /// 50 m), in every localizer that shares the map's model.
     within: ReachFrame,
-    /// How many walls each cell lists, counted on first need.
-    counts: Vec<OnceLock<u32>>,
-    /// The walls of a cell's list not hidden from the cell, by cell index.
-    visible: Vec<OnceLock<Box<[u32]>>>,
-    /// Beams marched from each cell whose list is not filtered yet ([`Plan`]).
-    marched: Vec<AtomicUsize>,
+    /// How many walls each cell lists, counted on first need ([`NOT_COUNTED`] until then).
+    counts: Vec<AtomicU32>,
+    /// The walls of a cell's list not hidden from the cell, by cell index. Boxed twice so that
+    /// a cell not filtered costs 16 bytes, not 24: these per-cell tables are most of what a
+    /// localizer holds of its own beside the shared model.
+    visible: Vec<OnceLock<Box<Box<[u32]>>>>,
+    /// Beams marched from each cell whose list is not filtered yet ([`Plan`]), saturating.
+    marched: Vec<AtomicU32>,
 }
+
+/// A cell whose walls are not counted yet ([`ReachLists::counts`]).
+const NOT_COUNTED: u32 = u32::MAX;
 
 impl Clone for ReachLists {
     fn clone(&self) -> Self {
-        let marched = self.marched.iter().map(|m| AtomicUsize::new(m.load(Ordering::Relaxed))).collect();
+        let copy = |v: &[AtomicU32]| v.iter().map(|m| AtomicU32::new(m.load(Ordering::Relaxed))).collect();
         ReachLists {
             range: self.range,
             within: self.within,
-            counts: self.counts.clone(),
+            counts: copy(&self.counts),
             visible: self.visible.clone(),
-            marched,
+            marched: copy(&self.marched),
         }
     }
 }
@@ -70,9 +75,9 @@ impl ReachLists {
 
     fn filtering_eagerly_up_to(walls: &[Wall], range: f64, eager_pairs: f64) -> Self {
         let within = ReachFrame::covering(walls, CELL, range, CELL);
-        let counts = (0..within.cell_count()).map(|_| OnceLock::new()).collect();
+        let counts = (0..within.cell_count()).map(|_| AtomicU32::new(NOT_COUNTED)).collect();
         let visible = (0..within.cell_count()).map(|_| OnceLock::new()).collect();
-        let marched = (0..within.cell_count()).map(|_| AtomicUsize::new(0)).collect();
+        let marched = (0..within.cell_count()).map(|_| AtomicU32::new(0)).collect();
         let lists = ReachLists { range, within, counts, visible, marched };
         let cells = || (0..lists.within.rows()).flat_map(|r| (0..lists.within.cols()).map(move |c| (c, r)));
         // counted only until the sum passes the bound: counting every cell of a large map at a
@@ -106,7 +111,12 @@ impl ReachLists {
                 let marching = beams as f64 * MARCH_NS_PER_BEAM;
                 // a short list is filtered at once: that and a sweep cost less than this march
                 if filtering + unfiltered * SWEEP_NS_PER_WALL > marching {
-                    let marched = self.marched[cell].fetch_add(beams, Ordering::Relaxed) + beams;
+                    let beams = u32::try_from(beams).unwrap_or(u32::MAX);
+                    let marched = match self.marched[cell].fetch_update(Ordering::Relaxed, Ordering::Relaxed, |m| {
+                        Some(m.saturating_add(beams))
+                    }) {
+                        Ok(before) | Err(before) => before.saturating_add(beams),
+                    };
                     if (marched as f64) * MARCH_NS_PER_BEAM < FILTER_AFTER * filtering {
                         return Some(Plan::March);
                     }
@@ -119,7 +129,16 @@ impl ReachLists {
 
     /// How many walls lie within reach of cell (c, r), counted on the first call.
     fn count(&self, walls: &[Wall], c: usize, r: usize) -> usize {
-        *self.counts[self.within.cell_index(c, r)].get_or_init(|| self.within.count_of(walls, c, r) as u32) as usize
+        let count = &self.counts[self.within.cell_index(c, r)];
+        match count.load(Ordering::Relaxed) {
+            NOT_COUNTED => {
+                // two threads may both count a cell: they store the same number
+                let n = u32::try_from(self.within.count_of(walls, c, r)).unwrap_or(NOT_COUNTED - 1);
+                count.store(n, Ordering::Relaxed);
+                n as usize
+            }
+            n => n as usize,
+        }
     }
 
     /// The walls of cell (c, r) not hidden from it, filtered on the first call.
@@ -128,7 +147,7 @@ impl ReachLists {
             let (mut list, mut kept) = (Vec::new(), Vec::new());
             self.within.list_of(walls, c, r, &mut list);
             potentially_visible(walls, &self.within.cell_corners(c, r), &list, &mut kept);
-            kept.into_boxed_slice()
+            Box::new(kept.into_boxed_slice())
         })
     }
 }
