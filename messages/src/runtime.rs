@@ -33,9 +33,11 @@ fn quiet_iceoryx2() {
 /// from them is returned. iceoryx2's default, 128, costs every subscriber about 470 KB of its
 /// own memory (a slot per connection, each a few KB of names), more than a localizer needs for
 /// anything else; a connection kept here is only one whose publisher went while this process
-/// still held its samples, and a subscriber holds at most [`crate::MODEL_HELD`] (the model)
-/// or 2 (iceoryx2's default elsewhere), so 8 covers every publisher that can go at once.
-pub const EXPIRED_CONNECTIONS: usize = 8;
+/// still held its samples or had sent it some not yet read. A subscriber holds at most
+/// [`crate::MODEL_HELD`] (the model) or 2 (iceoryx2's default elsewhere) samples, and reads what
+/// it was sent within a scan, so 4 covers every publisher that can go at once (a swap's, a
+/// restart's and a larger map block's). Each slot costs a subscriber about 3.6 KB.
+pub const EXPIRED_CONNECTIONS: usize = 4;
 
 /// Creates this process's node. Termination signals (SIGINT, SIGTERM) are left to iceoryx2,
 /// which records them for the node; [`crate::run_waitset`] and [`crate::sleep`] then return so
@@ -175,7 +177,7 @@ pub fn announce_ready(node: &Node<ipc::Service>, prefix: &str) -> Result<(), cra
 
 /// Stack kept below the caller's frame by [`release_start_up_stack`]: what a stage's loop
 /// reaches below where it announces itself ready.
-const STACK_KEPT: usize = 64 * 1024;
+const STACK_KEPT: usize = 16 * 1024;
 
 /// Gives the system back the main thread's stack pages below the caller's frame (less
 /// [`STACK_KEPT`]). iceoryx2 reads its configuration and sets up a node in frames of tens of
