@@ -112,9 +112,9 @@ impl ReachLists {
                 // a short list is filtered at once: that and a sweep cost less than this march
                 if filtering + unfiltered * SWEEP_NS_PER_WALL > marching {
                     let beams = u32::try_from(beams).unwrap_or(u32::MAX);
-                    let marched = match self.marched[cell].fetch_update(Ordering::Relaxed, Ordering::Relaxed, |m| {
-                        Some(m.saturating_add(beams))
-                    }) {
+                    let marched = match self.marched[cell]
+                        .fetch_update(Ordering::Relaxed, Ordering::Relaxed, |m| Some(m.saturating_add(beams)))
+                    {
                         Ok(before) | Err(before) => before.saturating_add(beams),
                     };
                     if (marched as f64) * MARCH_NS_PER_BEAM < FILTER_AFTER * filtering {
