@@ -100,3 +100,36 @@ fn without_odometry_every_scan_is_located_from_scratch() {
         assert!(a.scans <= 1, "scan {k}: an answer resting on {} scans", a.scans);
     }
 }
+
+/// Tracking screens hundreds of starts about where odometry puts the robot (on a few points,
+/// then the best few of them on every point) and refines the best: a truth between the starts
+/// and well off the prediction is the answer.
+#[test]
+fn the_search_about_a_prediction_finds_the_truth_among_hundreds_of_starts() {
+    let mut rig = Rig::new("office", 5);
+    let mut found = 0;
+    let mut out = Vec::new();
+    for _ in 0..10 {
+        let truth = rig.sim.random_pose();
+        let predicted = truth * pose(0.25, -0.2, 0.25);
+        let scan = rig.sim.scan_at(&truth, &Obstacles::default());
+        let seg = rig.segmenter.segment(&scan.view());
+        let localizer = &mut rig.sequential.localizer;
+        localizer.set_lines(seg.lines.iter().map(localize::slide::SlideLine::from));
+        // the sequential localizer's grid at its widest: 25 headings 3 degrees apart by 5 x 5
+        // positions 0.2 m apart
+        let (c, heading) = (predicted.translation.vector, predicted.rotation.angle());
+        let mut starts = Vec::new();
+        for k in -12..=12 {
+            for i in -2..=2 {
+                for j in -2..=2 {
+                    let at = c + nalgebra::Vector2::new(f64::from(i), f64::from(j)) * 0.2;
+                    starts.push(nalgebra::Isometry2::new(at, heading + f64::from(k) * 3f64.to_radians()));
+                }
+            }
+        }
+        localizer.search_around(&scan.view(), seg, &starts, 3, &mut out);
+        found += usize::from(out.first().is_some_and(|(p, _)| same_pose(p, &truth, 0.05, 1f64.to_radians())));
+    }
+    assert!(found >= 9, "found the truth {found} times of 10");
+}
