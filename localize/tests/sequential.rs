@@ -102,17 +102,19 @@ fn without_odometry_every_scan_is_located_from_scratch() {
 }
 
 /// Tracking screens hundreds of starts about where odometry puts the robot (on a few points,
-/// then the best few of them on every point) and refines the best: a truth between the starts
-/// and well off the prediction is the answer.
+/// then the best few of them on every point) and refines the best: with furniture in view, a
+/// truth between the starts and well off the prediction is the answer.
 #[test]
 fn the_search_about_a_prediction_finds_the_truth_among_hundreds_of_starts() {
     let mut rig = Rig::new("office", 5);
-    let mut found = 0;
+    let map = worlds::by_name("office").expect("a bundled world");
+    let mut sim = Simulator::new(&map, SensorModel::urg04lx(), Scenario::Furniture, 5);
+    let (mut found, tries) = (0, 40);
     let mut out = Vec::new();
-    for _ in 0..10 {
-        let truth = rig.sim.random_pose();
+    for _ in 0..tries {
+        let scan = sim.next_scan();
+        let truth = scan.truth.expect("a simulated scan's truth");
         let predicted = truth * pose(0.25, -0.2, 0.25);
-        let scan = rig.sim.scan_at(&truth, &Obstacles::default());
         let seg = rig.segmenter.segment(&scan.view());
         let localizer = &mut rig.sequential.localizer;
         localizer.set_lines(seg.lines.iter().map(localize::slide::SlideLine::from));
@@ -131,5 +133,6 @@ fn the_search_about_a_prediction_finds_the_truth_among_hundreds_of_starts() {
         localizer.search_around(&scan.view(), seg, &starts, 3, &mut out);
         found += usize::from(out.first().is_some_and(|(p, _)| same_pose(p, &truth, 0.05, 1f64.to_radians())));
     }
-    assert!(found >= 9, "found the truth {found} times of 10");
+    // 37 of 40 as built; a second pass that kept only the best of the first found 29
+    assert!(found * 5 >= tries * 4, "found the truth {found} times of {tries}");
 }
