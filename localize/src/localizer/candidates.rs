@@ -30,10 +30,8 @@ impl Localizer {
         self.candidates.reserve_exact(held);
         let cfg = self.config;
         let model = Arc::clone(&self.model);
-        // screening in two passes: one in `prescreen_step` points for all poses, then every
-        // point for the `keep` best
-        self.screen_few.clear();
-        self.screen_few.extend(self.screen_pts.iter().step_by(cfg.prescreen_step.max(1)));
+        // screening in two passes: one in `prescreen_step` points (`screen_few`) for all
+        // poses, then every point for the `keep` best
         let screen = Screen::new(&model, &cfg);
         let mut offers = Offers {
             pass: FirstPass::new(screen, self.screen_few.len(), keep, &mut self.best_sums),

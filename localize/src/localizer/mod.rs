@@ -342,6 +342,15 @@ impl Localizer {
         subsample(seg, self.config.refine_points, &mut self.refine_pts);
     }
 
+    /// The scan's screening points, and one in `prescreen_step` of them for the first pass:
+    /// what every search of the scan and [`search_around`](Self::search_around) screen with.
+    fn set_screen_points(&mut self, seg: &Segmentation) {
+        let cfg = &self.config;
+        screen_points(seg, &self.lines, cfg.screen_points, cfg.screen_long_line, &mut self.screen_pts);
+        self.screen_few.clear();
+        self.screen_few.extend(self.screen_pts.iter().step_by(cfg.prescreen_step.max(1)));
+    }
+
     /// Screens each of `starts` by the distance field (with the lines of
     /// [`set_lines`](Self::set_lines)), as a search screens its candidates, then refines the
     /// `keep` best and costs them by the full eq. 7: a search over the poses
@@ -358,20 +367,18 @@ impl Localizer {
     ) {
         out.clear();
         self.prepare(scan, seg);
+        self.set_screen_points(seg);
         let cfg = self.config;
-        screen_points(seg, &self.lines, cfg.screen_points, cfg.screen_long_line, &mut self.screen_pts);
         let model = Arc::clone(&self.model);
         let screen = Screen::new(&model, &cfg);
         // two passes, as a search screens its candidates: one in `prescreen_step` points for
         // every start, then every point for the best few of those. Tracking screens hundreds of
         // starts a track, and screening them was most of a tracked scan's time.
-        self.screen_few.clear();
-        self.screen_few.extend(self.screen_pts.iter().step_by(cfg.prescreen_step.max(1)));
         let few = (keep * AROUND_PRESCREENED_PER_KEPT).max(AROUND_PRESCREENED_LEAST);
         self.best_sums.clear();
         self.candidates.clear();
-        let first_pass: &[ScreenPoint] = if starts.len() > few { &self.screen_few } else { &self.screen_pts };
-        let first_keep = if starts.len() > few { few } else { keep };
+        let two_passes = starts.len() > few;
+        let (first_pass, first_keep) = if two_passes { (&self.screen_few, few) } else { (&self.screen_pts, keep) };
         for p in starts {
             let limit = self.best_sums.kth(first_keep);
             if let Some(sum) = screen.sum(p, first_pass, limit) {
@@ -379,7 +386,7 @@ impl Localizer {
                 self.candidates.push(Candidate { pose: *p, score: sum, scan_corner: 0, map_corner: 0 });
             }
         }
-        if starts.len() > few {
+        if two_passes {
             self.candidates.sort_by(|a, b| a.score.total_cmp(&b.score));
             self.candidates.truncate(few);
             self.best_sums.clear();
@@ -437,8 +444,7 @@ impl Localizer {
         self.out.times = LocateTimes::default();
         self.out.slide_step = None;
         self.prepare(scan, seg);
-        let cfg = &self.config;
-        screen_points(seg, &self.lines, cfg.screen_points, cfg.screen_long_line, &mut self.screen_pts);
+        self.set_screen_points(seg);
         let ran = self.run_cascade(scan, seg);
         if ran.contains(Step::Slide) {
             let cfg = self.config;
