@@ -23,6 +23,52 @@ pub struct WallGrid {
     /// Start of each cell's run in `items` (CSR layout, `cols * rows + 1` entries).
     starts: Slab<u32>,
     items: Slab<u32>,
+    /// Per cell, how many cells away (along x, y or a diagonal: the Chebyshev distance) the
+    /// nearest cell that lists a wall lies, at most 255: 0 for a cell that lists one. A ray in
+    /// a cell of clearance k crosses no wall before it leaves the square of k - 1 cells either
+    /// side of it ([`march_walls`](Self::march_walls)).
+    clear: Slab<u8>,
+}
+
+/// A march jumps across the empty square about a cell from this clearance on: a smaller square
+/// is crossed in about as few cell steps as the jump costs.
+const JUMP_CLEARANCE: u8 = 3;
+
+/// The Chebyshev distance, in cells, from each cell of a `cols` x `rows` grid to the nearest
+/// cell for which `occupied` holds, at most 255 (255 everywhere when none is): two passes of
+/// the eight-neighbour chamfer, which is exact for this distance.
+fn clearance(cols: usize, rows: usize, occupied: impl Fn(usize) -> bool) -> Vec<u8> {
+    let mut d: Vec<u8> = (0..cols * rows).map(|k| if occupied(k) { 0 } else { u8::MAX }).collect();
+    let at = |c: usize, r: usize| r * cols + c;
+    for r in 0..rows {
+        for c in 0..cols {
+            let mut v = d[at(c, r)];
+            if c > 0 {
+                v = v.min(d[at(c - 1, r)].saturating_add(1));
+            }
+            if r > 0 {
+                for cc in c.saturating_sub(1)..=(c + 1).min(cols - 1) {
+                    v = v.min(d[at(cc, r - 1)].saturating_add(1));
+                }
+            }
+            d[at(c, r)] = v;
+        }
+    }
+    for r in (0..rows).rev() {
+        for c in (0..cols).rev() {
+            let mut v = d[at(c, r)];
+            if c + 1 < cols {
+                v = v.min(d[at(c + 1, r)].saturating_add(1));
+            }
+            if r + 1 < rows {
+                for cc in c.saturating_sub(1)..=(c + 1).min(cols - 1) {
+                    v = v.min(d[at(cc, r + 1)].saturating_add(1));
+                }
+            }
+            d[at(c, r)] = v;
+        }
+    }
+    d
 }
 
 impl WallGrid {
@@ -69,7 +115,8 @@ impl WallGrid {
             items.extend_from_slice(list);
         }
         starts.push(items.len() as u32);
-        WallGrid { frame, starts: starts.into(), items: items.into() }
+        let clear = clearance(cols, rows, |k| starts[k + 1] > starts[k]);
+        WallGrid { frame, starts: starts.into(), items: items.into(), clear: clear.into() }
     }
 
     fn clamp_cell(origin: Point2<f64>, cell: f64, cols: usize, rows: usize, p: Point2<f64>) -> (usize, usize) {
@@ -219,6 +266,112 @@ impl WallGrid {
                 next_x += delta_x;
                 if c == end_c {
                     return;
+                }
+            }
+        }
+    }
+}
+
+/// Whether `clear` never claims more room than there is: 0 on every cell `occupied` holds for,
+/// and nowhere more than one above any of the eight neighbours. Then along the shortest path
+/// from a cell to its nearest occupied cell the clearance falls by at most one a step to 0, so
+/// it is at most the true distance and a march never jumps across a wall. (The clearance
+/// [`clearance`] makes is exactly the distance; this is what a block read from elsewhere must
+/// hold, checked without another array.)
+fn clearance_is_safe(cols: usize, rows: usize, occupied: impl Fn(usize) -> bool, clear: &[u8]) -> bool {
+    (0..rows).all(|r| {
+        (0..cols).all(|c| {
+            let v = clear[r * cols + c];
+            if occupied(r * cols + c) {
+                return v == 0;
+            }
+            (r.saturating_sub(1)..=(r + 1).min(rows - 1)).all(|r2| {
+                (c.saturating_sub(1)..=(c + 1).min(cols - 1)).all(|c2| v <= clear[r2 * cols + c2].saturating_add(1))
+            })
+        })
+    })
+}
+
+impl WallGrid {
+    /// [`march`](Self::march), visiting only the cells that list a wall: the same cells in the
+    /// same order, each with the `t` at which the ray leaves it (to rounding). Across a cell of
+    /// clearance [`JUMP_CLEARANCE`] or more it jumps to where the ray leaves the empty square
+    /// about the cell, instead of stepping through its cells one by one: a beam crosses a room
+    /// in a few jumps, and the grid's cells can be small enough to list few walls each.
+    pub fn march_walls(
+        &self,
+        from: Point2<f64>,
+        dir: Vector2<f64>,
+        max_t: f64,
+        mut visit: impl FnMut(usize, usize, f64) -> bool,
+    ) {
+        if dir.x == 0.0 || dir.y == 0.0 {
+            // along an axis a jump saves little; the plain march, its empty cells passed over
+            self.march(from, dir, max_t, |c, r, exit| self.walls_in(c, r).is_empty() || visit(c, r, exit));
+            return;
+        }
+        let f = &self.frame;
+        let size = Vector2::new(f.cols as f64, f.rows as f64) * f.cell;
+        let (mut enter, mut leave) = (0.0f64, max_t);
+        for axis in 0..2 {
+            let (o, d, lo) = (from[axis], dir[axis], f.origin[axis]);
+            let (t0, t1) = ((lo - o) / d, (lo + size[axis] - o) / d);
+            enter = enter.max(t0.min(t1));
+            leave = leave.min(t0.max(t1));
+        }
+        let finite = from.coords.iter().chain(dir.iter()).all(|v| v.is_finite());
+        if !finite || max_t.is_nan() || enter > leave {
+            return;
+        }
+        let (step_c, end_c) = if dir.x > 0.0 { (1isize, f.cols as isize) } else { (-1, -1) };
+        let (step_r, end_r) = if dir.y > 0.0 { (1isize, f.rows as isize) } else { (-1, -1) };
+        let (delta_x, delta_y) = (f.cell / dir.x.abs(), f.cell / dir.y.abs());
+        // the t of the boundary past cell index `i` along `axis`, the way the ray goes
+        let boundary_t = |axis: usize, i: f64| {
+            let d = dir[axis];
+            (f.origin[axis] + (i + if d > 0.0 { 1.0 } else { 0.0 }) * f.cell - from[axis]) / d
+        };
+        let mut t = enter;
+        loop {
+            // (re)start the traversal at `t`: the cell there, and the next boundary on each axis
+            let at = from + dir * t;
+            let cell_at = |axis: usize, count: usize| (((at[axis] - f.origin[axis]) / f.cell) as usize).min(count - 1);
+            let (mut c, mut r) = (cell_at(0, f.cols) as isize, cell_at(1, f.rows) as isize);
+            let (mut next_x, mut next_y) = (boundary_t(0, c as f64), boundary_t(1, r as f64));
+            // after a jump, one step at least before the next: the landing cell may still be
+            // inside the square jumped across, by rounding
+            let mut may_jump = false;
+            loop {
+                let k = self.clear[r as usize * f.cols + c as usize];
+                if may_jump && k >= JUMP_CLEARANCE {
+                    // the empty square of k - 1 cells either side: where the ray leaves it
+                    let half = f64::from(k - 1);
+                    let out_x = boundary_t(0, c as f64 + half * step_c as f64);
+                    let out_y = boundary_t(1, r as f64 + half * step_r as f64);
+                    t = out_x.min(out_y);
+                    if t > max_t || t >= leave {
+                        return;
+                    }
+                    break;
+                }
+                may_jump = true;
+                let across_y = next_y < next_x;
+                let exit = if across_y { next_y } else { next_x };
+                if k == 0 && !visit(c as usize, r as usize, exit) || exit > max_t {
+                    return;
+                }
+                if across_y {
+                    r += step_r;
+                    next_y += delta_y;
+                    if r == end_r {
+                        return;
+                    }
+                } else {
+                    c += step_c;
+                    next_x += delta_x;
+                    if c == end_c {
+                        return;
+                    }
                 }
             }
         }
@@ -391,19 +544,25 @@ impl Flat for WallGrid {
         w.put_f64(margin);
         self.starts.put(w);
         self.items.put(w);
+        self.clear.put(w);
     }
     fn take(r: &mut FlatReader<'_>) -> Result<Self, FlatError> {
         let crate::bitgrid::Grid { origin, cell, cols, rows } = crate::bitgrid::Grid::take(r)?;
         let margin = r.take_f64("wall grid margin")?;
         let starts: Slab<u32> = Slab::take(r)?;
         let items: Slab<u32> = Slab::take(r)?;
+        let clear: Slab<u8> = Slab::take(r)?;
         crate::flat::check_len("wall grid starts", starts.len(), cols * rows + 1)?;
+        crate::flat::check_len("wall grid clearance", clear.len(), cols * rows)?;
         // each cell's run lies within the items, in order: [starts[k], starts[k + 1])
         let ordered = starts.windows(2).all(|p| p[0] <= p[1]) && starts.first() == Some(&0);
         if !ordered || starts.last().map(|&e| e as usize) != Some(items.len()) {
             return Err(FlatError::new("wall grid: its cells' runs do not tile its items"));
         }
-        Ok(WallGrid { frame: ReachFrame::of(origin, cell, (cols, rows), margin), starts, items })
+        if !clearance_is_safe(cols, rows, |k| starts[k + 1] > starts[k], &clear) {
+            return Err(FlatError::new("wall grid: its clearance does not match its cells' lists"));
+        }
+        Ok(WallGrid { frame: ReachFrame::of(origin, cell, (cols, rows), margin), starts, items, clear })
     }
 }
 
@@ -539,6 +698,100 @@ mod tests {
                     prop_assert!(border || visited.iter().any(|v| (v.0, v.1) == (c, r)), "t {} in cell ({}, {}) not visited", t, c, r);
                 }
             }
+        }
+    }
+
+    proptest! {
+        /// A march of the walls' cells visits the cells a plain march visits that list a wall,
+        /// in the same order and with the same exits (to rounding), whatever it jumps across;
+        /// and stops where the visitor says.
+        #[test]
+        fn a_march_of_the_walls_visits_the_listing_cells_a_march_visits(
+            seed in proptest::collection::vec((-9.0f64..9.0, -9.0f64..9.0, -3.2f64..3.2, 0.01f64..3.0), 1..12),
+            x in -12.0f64..12.0, y in -12.0f64..12.0, angle in -3.2f64..3.2, max_t in 0.0f64..40.0,
+            cell in 0.1f64..0.6, stop_after in 1usize..6,
+        ) {
+            let walls = walls_of(&seed);
+            let grid = WallGrid::new(&walls, cell, 0.0);
+            let (from, dir) = (Point2::new(x, y), Vector2::new(angle.cos(), angle.sin()));
+            let mut plain: Vec<(usize, usize, f64)> = Vec::new();
+            grid.march(from, dir, max_t, |c, r, exit| {
+                if !grid.walls_in(c, r).is_empty() {
+                    plain.push((c, r, exit));
+                }
+                true
+            });
+            let mut jumped: Vec<(usize, usize, f64)> = Vec::new();
+            grid.march_walls(from, dir, max_t, |c, r, exit| {
+                jumped.push((c, r, exit));
+                true
+            });
+            prop_assert_eq!(plain.len(), jumped.len(), "{:?} against {:?}", plain, jumped);
+            for (p, j) in plain.iter().zip(&jumped) {
+                prop_assert_eq!((p.0, p.1), (j.0, j.1));
+                prop_assert!((p.2 - j.2).abs() <= 1e-9 * (1.0 + p.2.abs()), "{:?} against {:?}", p, j);
+            }
+            let mut told = 0;
+            grid.march_walls(from, dir, max_t, |_, _, _| {
+                told += 1;
+                told < stop_after
+            });
+            prop_assert_eq!(told, stop_after.min(plain.len()));
+        }
+
+        /// The clearance is the Chebyshev distance to the nearest listing cell, as counted
+        /// cell by cell.
+        #[test]
+        fn the_clearance_is_the_distance_to_the_nearest_cell_with_a_wall(
+            cols in 1usize..14, rows in 1usize..14, occupied in proptest::collection::vec(0usize..200, 0..6),
+        ) {
+            let full: Vec<bool> = (0..cols * rows).map(|k| occupied.iter().any(|&o| o % (cols * rows) == k)).collect();
+            let d = clearance(cols, rows, |k| full[k]);
+            for r in 0..rows {
+                for c in 0..cols {
+                    let nearest = (0..rows)
+                        .flat_map(|r2| (0..cols).map(move |c2| (c2, r2)))
+                        .filter(|&(c2, r2)| full[r2 * cols + c2])
+                        .map(|(c2, r2)| c.abs_diff(c2).max(r.abs_diff(r2)))
+                        .min()
+                        .map_or(u8::MAX, |m| m.min(255) as u8);
+                    prop_assert_eq!(d[r * cols + c], nearest, "cell ({}, {})", c, r);
+                }
+            }
+            prop_assert!(clearance_is_safe(cols, rows, |k| full[k], &d));
+            // one more than the distance anywhere below the cap is caught
+            if let Some(k) = d.iter().position(|&v| v > 0 && v < u8::MAX) {
+                let mut over = d.clone();
+                over[k] += 1;
+                prop_assert!(!clearance_is_safe(cols, rows, |k| full[k], &over));
+            }
+        }
+    }
+
+    /// A block whose clearance says a cell with a wall is empty is refused: a march would jump
+    /// across the wall.
+    #[test]
+    fn a_block_with_a_false_clearance_is_refused() {
+        let grid = WallGrid::new(&[Wall::new(0.0, 0.0, 4.0, 0.0), Wall::new(0.0, 3.0, 4.0, 3.0)], 0.25, 0.0);
+        let mut w = FlatWriter::new();
+        grid.put(&mut w);
+        assert!(WallGrid::take(&mut FlatReader::of_copy(w.bytes())).is_ok());
+        let mut bad = grid.clone();
+        let clear = bad.clear.to_vec();
+        let k = clear.iter().position(|&v| v == 0).expect("a cell lists a wall");
+        // a cell with a wall said to be empty, and an empty cell said to be further from a wall
+        // than its neighbour's clearance allows
+        let empty = clear.iter().position(|&v| v == 1).expect("a cell next to a wall");
+        for (cell, value) in [(k, 5), (empty, 3)] {
+            let mut wrong = clear.clone();
+            wrong[cell] = value;
+            bad.clear = wrong.into();
+            let mut w = FlatWriter::new();
+            bad.put(&mut w);
+            let Err(err) = WallGrid::take(&mut FlatReader::of_copy(w.bytes())) else {
+                panic!("a false clearance was read")
+            };
+            assert!(err.to_string().contains("clearance"), "{err}");
         }
     }
 

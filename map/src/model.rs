@@ -125,7 +125,7 @@ const _: () = assert!(std::mem::size_of::<WallFrame>() == 56);
 
 /// The version of the model block's layout: raised whenever a [`Flat::put`] of the model's
 /// parts changes what it writes. A block of another layout is refused.
-pub const MODEL_LAYOUT: u64 = 2;
+pub const MODEL_LAYOUT: u64 = 3;
 
 /// The first 8 bytes of a model block, as written on this machine: also tells a block of
 /// another byte order.
