@@ -111,6 +111,12 @@ pub fn refine(model: &MapModel, points: &[Point2<f64>], pose: &Pose, cfg: &Refin
 /// points' worth: a point on no wall adds nothing, one on a wall across the weakest direction
 /// one. 0 in a corridor: every wall runs one way, the position along it is free.
 pub fn position_constraint(model: &MapModel, points: &[Point2<f64>], pose: &Pose, gate: f64) -> f64 {
+    weakest_direction(model, points, pose, gate).0
+}
+
+/// [`position_constraint`] and the direction it is taken along: the unit eigenvector of the
+/// smaller eigenvalue (the direction the points pin down least).
+pub fn weakest_direction(model: &MapModel, points: &[Point2<f64>], pose: &Pose, gate: f64) -> (f64, Vector2<f64>) {
     let (mut xx, mut xy, mut yy) = (0.0f64, 0.0f64, 0.0f64);
     for q in points {
         let p = pose * q;
@@ -125,7 +131,12 @@ pub fn position_constraint(model: &MapModel, points: &[Point2<f64>], pose: &Pose
     }
     // the smaller root of the 2 x 2 symmetric matrix's characteristic polynomial
     let half_trace = (xx + yy) / 2.0;
-    (half_trace - (((xx - yy) / 2.0).powi(2) + xy * xy).sqrt()).max(0.0)
+    let least = half_trace - (((xx - yy) / 2.0).powi(2) + xy * xy).sqrt();
+    // its eigenvector: (xy, least - xx) or (least - yy, xy), whichever is longer
+    let (u, v) = (Vector2::new(xy, least - xx), Vector2::new(least - yy, xy));
+    let e = if u.norm_squared() >= v.norm_squared() { u } else { v };
+    let dir = if e.norm_squared() > 1e-18 { e.normalize() } else { Vector2::new(1.0, 0.0) };
+    (least.max(0.0), dir)
 }
 
 /// A prior that the correction from the starting pose lies within the pairing gate, as the

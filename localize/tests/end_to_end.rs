@@ -909,3 +909,31 @@ fn an_approximate_map_charges_short_readings_its_own_cap() {
     // most furnished scans have a box in view
     assert!(raised >= 5, "only {raised} of 10 furnished scans cost more with the higher cap");
 }
+
+/// In a corridor along x with one wall across it far ahead, the points pin down y (both side
+/// walls) far better than x (the few on the end wall): the weakest direction is x, and its
+/// constraint is the end wall's points' worth.
+#[test]
+fn the_weakest_direction_in_a_corridor_runs_along_it() {
+    use localize::refine::weakest_direction;
+    let walls = vec![Wall::new(-5.0, -1.0, 5.0, -1.0), Wall::new(-5.0, 1.0, 5.0, 1.0), Wall::new(5.0, -1.0, 5.0, 1.0)];
+    let m = model(WallMap::new(walls));
+    let mut points: Vec<nalgebra::Point2<f64>> = Vec::new();
+    for k in 0..40 {
+        let x = -4.0 + 0.2 * k as f64;
+        points.push(nalgebra::Point2::new(x, -1.0));
+        points.push(nalgebra::Point2::new(x, 1.0));
+    }
+    for k in 0..5 {
+        points.push(nalgebra::Point2::new(5.0, -0.8 + 0.4 * k as f64));
+    }
+    let (least, along) = weakest_direction(&m, &points, &pose(0.0, 0.0, 0.0), 0.12);
+    assert!((least - 5.0).abs() < 1e-6, "{least}");
+    assert!(along.x.abs() > 0.999, "{along:?}");
+    // turned a quarter: the corridor runs along the map's y
+    let turned = pose(0.0, 0.0, std::f64::consts::FRAC_PI_2);
+    let walls = vec![Wall::new(-1.0, -5.0, -1.0, 5.0), Wall::new(1.0, -5.0, 1.0, 5.0), Wall::new(-1.0, 5.0, 1.0, 5.0)];
+    let (least, along) = weakest_direction(&model(WallMap::new(walls)), &points, &turned, 0.12);
+    assert!((least - 5.0).abs() < 1e-6, "{least}");
+    assert!(along.y.abs() > 0.999, "{along:?}");
+}

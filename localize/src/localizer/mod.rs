@@ -432,6 +432,22 @@ impl Localizer {
         crate::refine::position_constraint(&self.model, &self.refine_pts, pose, self.config.refine.final_gate)
     }
 
+    /// The direction the last scan's points pin down least at `pose`, with
+    /// [`position_constraint`](Self::position_constraint).
+    pub fn weakest_direction(&self, pose: &Pose) -> (f64, nalgebra::Vector2<f64>) {
+        crate::refine::weakest_direction(&self.model, &self.refine_pts, pose, self.config.refine.final_gate)
+    }
+
+    /// Eq. 7 of `pose` for the last scan prepared, as a hypothesis's final cost but over about
+    /// `beams` equispaced beams, stopped early (+inf) once it is known to cost more than
+    /// `bound` ([`cost_below`]).
+    pub fn final_cost_below(&mut self, scan: &ScanView<'_>, pose: &Pose, bound: f64, beams: usize) -> Cost {
+        let model = Arc::clone(&self.model);
+        let mut final_cfg = self.final_cost_config();
+        final_cfg.stride = (scan.len() / beams.max(1)).max(1);
+        cost_below(scan, pose, &model.caster, &self.error, &final_cfg, bound, &mut self.scratch, &mut self.expected)
+    }
+
     /// Whether `pose` lies where the robot cannot be (outside a closed building or the
     /// surveyed free space), when answers are kept to where it can.
     pub fn off_limits(&self, pose: &Pose) -> bool {
