@@ -208,14 +208,27 @@ impl WallGrid {
         max_t: f64,
         mut visit: impl FnMut(usize, usize, f64) -> bool,
     ) {
-        let size = Vector2::new(self.frame.cols as f64, self.frame.rows as f64) * self.frame.cell;
-        // where the ray is inside the grid's box: [enter, leave]
+        let Some((enter, _)) = self.clip(from, dir, max_t) else { return };
+        let mut ray = Traversal::at(&self.frame, from, dir, enter);
+        loop {
+            let exit = ray.exit();
+            if !visit(ray.c as usize, ray.r as usize, exit) || exit > max_t || !ray.advance() {
+                return;
+            }
+        }
+    }
+
+    /// Where the ray `from + t dir` is inside the grid's box, `t` in `[enter, leave]` with
+    /// `leave` at most `max_t`; `None` when nowhere (or the ray is not finite).
+    fn clip(&self, from: Point2<f64>, dir: Vector2<f64>, max_t: f64) -> Option<(f64, f64)> {
+        let f = &self.frame;
+        let size = Vector2::new(f.cols as f64, f.rows as f64) * f.cell;
         let (mut enter, mut leave) = (0.0f64, max_t);
         for axis in 0..2 {
-            let (o, d, lo) = (from[axis], dir[axis], self.frame.origin[axis]);
+            let (o, d, lo) = (from[axis], dir[axis], f.origin[axis]);
             if d == 0.0 {
                 if o < lo || o >= lo + size[axis] {
-                    return;
+                    return None;
                 }
             } else {
                 let (t0, t1) = ((lo - o) / d, (lo + size[axis] - o) / d);
@@ -224,50 +237,63 @@ impl WallGrid {
             }
         }
         let finite = from.coords.iter().chain(dir.iter()).all(|v| v.is_finite());
-        if !finite || max_t.is_nan() || enter > leave {
-            return;
-        }
-        let start = from + dir * enter;
+        (finite && !max_t.is_nan() && enter <= leave).then_some((enter, leave))
+    }
+}
+
+/// Amanatides and Woo's traversal of a grid's cells along a ray: the cell it is in, and per
+/// axis the `t` of the next cell boundary, the `t` between boundaries, the step of the cell
+/// index and the index at which the ray leaves the grid.
+struct Traversal {
+    c: isize,
+    r: isize,
+    next: [f64; 2],
+    delta: [f64; 2],
+    step: [isize; 2],
+    end: [isize; 2],
+}
+
+impl Traversal {
+    /// The traversal of the ray `from + t dir` from the cell holding its point at `t` (which
+    /// lies in the grid, to rounding).
+    fn at(f: &ReachFrame, from: Point2<f64>, dir: Vector2<f64>, t: f64) -> Self {
+        let start = from + dir * t;
         // `as` saturates and truncates: the floor, clamped to the grid
-        let cell_at = |axis: usize, count: usize| {
-            (((start[axis] - self.frame.origin[axis]) / self.frame.cell) as usize).min(count - 1)
-        };
-        let at = [cell_at(0, self.frame.cols), cell_at(1, self.frame.rows)];
-        // per axis: the t of the next cell boundary, the t between boundaries, and the cell
-        // index (as a signed number) and its step; the ray leaves the grid at index `end`
-        let axis = |k: usize, count: usize| {
+        let cell_at = |axis: usize, count: usize| (((start[axis] - f.origin[axis]) / f.cell) as usize).min(count - 1);
+        let at = [cell_at(0, f.cols) as isize, cell_at(1, f.rows) as isize];
+        let counts = [f.cols as isize, f.rows as isize];
+        let (mut next, mut delta, mut step, mut end) = ([0.0; 2], [0.0; 2], [0; 2], [0; 2]);
+        for k in 0..2 {
             let d = dir[k];
             if d == 0.0 {
                 // never crossed, unless neither is: then the ray steps back out of the grid
-                return (f64::INFINITY, f64::INFINITY, at[k] as isize, -1, -1);
+                (next[k], delta[k], step[k], end[k]) = (f64::INFINITY, f64::INFINITY, -1, -1);
+                continue;
             }
-            let boundary = self.frame.origin[k] + (at[k] as f64 + if d > 0.0 { 1.0 } else { 0.0 }) * self.frame.cell;
-            let (step, end) = if d > 0.0 { (1, count as isize) } else { (-1, -1) };
-            ((boundary - from[k]) / d, self.frame.cell / d.abs(), at[k] as isize, step, end)
-        };
-        let (mut next_x, delta_x, mut c, step_c, end_c) = axis(0, self.frame.cols);
-        let (mut next_y, delta_y, mut r, step_r, end_r) = axis(1, self.frame.rows);
-        loop {
-            // the boundary crossed first: x on a tie
-            let across_y = next_y < next_x;
-            let exit = if across_y { next_y } else { next_x };
-            if !visit(c as usize, r as usize, exit) || exit > max_t {
-                return;
-            }
-            // a step out of the grid ends the ray
-            if across_y {
-                r += step_r;
-                next_y += delta_y;
-                if r == end_r {
-                    return;
-                }
-            } else {
-                c += step_c;
-                next_x += delta_x;
-                if c == end_c {
-                    return;
-                }
-            }
+            let boundary = f.origin[k] + (at[k] as f64 + if d > 0.0 { 1.0 } else { 0.0 }) * f.cell;
+            next[k] = (boundary - from[k]) / d;
+            delta[k] = f.cell / d.abs();
+            (step[k], end[k]) = if d > 0.0 { (1, counts[k]) } else { (-1, -1) };
+        }
+        Traversal { c: at[0], r: at[1], next, delta, step, end }
+    }
+
+    /// The `t` at which the ray leaves the cell it is in.
+    fn exit(&self) -> f64 {
+        self.next[0].min(self.next[1])
+    }
+
+    /// Steps into the next cell: across the boundary crossed first (x on a tie). False when
+    /// that step leaves the grid.
+    fn advance(&mut self) -> bool {
+        if self.next[1] < self.next[0] {
+            self.r += self.step[1];
+            self.next[1] += self.delta[1];
+            self.r != self.end[1]
+        } else {
+            self.c += self.step[0];
+            self.next[0] += self.delta[0];
+            self.c != self.end[0]
         }
     }
 }
@@ -310,68 +336,29 @@ impl WallGrid {
             self.march(from, dir, max_t, |c, r, exit| self.walls_in(c, r).is_empty() || visit(c, r, exit));
             return;
         }
-        let f = &self.frame;
-        let size = Vector2::new(f.cols as f64, f.rows as f64) * f.cell;
-        let (mut enter, mut leave) = (0.0f64, max_t);
-        for axis in 0..2 {
-            let (o, d, lo) = (from[axis], dir[axis], f.origin[axis]);
-            let (t0, t1) = ((lo - o) / d, (lo + size[axis] - o) / d);
-            enter = enter.max(t0.min(t1));
-            leave = leave.min(t0.max(t1));
-        }
-        let finite = from.coords.iter().chain(dir.iter()).all(|v| v.is_finite());
-        if !finite || max_t.is_nan() || enter > leave {
-            return;
-        }
-        let (step_c, end_c) = if dir.x > 0.0 { (1isize, f.cols as isize) } else { (-1, -1) };
-        let (step_r, end_r) = if dir.y > 0.0 { (1isize, f.rows as isize) } else { (-1, -1) };
-        let (delta_x, delta_y) = (f.cell / dir.x.abs(), f.cell / dir.y.abs());
-        // the t of the boundary past cell index `i` along `axis`, the way the ray goes
-        let boundary_t = |axis: usize, i: f64| {
-            let d = dir[axis];
-            (f.origin[axis] + (i + if d > 0.0 { 1.0 } else { 0.0 }) * f.cell - from[axis]) / d
-        };
+        let Some((enter, leave)) = self.clip(from, dir, max_t) else { return };
         let mut t = enter;
         loop {
-            // (re)start the traversal at `t`: the cell there, and the next boundary on each axis
-            let at = from + dir * t;
-            let cell_at = |axis: usize, count: usize| (((at[axis] - f.origin[axis]) / f.cell) as usize).min(count - 1);
-            let (mut c, mut r) = (cell_at(0, f.cols) as isize, cell_at(1, f.rows) as isize);
-            let (mut next_x, mut next_y) = (boundary_t(0, c as f64), boundary_t(1, r as f64));
+            // (re)start the traversal at `t`
+            let mut ray = Traversal::at(&self.frame, from, dir, t);
             // after a jump, one step at least before the next: the landing cell may still be
             // inside the square jumped across, by rounding
             let mut may_jump = false;
             loop {
-                let k = self.clear[r as usize * f.cols + c as usize];
+                let k = self.clear[ray.r as usize * self.frame.cols + ray.c as usize];
                 if may_jump && k >= JUMP_CLEARANCE {
                     // the empty square of k - 1 cells either side: where the ray leaves it
                     let half = f64::from(k - 1);
-                    let out_x = boundary_t(0, c as f64 + half * step_c as f64);
-                    let out_y = boundary_t(1, r as f64 + half * step_r as f64);
-                    t = out_x.min(out_y);
+                    t = (ray.next[0] + half * ray.delta[0]).min(ray.next[1] + half * ray.delta[1]);
                     if t > max_t || t >= leave {
                         return;
                     }
                     break;
                 }
                 may_jump = true;
-                let across_y = next_y < next_x;
-                let exit = if across_y { next_y } else { next_x };
-                if k == 0 && !visit(c as usize, r as usize, exit) || exit > max_t {
+                let exit = ray.exit();
+                if k == 0 && !visit(ray.c as usize, ray.r as usize, exit) || exit > max_t || !ray.advance() {
                     return;
-                }
-                if across_y {
-                    r += step_r;
-                    next_y += delta_y;
-                    if r == end_r {
-                        return;
-                    }
-                } else {
-                    c += step_c;
-                    next_x += delta_x;
-                    if c == end_c {
-                        return;
-                    }
                 }
             }
         }
