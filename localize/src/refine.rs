@@ -109,13 +109,9 @@ pub fn refine(model: &MapModel, points: &[Point2<f64>], pose: &Pose, cfg: &Refin
 /// How well `points` at `pose` pin down the position: the smaller eigenvalue of the sum of
 /// n n^T over the points, n the normal of the wall each lies on (within `gate` of it), so in
 /// points' worth: a point on no wall adds nothing, one on a wall across the weakest direction
-/// one. 0 in a corridor: every wall runs one way, the position along it is free.
-pub fn position_constraint(model: &MapModel, points: &[Point2<f64>], pose: &Pose, gate: f64) -> f64 {
-    weakest_direction(model, points, pose, gate).0
-}
-
-/// [`position_constraint`] and the direction it is taken along: the unit eigenvector of the
-/// smaller eigenvalue (the direction the points pin down least).
+/// one. 0 in a corridor: every wall runs one way, the position along it is free. Also the
+/// direction it is taken along: the unit eigenvector of the smaller eigenvalue (the direction
+/// the points pin down least).
 pub fn weakest_direction(model: &MapModel, points: &[Point2<f64>], pose: &Pose, gate: f64) -> (f64, Vector2<f64>) {
     let (mut xx, mut xy, mut yy) = (0.0f64, 0.0f64, 0.0f64);
     for q in points {

@@ -70,9 +70,9 @@ pub struct SequentialConfig {
     pub max_position_sides: i32,
     /// The screened poses refined per track.
     pub refined: usize,
-    /// The least [`crate::refine::position_constraint`] of an `ok` answer, in points' worth of
-    /// refinement's: below it the scan leaves a direction free (a corridor), along which only
-    /// drifting odometry says where the robot is.
+    /// The least constraint across [`crate::refine::weakest_direction`] of an `ok` answer, in
+    /// points' worth of refinement's: below it the scan leaves a direction free (a corridor),
+    /// along which only drifting odometry says where the robot is.
     pub min_constraint: f64,
     /// The probes an `ok` answer must withstand ([`Sequential::withstands_probes`]): the pose
     /// moved this far (metres) along the direction the scan pins down least and turned this far
@@ -227,15 +227,8 @@ impl Sequential {
             single = self.search(scan, seg);
         }
         self.settle_lags();
-        let mut answer = self.answer(single);
+        let mut answer = self.answer(scan, single);
         answer.global = global;
-        if answer.status == Status::Ok {
-            if let Some(pose) = answer.pose {
-                if !self.withstands_probes(scan, &pose) {
-                    answer.status = Status::Ambiguous;
-                }
-            }
-        }
         answer
     }
 
@@ -249,8 +242,14 @@ impl Sequential {
     ///
     /// Reads the localizer's state for `scan`: call it after locating the scan.
     pub fn withstands_probes(&mut self, scan: &ScanView<'_>, pose: &Pose) -> bool {
-        let cfg = self.config;
         let (_, along) = self.localizer.weakest_direction(pose);
+        self.withstands_probes_along(scan, pose, along)
+    }
+
+    /// [`withstands_probes`](Self::withstands_probes) with the direction the scan pins down
+    /// least at `pose` known.
+    fn withstands_probes_along(&mut self, scan: &ScanView<'_>, pose: &Pose, along: nalgebra::Vector2<f64>) -> bool {
+        let cfg = self.config;
         let (t, heading) = (pose.translation.vector, pose_theta(pose));
         let probes = [
             nalgebra::Isometry2::new(t + along * cfg.probe_position, heading),
@@ -440,8 +439,9 @@ impl Sequential {
     }
 
     /// The scan's answer. A best track seen on this scan alone is `ok` only as the single-scan
-    /// search judged it; an older one when it leads by the margin and explains the scan.
-    fn answer(&self, single: Option<(Status, Pose)>) -> SequentialAnswer {
+    /// search judged it; an older one when it leads by the margin and explains the scan. Either
+    /// must pin the position down and withstand the probes.
+    fn answer(&mut self, scan: &ScanView<'_>, single: Option<(Status, Pose)>) -> SequentialAnswer {
         let mut a = SequentialAnswer {
             status: Status::Failed,
             pose: None,
@@ -450,7 +450,7 @@ impl Sequential {
             global: false,
             tracks: self.tracks.len(),
         };
-        let Some(best) = self.tracks.first().filter(|t| t.misses == 0) else {
+        let Some(&best) = self.tracks.first().filter(|t| t.misses == 0) else {
             if !self.tracks.is_empty() {
                 a.status = Status::Ambiguous;
                 a.pose = Some(self.tracks[0].pose);
@@ -458,11 +458,10 @@ impl Sequential {
             return a;
         };
         (a.pose, a.cost, a.scans) = (Some(best.pose), Some(best.cost), best.scans);
-        let cfg = &self.localizer.config;
-        let sure = self.lead() >= self.config.margin
+        let cfg = self.localizer.config;
+        let leads = self.lead() >= self.config.margin
             && best.cost.inliers >= self.config.min_inliers_ok
-            && !self.localizer.off_limits(&best.pose)
-            && self.localizer.position_constraint(&best.pose) >= self.config.min_constraint;
+            && !self.localizer.off_limits(&best.pose);
         // a track that turned up while others were held has not been through their scans: it
         // must outlive them for a while; one of a cold start, as its own search judged it
         let vouched = if best.late {
@@ -473,7 +472,12 @@ impl Sequential {
                     s == Status::Ok && same_pose(&p, &best.pose, cfg.distinct_position, cfg.distinct_heading)
                 })
         };
-        a.status = if sure && vouched { Status::Ok } else { Status::Ambiguous };
+        // the weakest direction once: the position's constraint across it, and the probes along it
+        let sure = leads && vouched && {
+            let (constraint, along) = self.localizer.weakest_direction(&best.pose);
+            constraint >= self.config.min_constraint && self.withstands_probes_along(scan, &best.pose, along)
+        };
+        a.status = if sure { Status::Ok } else { Status::Ambiguous };
         a
     }
 }

@@ -185,6 +185,11 @@ impl WallGrid {
         self.frame.cell_corners(c, r)
     }
 
+    /// How many cells list a wall.
+    pub fn listing_cells(&self) -> usize {
+        self.clear.iter().filter(|&&k| k == 0).count()
+    }
+
     /// Total length of the cells' lists.
     pub fn entries(&self) -> usize {
         self.items.len()

@@ -246,11 +246,7 @@ fn march_grid(walls: &[Wall]) -> WallGrid {
     let mut cell = CELL;
     loop {
         let grid = WallGrid::new(walls, cell, 0.0);
-        let occupied = (0..grid.rows())
-            .flat_map(|r| (0..grid.cols()).map(move |c| (c, r)))
-            .filter(|&(c, r)| !grid.walls_in(c, r).is_empty())
-            .count();
-        let per_cell = grid.entries() as f64 / occupied.max(1) as f64;
+        let per_cell = grid.entries() as f64 / grid.listing_cells().max(1) as f64;
         if per_cell <= MARCH_WALLS_PER_CELL || cell / 2.0 < MARCH_CELL_LEAST {
             return grid;
         }

@@ -426,14 +426,8 @@ impl Localizer {
         out.sort_by(|a, b| a.1.value.total_cmp(&b.1.value));
     }
 
-    /// How well the last scan refined or located pins down the position at `pose`
-    /// ([`crate::refine::position_constraint`], over refinement's points).
-    pub fn position_constraint(&self, pose: &Pose) -> f64 {
-        crate::refine::position_constraint(&self.model, &self.refine_pts, pose, self.config.refine.final_gate)
-    }
-
-    /// The direction the last scan's points pin down least at `pose`, with
-    /// [`position_constraint`](Self::position_constraint).
+    /// How well the last scan refined or located pins down the position at `pose`, and along
+    /// which direction least ([`crate::refine::weakest_direction`], over refinement's points).
     pub fn weakest_direction(&self, pose: &Pose) -> (f64, nalgebra::Vector2<f64>) {
         crate::refine::weakest_direction(&self.model, &self.refine_pts, pose, self.config.refine.final_gate)
     }
