@@ -85,6 +85,12 @@ pub struct SequentialConfig {
     pub probe_heading: f64,
     pub probe_margin: f64,
     pub probe_beams: usize,
+    /// A cold start's first scan is `ok` as the single-scan search judged it, or, where that
+    /// search said `ambiguous`, when no distinct hypothesis of its comes within this much eq. 7
+    /// cost per beam of the best. On a map built from a log a right pose sees through more of
+    /// the imperfect walls than an `ok` single scan may, though no rival comes near; the probes
+    /// and the `ok` limits still apply.
+    pub lone_gap: f64,
 }
 
 impl Default for SequentialConfig {
@@ -113,6 +119,7 @@ impl Default for SequentialConfig {
             probe_heading: 5f64.to_radians(),
             probe_margin: 0.3,
             probe_beams: 32,
+            lone_gap: 2.0,
         }
     }
 }
@@ -343,16 +350,23 @@ impl Sequential {
         best.misses > 0
     }
 
-    /// The global search; its hypotheses join the tracks. Returns the single-scan status and
-    /// best pose.
-    fn search(&mut self, scan: &ScanView<'_>, seg: &Segmentation) -> Option<(Status, Pose)> {
+    /// The global search; its hypotheses join the tracks. Returns the single-scan status, best
+    /// pose, and how much more per beam its nearest distinct rival costs (infinite with none).
+    fn search(&mut self, scan: &ScanView<'_>, seg: &Segmentation) -> Option<(Status, Pose, f64)> {
         let (position, heading) = (self.localizer.config.distinct_position, self.localizer.config.distinct_heading);
         let min_inliers = self.localizer.config.min_inliers;
         let loc = self.localizer.locate_set_lines(scan, seg);
         if loc.status == Status::Failed {
             return None;
         }
-        let single = loc.hypotheses.first().map(|h| (loc.status, h.pose));
+        let single = loc.hypotheses.first().map(|b| {
+            let gap = loc.hypotheses[1..]
+                .iter()
+                .filter(|h| !same_pose(&h.pose, &b.pose, position, heading))
+                .map(|h| h.cost.value - b.cost.value)
+                .fold(f64::INFINITY, f64::min);
+            (loc.status, b.pose, gap)
+        });
         let had_tracks = self.tracks.iter().any(|t| t.scans > 0);
         let hyps: Vec<_> = loc.hypotheses.iter().filter(|h| h.cost.inliers >= min_inliers).copied().collect();
         for h in hyps {
@@ -439,9 +453,10 @@ impl Sequential {
     }
 
     /// The scan's answer. A best track seen on this scan alone is `ok` only as the single-scan
-    /// search judged it; an older one when it leads by the margin and explains the scan. Either
-    /// must pin the position down and withstand the probes.
-    fn answer(&mut self, scan: &ScanView<'_>, single: Option<(Status, Pose)>) -> SequentialAnswer {
+    /// search judged it, or with no rival within [`SequentialConfig::lone_gap`]; an older one
+    /// when it leads by the margin and explains the scan. Either must pin the position down and
+    /// withstand the probes.
+    fn answer(&mut self, scan: &ScanView<'_>, single: Option<(Status, Pose, f64)>) -> SequentialAnswer {
         let mut a = SequentialAnswer {
             status: Status::Failed,
             pose: None,
@@ -463,13 +478,15 @@ impl Sequential {
             && best.cost.inliers >= self.config.min_inliers_ok
             && !self.localizer.off_limits(&best.pose);
         // a track that turned up while others were held has not been through their scans: it
-        // must outlive them for a while; one of a cold start, as its own search judged it
+        // must outlive them for a while; one of a cold start, as its own search judged it, or
+        // with no rival near
         let vouched = if best.late {
             best.scans >= self.config.settle_scans
         } else {
             best.scans > 1
-                || single.is_some_and(|(s, p)| {
-                    s == Status::Ok && same_pose(&p, &best.pose, cfg.distinct_position, cfg.distinct_heading)
+                || single.is_some_and(|(s, p, gap)| {
+                    (s == Status::Ok || s == Status::Ambiguous && gap >= self.config.lone_gap)
+                        && same_pose(&p, &best.pose, cfg.distinct_position, cfg.distinct_heading)
                 })
         };
         // the weakest direction once: the position's constraint across it, and the probes along it

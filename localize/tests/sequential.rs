@@ -180,3 +180,57 @@ fn a_pose_the_scan_cannot_tell_from_a_turned_one_fails_the_probes() {
         }
     }
 }
+
+/// On a map built from a log a right pose sees through walls that are no longer there (a door
+/// drawn shut, a partition moved), more of its beams than an `ok` single scan may: the
+/// single-scan search says `ambiguous` though no rival comes near. A cold start's first scan
+/// is then `ok` when no distinct hypothesis comes within `lone_gap` per beam, and not without
+/// that allowance.
+#[test]
+fn a_lone_pose_that_sees_through_a_stale_wall_is_ok_on_the_first_scan() {
+    use map::{Wall, WallMap, APPROXIMATE_MAP};
+    let room = vec![
+        Wall::new(0.0, 0.0, 6.0, 0.0),
+        Wall::new(6.0, 0.0, 6.0, 0.8),
+        Wall::new(6.0, 0.8, 7.5, 0.8),
+        Wall::new(7.5, 0.8, 7.5, 2.0),
+        Wall::new(7.5, 2.0, 6.0, 2.0),
+        Wall::new(6.0, 2.0, 6.0, 4.0),
+        Wall::new(6.0, 4.0, 3.5, 4.0),
+        Wall::new(3.5, 4.0, 3.5, 5.0),
+        Wall::new(3.5, 5.0, 2.5, 5.0),
+        Wall::new(2.5, 5.0, 2.5, 4.0),
+        Wall::new(2.5, 4.0, 0.0, 4.0),
+        Wall::new(0.0, 4.0, 0.0, 0.0),
+        // a pillar
+        Wall::new(0.8, 2.8, 1.2, 2.8),
+        Wall::new(1.2, 2.8, 1.2, 3.2),
+        Wall::new(1.2, 3.2, 0.8, 3.2),
+        Wall::new(0.8, 3.2, 0.8, 2.8),
+    ];
+    let world = WallMap::new(room.clone());
+    // the survey's partition, gone when the scan is taken
+    let mut walls = room;
+    walls.push(Wall::new(4.5, 1.6, 4.5, 2.4));
+    let mut map = WallMap::new(walls);
+    map.sigma = APPROXIMATE_MAP;
+    let model = Arc::new(MapModel::new(map, &MapCornerConfig::default()));
+    let at = pose(2.0, 1.5, 0.1);
+    let mut sim = Simulator::new(&world, SensorModel::urg04lx(), Scenario::Clean, 1);
+    let mut segmenter = LineVisibilitySegmenter::new(SegmenterConfig::default());
+    let scan = sim.scan_at(&at, &Obstacles::default());
+    let seg = segmenter.segment(&scan.view());
+    let mut single = Localizer::new(Arc::clone(&model), LocalizerConfig::default());
+    let loc = single.locate(&scan.view(), &seg);
+    let best = loc.best().expect("a pose");
+    assert!(same_pose(&best.pose, &at, 0.1, 2f64.to_radians()), "{best:?}");
+    assert!(best.cost.through > LocalizerConfig::default().max_through_ok, "{best:?}");
+    assert_eq!(loc.status, Status::Ambiguous);
+    for (lone_gap, status) in [(SequentialConfig::default().lone_gap, Status::Ok), (f64::INFINITY, Status::Ambiguous)] {
+        let localizer = Localizer::new(Arc::clone(&model), LocalizerConfig::default());
+        let mut sequential = Sequential::new(localizer, SequentialConfig { lone_gap, ..Default::default() });
+        let answer = sequential.locate(&scan.view(), &seg, None);
+        assert!(right(&answer, &at), "{answer:?}");
+        assert_eq!(answer.status, status, "lone_gap {lone_gap}: {answer:?}");
+    }
+}
