@@ -221,7 +221,7 @@ fn a_lone_pose_that_sees_through_a_stale_wall_is_ok_on_the_first_scan() {
     let scan = sim.scan_at(&at, &Obstacles::default());
     let seg = segmenter.segment(&scan.view());
     let mut single = Localizer::new(Arc::clone(&model), LocalizerConfig::default());
-    let loc = single.locate(&scan.view(), &seg);
+    let loc = single.locate(&scan.view(), seg);
     let best = loc.best().expect("a pose");
     assert!(same_pose(&best.pose, &at, 0.1, 2f64.to_radians()), "{best:?}");
     assert!(best.cost.through > LocalizerConfig::default().max_through_ok, "{best:?}");
@@ -229,7 +229,7 @@ fn a_lone_pose_that_sees_through_a_stale_wall_is_ok_on_the_first_scan() {
     for (lone_gap, status) in [(SequentialConfig::default().lone_gap, Status::Ok), (f64::INFINITY, Status::Ambiguous)] {
         let localizer = Localizer::new(Arc::clone(&model), LocalizerConfig::default());
         let mut sequential = Sequential::new(localizer, SequentialConfig { lone_gap, ..Default::default() });
-        let answer = sequential.locate(&scan.view(), &seg, None);
+        let answer = sequential.locate(&scan.view(), seg, None);
         assert!(right(&answer, &at), "{answer:?}");
         assert_eq!(answer.status, status, "lone_gap {lone_gap}: {answer:?}");
     }
