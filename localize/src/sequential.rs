@@ -91,6 +91,13 @@ pub struct SequentialConfig {
     /// the imperfect walls than an `ok` single scan may, though no rival comes near; the probes
     /// and the `ok` limits still apply.
     pub lone_gap: f64,
+    /// Along the direction the scan pins down least, a tracked pose weighs refinement's pose
+    /// against odometry's prediction by their information ([`fuse_along`]): the scan's
+    /// constraint (points' worth of wall normal) over this spread squared (metres), against
+    /// one over odometry's spread squared. Only while odometry's spread is finer than the
+    /// search's `position_step`: then which of the grid's starts refines best along an aisle or
+    /// corridor says less than odometry does.
+    pub along_sigma: f64,
 }
 
 impl Default for SequentialConfig {
@@ -120,6 +127,7 @@ impl Default for SequentialConfig {
             probe_margin: 0.3,
             probe_beams: 32,
             lone_gap: 2.0,
+            along_sigma: 0.2,
         }
     }
 }
@@ -316,7 +324,12 @@ impl Sequential {
                 && cost.value.is_finite()
                 && cost.inliers >= min_inliers;
             if held {
-                (track.pose, track.cost) = (*refined, *cost);
+                let mut pose = *refined;
+                if spread < cfg.position_step {
+                    let (constraint, along) = self.localizer.weakest_direction(refined);
+                    pose = fuse_along(refined, predicted, constraint / cfg.along_sigma.powi(2), along, spread);
+                }
+                (track.pose, track.cost) = (pose, *cost);
                 track.scans += 1;
                 track.misses = 0;
             } else {
@@ -496,5 +509,69 @@ impl Sequential {
         };
         a.status = if sure { Status::Ok } else { Status::Ambiguous };
         a
+    }
+}
+
+/// `refined` moved towards `predicted` along the unit direction `along` by their information
+/// there: the scan's `information` (1 / metres squared) against odometry's `1 / spread^2`. The
+/// pose across `along`, and its heading, stay refinement's: the scan pins those down. With no
+/// information the pose along is odometry's; with much more than odometry's, refinement's.
+/// The cost is left as refinement's: along the weakest direction eq. 7 hardly changes.
+pub fn fuse_along(
+    refined: &Pose,
+    predicted: &Pose,
+    information: f64,
+    along: nalgebra::Vector2<f64>,
+    spread: f64,
+) -> Pose {
+    let odometry = 1.0 / (spread * spread).max(1e-12);
+    let scan = information.max(0.0);
+    let w = scan / (scan + odometry);
+    let offset = (predicted.translation.vector - refined.translation.vector).dot(&along);
+    let mut pose = *refined;
+    pose.translation.vector += along * ((1.0 - w) * offset);
+    pose
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use laser::pose;
+    use proptest::prelude::*;
+
+    proptest! {
+        /// The fused pose lies between refinement's and odometry's along the direction, keeps
+        /// refinement's across it and its heading, and goes to either end as the information
+        /// does.
+        #[test]
+        fn fusing_moves_only_along_and_between(
+            (rx, ry, rt) in (-20.0..20.0f64, -20.0..20.0f64, -3.0..3.0f64),
+            (px, py, pt) in (-20.0..20.0f64, -20.0..20.0f64, -3.0..3.0f64),
+            a in -3.2..3.2f64,
+            information in 0.0..1e4f64,
+            spread in 0.01..1.0f64,
+        ) {
+            let (refined, predicted) = (pose(rx, ry, rt), pose(px, py, pt));
+            let along = nalgebra::Vector2::new(a.cos(), a.sin());
+            let across = nalgebra::Vector2::new(-along.y, along.x);
+            let fused = fuse_along(&refined, &predicted, information, along, spread);
+            let (f, r, p) = (fused.translation.vector, refined.translation.vector, predicted.translation.vector);
+            prop_assert!((f - r).dot(&across).abs() < 1e-9);
+            prop_assert!(angle_diff(pose_theta(&fused), rt).abs() < 1e-12);
+            let (t_f, t_r, t_p) = (f.dot(&along), r.dot(&along), p.dot(&along));
+            prop_assert!(t_f >= t_r.min(t_p) - 1e-9 && t_f <= t_r.max(t_p) + 1e-9);
+            let none = fuse_along(&refined, &predicted, 0.0, along, spread).translation.vector;
+            prop_assert!((none.dot(&along) - t_p).abs() < 1e-9);
+            let much = fuse_along(&refined, &predicted, 1e12, along, spread).translation.vector;
+            prop_assert!((much.dot(&along) - t_r).abs() < 1e-3 * (t_p - t_r).abs().max(1e-9));
+        }
+    }
+
+    /// Equal information either side: halfway.
+    #[test]
+    fn equal_information_meets_halfway() {
+        let (refined, predicted) = (pose(1.0, 0.0, 0.3), pose(0.0, 0.5, 0.1));
+        let fused = fuse_along(&refined, &predicted, 1.0 / 0.04, nalgebra::Vector2::new(1.0, 0.0), 0.2);
+        assert!((fused.translation.vector - nalgebra::Vector2::new(0.5, 0.0)).norm() < 1e-12, "{fused:?}");
     }
 }
