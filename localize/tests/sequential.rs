@@ -137,6 +137,21 @@ fn the_search_about_a_prediction_finds_the_truth_among_hundreds_of_starts() {
     assert!(found * 5 >= tries * 4, "found the truth {found} times of {tries}");
 }
 
+/// A 6 x 4 m room with a 1 x 1 m bay in its top wall.
+fn room_with_bay() -> Vec<map::Wall> {
+    use map::Wall;
+    vec![
+        Wall::new(0.0, 0.0, 6.0, 0.0),
+        Wall::new(6.0, 0.0, 6.0, 4.0),
+        Wall::new(6.0, 4.0, 3.5, 4.0),
+        Wall::new(3.5, 4.0, 3.5, 5.0),
+        Wall::new(3.5, 5.0, 2.5, 5.0),
+        Wall::new(2.5, 5.0, 2.5, 4.0),
+        Wall::new(2.5, 4.0, 0.0, 4.0),
+        Wall::new(0.0, 4.0, 0.0, 0.0),
+    ]
+}
+
 /// An `ok` must withstand probes at the edge of its promise: at the centre of a round room
 /// every heading explains the scan as well, so the answer there cannot be `ok` however the track
 /// got there; in a rectangular room with a bay the same probes find the pose pinned.
@@ -154,16 +169,7 @@ fn a_pose_the_scan_cannot_tell_from_a_turned_one_fails_the_probes() {
             Wall::new(ax, ay, bx, by)
         })
         .collect();
-    let bay = vec![
-        Wall::new(0.0, 0.0, 6.0, 0.0),
-        Wall::new(6.0, 0.0, 6.0, 4.0),
-        Wall::new(6.0, 4.0, 3.5, 4.0),
-        Wall::new(3.5, 4.0, 3.5, 5.0),
-        Wall::new(3.5, 5.0, 2.5, 5.0),
-        Wall::new(2.5, 5.0, 2.5, 4.0),
-        Wall::new(2.5, 4.0, 0.0, 4.0),
-        Wall::new(0.0, 4.0, 0.0, 0.0),
-    ];
+    let bay = room_with_bay();
     for (walls, at, pinned) in [(round, pose(0.0, 0.0, 0.4), false), (bay, pose(2.0, 1.5, 0.7), true)] {
         let map = WallMap::new(walls);
         let model = Arc::new(MapModel::new(map.clone(), &MapCornerConfig::default()));
@@ -189,25 +195,19 @@ fn a_pose_the_scan_cannot_tell_from_a_turned_one_fails_the_probes() {
 #[test]
 fn a_lone_pose_that_sees_through_a_stale_wall_is_ok_on_the_first_scan() {
     use map::{Wall, WallMap, APPROXIMATE_MAP};
-    let room = vec![
-        Wall::new(0.0, 0.0, 6.0, 0.0),
+    // the room with a bay, an alcove in its right wall and a pillar: no twin within 2 per beam
+    let mut room: Vec<Wall> = room_with_bay().into_iter().filter(|w| w.a.x != 6.0 || w.b.x != 6.0).collect();
+    room.extend([
         Wall::new(6.0, 0.0, 6.0, 0.8),
         Wall::new(6.0, 0.8, 7.5, 0.8),
         Wall::new(7.5, 0.8, 7.5, 2.0),
         Wall::new(7.5, 2.0, 6.0, 2.0),
         Wall::new(6.0, 2.0, 6.0, 4.0),
-        Wall::new(6.0, 4.0, 3.5, 4.0),
-        Wall::new(3.5, 4.0, 3.5, 5.0),
-        Wall::new(3.5, 5.0, 2.5, 5.0),
-        Wall::new(2.5, 5.0, 2.5, 4.0),
-        Wall::new(2.5, 4.0, 0.0, 4.0),
-        Wall::new(0.0, 4.0, 0.0, 0.0),
-        // a pillar
         Wall::new(0.8, 2.8, 1.2, 2.8),
         Wall::new(1.2, 2.8, 1.2, 3.2),
         Wall::new(1.2, 3.2, 0.8, 3.2),
         Wall::new(0.8, 3.2, 0.8, 2.8),
-    ];
+    ]);
     let world = WallMap::new(room.clone());
     // the survey's partition, gone when the scan is taken
     let mut walls = room;
