@@ -17,7 +17,9 @@
 //! misses the scan; the best missing one is searched for within the spread
 //! ([`Localizer::locate_near`]), and when it is not found there the robot was moved or is lost,
 //! and the global search runs again on that very scan. A track that misses
-//! [`SequentialConfig::lost_after`] scans in a row is dropped.
+//! [`SequentialConfig::lost_after`] scans in a row is dropped. Along the direction a scan pins
+//! down least (an aisle's length), a held track's pose weighs the search against odometry by
+//! their information ([`fuse_along`]) while odometry's spread is finer than the search's grid.
 //!
 //! Without odometry between two scans nothing can be carried over: the tracks are dropped and
 //! the scan is located from scratch.
