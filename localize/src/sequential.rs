@@ -374,14 +374,7 @@ impl Sequential {
         if loc.status == Status::Failed {
             return None;
         }
-        let single = loc.hypotheses.first().map(|b| {
-            let gap = loc.hypotheses[1..]
-                .iter()
-                .filter(|h| !same_pose(&h.pose, &b.pose, position, heading))
-                .map(|h| h.cost.value - b.cost.value)
-                .fold(f64::INFINITY, f64::min);
-            (loc.status, b.pose, gap)
-        });
+        let single = loc.hypotheses.first().map(|b| (loc.status, b.pose, loc.rival_gap(position, heading)));
         let had_tracks = self.tracks.iter().any(|t| t.scans > 0);
         let hyps: Vec<_> = loc.hypotheses.iter().filter(|h| h.cost.inliers >= min_inliers).copied().collect();
         for h in hyps {

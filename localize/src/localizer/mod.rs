@@ -159,6 +159,22 @@ impl Localization {
             _ => self.hypotheses.first(),
         }
     }
+
+    /// How much more per beam the nearest rival of the first hypothesis costs
+    /// ([`rival_gap`]).
+    pub fn rival_gap(&self, position: f64, heading: f64) -> f64 {
+        rival_gap(&self.hypotheses, position, heading)
+    }
+}
+
+/// How much more per beam than the first of `hyps` the cheapest of the others not within
+/// `position` metres and `heading` radians of it costs: +inf with none.
+pub fn rival_gap(hyps: &[Hypothesis], position: f64, heading: f64) -> f64 {
+    let Some((best, rest)) = hyps.split_first() else { return f64::INFINITY };
+    rest.iter()
+        .filter(|h| !same_pose(&h.pose, &best.pose, position, heading))
+        .map(|h| h.cost.value - best.cost.value)
+        .fold(f64::INFINITY, f64::min)
 }
 
 #[derive(Clone, Copy, Debug)]

@@ -3,7 +3,7 @@
 //! `ambiguous` when a distinct pose explains it about as well or the best sees through too
 //! many walls to be trusted, `failed` when no pose explains it.
 
-use super::{same_pose, Localizer, Status};
+use super::{rival_gap, same_pose, Localizer, Status};
 use crate::model::MapModel;
 use crate::slide::FROM_SLIDE;
 use laser::{angle_diff, pose_theta, Pose};
@@ -35,13 +35,8 @@ impl Localizer {
     /// the best one's cost more than it: a rival within the best pose's own misfit.
     pub(super) fn rival_within_misfit(&self) -> bool {
         let cfg = &self.config;
-        let hyps = &self.out.hypotheses;
-        let Some(best) = hyps.first() else { return false };
-        let margin = cfg.ambiguity_ratio * best.cost.value;
-        hyps[1..].iter().any(|h| {
-            !same_pose(&h.pose, &best.pose, cfg.distinct_position, cfg.distinct_heading)
-                && h.cost.value - best.cost.value < margin
-        })
+        let Some(best) = self.out.hypotheses.first() else { return false };
+        self.out.rival_gap(cfg.distinct_position, cfg.distinct_heading) < cfg.ambiguity_ratio * best.cost.value
     }
 
     /// Whether the best hypothesis sees through more of a drawn map's walls than an `ok` pose
@@ -80,10 +75,7 @@ impl Localizer {
         self.out.status = if best.cost.inliers < cfg.min_inliers || best.cost.through > max_through {
             Status::Failed
         } else if best.cost.through > cfg.max_through_ok
-            || hyps.iter().any(|h| {
-                !same_pose(&h.pose, &best.pose, cfg.distinct_position, cfg.distinct_heading)
-                    && h.cost.value - best.cost.value < cfg.ambiguity_margin
-            })
+            || rival_gap(hyps, cfg.distinct_position, cfg.distinct_heading) < cfg.ambiguity_margin
         {
             Status::Ambiguous
         } else {
