@@ -309,6 +309,13 @@ impl LocalizerConfig {
             "a pose with more beams than this through walls is at best ambiguous",
             max_through_ok
         ),
+        setting!(
+            LocalizerConfig,
+            "min_constraint_ok_approximate",
+            Range::NonNegative,
+            "on a built map, the best pose is ambiguous unless the scan pins it down along every direction by this many points' worth (0: off)",
+            min_constraint_ok_approximate
+        ),
         SettingSpec {
             key: "track",
             range: Range::NonNegative,

@@ -937,3 +937,39 @@ fn the_weakest_direction_in_a_corridor_runs_along_it() {
     assert!((least - 5.0).abs() < 1e-6, "{least}");
     assert!(along.y.abs() > 0.999, "{along:?}");
 }
+
+/// A corridor whose ends lie beyond the sensor's range, with one door jamb 10 cm deep: along
+/// the corridor only the jamb's face pins the pose down, one point's worth of wall normal. On
+/// a drawn map that is enough for `ok`; on a map built from scans, whose walls are known only
+/// to their spread, it is `ambiguous` (`min_constraint_ok_approximate`), at the same pose.
+#[test]
+fn a_pose_pinned_along_a_built_corridor_by_one_point_is_not_ok() {
+    let jamb = 0.1;
+    let drawn = WallMap::new(vec![
+        Wall::new(0.0, 0.0, 40.0, 0.0),
+        Wall::new(40.0, 0.0, 40.0, 2.4),
+        Wall::new(40.0, 2.4, 15.0, 2.4),
+        Wall::new(15.0, 2.4, 15.0, 2.4 - jamb),
+        Wall::new(15.0, 2.4 - jamb, 14.0, 2.4 - jamb),
+        Wall::new(14.0, 2.4 - jamb, 14.0, 2.4),
+        Wall::new(14.0, 2.4, 0.0, 2.4),
+        Wall::new(0.0, 2.4, 0.0, 0.0),
+    ]);
+    let built = WallMap { sigma: map::APPROXIMATE_MAP, ..drawn.clone() };
+    let at = pose(16.0, 1.2, 3.0);
+    let scan =
+        Simulator::new(&drawn, SensorModel::urg04lx(), Scenario::Clean, 1).scan_at(&at, &acquire::Obstacles::default());
+    let status_on = |map: &WallMap, least: f64| {
+        let mut g = gema2(map, LocalizerConfig { min_constraint_ok_approximate: least, ..LocalizerConfig::default() });
+        let loc = g.process(&scan.view()).1.clone();
+        let best = loc.best().expect("a pose").pose;
+        assert!(same_pose(&best, &at, 0.1, 2f64.to_radians()), "{best:?}");
+        let (constraint, along) = g.localizer.weakest_direction(&best);
+        assert!(constraint < 2.0 && along.x.abs() > 0.9, "{constraint} along {along:?}");
+        loc.status
+    };
+    let least = LocalizerConfig::default().min_constraint_ok_approximate;
+    assert_eq!(status_on(&drawn, least), Status::Ok);
+    assert_eq!(status_on(&built, 0.0), Status::Ok);
+    assert_eq!(status_on(&built, least), Status::Ambiguous);
+}

@@ -493,7 +493,7 @@ impl Localizer {
                 self.out.status = Status::Failed;
             }
         }
-        if self.out.status == Status::Ok && self.rival_within_misfit() {
+        if self.out.status == Status::Ok && (self.rival_within_misfit() || self.pinned_down_too_little()) {
             self.out.status = Status::Ambiguous;
         }
         self.report();

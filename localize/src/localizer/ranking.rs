@@ -39,6 +39,16 @@ impl Localizer {
         self.out.rival_gap(cfg.distinct_position, cfg.distinct_heading) < cfg.ambiguity_ratio * best.cost.value
     }
 
+    /// Whether, on a map that declares itself approximate, the scan pins the best pose's
+    /// position down along some direction by fewer points' worth than
+    /// [`LocalizerConfig::min_constraint_ok_approximate`].
+    pub(super) fn pinned_down_too_little(&self) -> bool {
+        let min = self.config.min_constraint_ok_approximate;
+        min > 0.0
+            && self.model.map.is_approximate()
+            && self.out.hypotheses.first().is_some_and(|h| self.weakest_direction(&h.pose).0 < min)
+    }
+
     /// Whether the best hypothesis sees through more of a drawn map's walls than an `ok` pose
     /// may ([`LocalizerConfig::max_through_ok`]); never for a map that declares itself
     /// approximate, whose right poses see through walls that are no longer there.
