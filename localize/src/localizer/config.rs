@@ -154,7 +154,8 @@ pub struct LocalizerConfig {
     pub max_through_ok: f64,
     /// On a map that declares itself approximate, the best pose is `ambiguous` unless the scan
     /// pins its position down along every direction by at least this many points' worth of
-    /// wall normal ([`crate::refine::weakest_direction`]); 0 sets no floor. A built map knows
+    /// wall normal among refinement's [`refine_points`](Self::refine_points) scan points
+    /// ([`crate::refine::weakest_direction`]); 0 sets no floor. A built map knows
     /// its walls only to their spread, so a corridor pose held along its length by a door
     /// jamb's one or two points fits a twin a few doors on as well: on the seven CARMEN logs
     /// both ways, 4 of the 14 wrong `ok` answers (infinite-corridor, 1.7-139 m off) had under
