@@ -463,7 +463,9 @@ impl Sequential {
     /// The scan's answer. A best track seen on this scan alone is `ok` only as the single-scan
     /// search judged it, or with no rival within [`SequentialConfig::lone_gap`]; an older one
     /// when it leads by the margin and explains the scan. Either must pin the position down and
-    /// withstand the probes.
+    /// withstand the probes. When the best track missed the scan, the answer is `ambiguous`, at
+    /// the held track the single-scan search was sure of if there is one, else where odometry
+    /// put the best.
     fn answer(&mut self, scan: &ScanView<'_>, single: Option<(Status, Pose, f64)>) -> SequentialAnswer {
         let mut a = SequentialAnswer {
             status: Status::Failed,
@@ -473,15 +475,25 @@ impl Sequential {
             global: false,
             tracks: self.tracks.len(),
         };
+        let cfg = self.localizer.config;
         let Some(&best) = self.tracks.first().filter(|t| t.misses == 0) else {
-            if !self.tracks.is_empty() {
-                a.status = Status::Ambiguous;
-                a.pose = Some(self.tracks[0].pose);
+            // the best track missed the scan: the answer is the place a held track explains,
+            // where the scan's own search was sure of it (a kidnapped robot's new place, while
+            // the old one's track lives out its misses); else where odometry put the best
+            let Some(first) = self.tracks.first() else { return a };
+            a.status = Status::Ambiguous;
+            a.pose = Some(first.pose);
+            let sure_here = single.filter(|s| s.0 == Status::Ok).and_then(|(_, p, _)| {
+                self.tracks
+                    .iter()
+                    .find(|t| t.misses == 0 && same_pose(&t.pose, &p, cfg.distinct_position, cfg.distinct_heading))
+            });
+            if let Some(t) = sure_here {
+                (a.pose, a.cost, a.scans) = (Some(t.pose), Some(t.cost), t.scans);
             }
             return a;
         };
         (a.pose, a.cost, a.scans) = (Some(best.pose), Some(best.cost), best.scans);
-        let cfg = self.localizer.config;
         let leads = self.lead() >= self.config.margin
             && best.cost.inliers >= self.config.min_inliers_ok
             && !self.localizer.off_limits(&best.pose);
