@@ -57,23 +57,31 @@ fn once_sure_it_tracks_by_odometry_and_stays_right() {
     assert!(tracked >= 15, "tracked {tracked} scans");
 }
 
+/// Ten scans turning on the spot at a random pose, located with odometry; then a pose at
+/// least 5 m away the robot is carried to, and the odometry it last read, which saw nothing
+/// of the carrying.
+fn kidnap(rig: &mut Rig) -> (Pose, Pose) {
+    let here = rig.sim.random_pose();
+    let mut there = rig.sim.random_pose();
+    while (there.translation.vector - here.translation.vector).norm() < 5.0 {
+        there = rig.sim.random_pose();
+    }
+    let mut odometry = pose(0.0, 0.0, 0.0);
+    for k in 0..10 {
+        let truth = here * pose(0.0, 0.0, 0.15 * k as f64);
+        odometry = pose(0.0, 0.0, 0.15 * k as f64);
+        rig.locate(&truth, Some(odometry));
+    }
+    (there, odometry)
+}
+
 /// Carried elsewhere with odometry that saw nothing: no `ok` on the old place after the scan
 /// of the cut, and a right `ok` on the new one within five scans.
 #[test]
 fn a_kidnapped_robot_lets_go_of_the_old_place_and_finds_the_new() {
     for seed in [4u64, 5, 6] {
         let mut rig = Rig::new("office", seed);
-        let here = rig.sim.random_pose();
-        let mut there = rig.sim.random_pose();
-        while (there.translation.vector - here.translation.vector).norm() < 5.0 {
-            there = rig.sim.random_pose();
-        }
-        let mut odometry = pose(0.0, 0.0, 0.0);
-        for k in 0..10 {
-            let truth = here * pose(0.0, 0.0, 0.15 * k as f64);
-            odometry = pose(0.0, 0.0, 0.15 * k as f64);
-            rig.locate(&truth, Some(odometry));
-        }
+        let (there, odometry) = kidnap(&mut rig);
         let mut found = None;
         for k in 0..8 {
             let truth = there * pose(0.0, 0.0, 0.15 * k as f64);
@@ -100,17 +108,7 @@ fn a_kidnapped_robot_is_answered_where_the_scan_is_sure_while_the_old_track_miss
         let map = worlds::by_name("office").expect("a bundled world");
         let mut single =
             Localizer::new(Arc::new(MapModel::new(map, &MapCornerConfig::default())), LocalizerConfig::default());
-        let here = rig.sim.random_pose();
-        let mut there = rig.sim.random_pose();
-        while (there.translation.vector - here.translation.vector).norm() < 5.0 {
-            there = rig.sim.random_pose();
-        }
-        let mut odometry = pose(0.0, 0.0, 0.0);
-        for k in 0..10 {
-            let truth = here * pose(0.0, 0.0, 0.15 * k as f64);
-            odometry = pose(0.0, 0.0, 0.15 * k as f64);
-            rig.locate(&truth, Some(odometry));
-        }
+        let (there, odometry) = kidnap(&mut rig);
         for k in 0..8 {
             let truth = there * pose(0.0, 0.0, 0.15 * k as f64);
             let moved = odometry * pose(0.0, 0.0, 0.15 * (k as f64 + 1.0));
