@@ -788,10 +788,22 @@ fn a_real_log_keeps_its_success_and_ok_precision() {
     // the sequential localizer on its odd scans, odometry drawn as issue 48 draws it: today
     // every start fixed within 3 scans (the median on its first), no wrong ok, 99.3 % right
     // after the first fix
+    let row = sequential_row(dir.path(), "freiburg-101-corrected");
+    let percent = |v: &str| v.trim_end_matches(" %").parse::<f64>().unwrap_or_else(|_| panic!("{v:?} in {row:?}"));
+    assert_eq!(row[3], "1", "the median start is not sure on its first scan: {row:?}");
+    assert!(percent(&row[4]) >= 80.0, "fewer starts fixed within 3 scans: {row:?}");
+    assert!(row[5].starts_with("0 "), "a wrong ok: {row:?}");
+    assert!(percent(&row[6]) >= 97.0, "fewer right poses after the first fix: {row:?}");
+}
+
+/// `gema2 evaluate --sequential`'s row for `log` in `dir`: odometry drawn as issue 48 draws it
+/// (noise 0.05, 0.01, 0.05, 0.01, seed 1), a cold start every 25 located scans. The columns:
+/// log | scans | starts | median to fix | fixed within 3 | wrong ok | right after fix | ...
+fn sequential_row(dir: &Path, log: &str) -> Vec<String> {
     let out = gema2(&[
         "evaluate",
         "--carmen",
-        dir.path().to_str().unwrap(),
+        dir.to_str().unwrap(),
         "--sequential",
         "--odom-noise",
         "0.05,0.01,0.05,0.01",
@@ -800,17 +812,33 @@ fn a_real_log_keeps_its_success_and_ok_precision() {
     ]);
     assert!(out.status.success(), "{}", text(&out.stderr));
     let table = text(&out.stdout);
-    let row: Vec<&str> = table
+    let label = format!("{log} |");
+    table
         .lines()
-        .find(|l| l.starts_with("freiburg-101-corrected |"))
-        .unwrap_or_else(|| panic!("no sequential row in {table}"))
+        .find(|l| l.starts_with(&label))
+        .unwrap_or_else(|| panic!("no sequential row for {log} in {table}"))
         .split('|')
-        .map(str::trim)
-        .collect();
-    // log | scans | starts | median to fix | fixed within 3 | wrong ok | right after fix | ...
+        .map(|c| c.trim().to_string())
+        .collect()
+}
+
+/// The sequential localizer on edmonton (`../shared/datasets/carmen`, read in place through a
+/// link), map from the even scans. Its drawn odometry is often off by more than the window
+/// about the prediction spans: the second look about where the first refined to keeps the
+/// track right (98.7 % of the poses after the first fix today; 93.6 % without it, the first
+/// look stopping 0.4-0.8 m short). Without the shared data the test says it was skipped.
+#[test]
+fn a_track_whose_odometry_is_off_past_the_window_stays_right_on_a_real_log() {
+    let test = "a_track_whose_odometry_is_off_past_the_window_stays_right_on_a_real_log";
+    let log = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/datasets/carmen/edmonton-corrected.log.gz");
+    if !log.is_file() {
+        common::skipped(test, &format!("{} is not there", log.display()));
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    std::os::unix::fs::symlink(&log, dir.path().join("edmonton-corrected.log.gz")).unwrap();
+    let row = sequential_row(dir.path(), "edmonton-corrected");
     let percent = |v: &str| v.trim_end_matches(" %").parse::<f64>().unwrap_or_else(|_| panic!("{v:?} in {row:?}"));
-    assert_eq!(row[3], "1", "the median start is not sure on its first scan: {row:?}");
-    assert!(percent(row[4]) >= 80.0, "fewer starts fixed within 3 scans: {row:?}");
     assert!(row[5].starts_with("0 "), "a wrong ok: {row:?}");
-    assert!(percent(row[6]) >= 97.0, "fewer right poses after the first fix: {row:?}");
+    assert!(percent(&row[6]) >= 97.0, "fewer right poses after the first fix: {row:?}");
 }
