@@ -44,10 +44,10 @@ struct ReachLists {
     within: ReachFrame,
     /// How many walls each cell lists, counted on first need ([`NOT_COUNTED`] until then).
     counts: Vec<AtomicU32>,
-    /// The walls of a cell's list not hidden from the cell, by cell index. Boxed twice so that
-    /// a cell not filtered costs 16 bytes, not 24: these per-cell tables are most of what a
-    /// localizer holds of its own beside the shared model.
-    visible: Vec<OnceLock<Box<Box<[u32]>>>>,
+    /// The walls of a cell's list not hidden from the cell, by cell index. Boxed so that a cell
+    /// not filtered costs 16 bytes, not 32: these per-cell tables are most of what a localizer
+    /// holds of its own beside the shared model.
+    visible: Vec<OnceLock<Box<WallList>>>,
     /// Beams marched from each cell whose list is not filtered yet ([`Plan`]), saturating.
     marched: Vec<AtomicU32>,
 }
@@ -142,13 +142,56 @@ impl ReachLists {
     }
 
     /// The walls of cell (c, r) not hidden from it, filtered on the first call.
-    fn visible_in(&self, walls: &[Wall], c: usize, r: usize) -> &[u32] {
+    fn visible_in(&self, walls: &[Wall], c: usize, r: usize) -> &WallList {
         self.visible[self.within.cell_index(c, r)].get_or_init(|| {
             let (mut list, mut kept) = (Vec::new(), Vec::new());
             self.within.list_of(walls, c, r, &mut list);
             potentially_visible(walls, &self.within.cell_corners(c, r), &list, &mut kept);
-            Box::new(kept.into_boxed_slice())
+            Box::new(WallList::new(&kept, walls.len()))
         })
+    }
+}
+
+/// A filtered list of walls, by index: two bytes an index where the map has at most 65536
+/// walls (every map built from the CARMEN logs), else four. A localizer keeps the lists of
+/// every cell it casts from often, a few hundred walls each.
+#[derive(Clone, Debug, PartialEq)]
+enum WallList {
+    Short(Box<[u16]>),
+    Long(Box<[u32]>),
+}
+
+impl WallList {
+    fn new(kept: &[u32], walls: usize) -> Self {
+        if walls <= usize::from(u16::MAX) + 1 {
+            // every index is below `walls`, so each fits
+            WallList::Short(kept.iter().map(|&k| k as u16).collect())
+        } else {
+            WallList::Long(kept.into())
+        }
+    }
+
+    fn len(&self) -> usize {
+        match self {
+            WallList::Short(v) => v.len(),
+            WallList::Long(v) => v.len(),
+        }
+    }
+
+    /// Calls `f` with each wall's index, in order.
+    #[inline]
+    fn for_each(&self, mut f: impl FnMut(usize)) {
+        match self {
+            WallList::Short(v) => v.iter().for_each(|&k| f(usize::from(k))),
+            WallList::Long(v) => v.iter().for_each(|&k| f(k as usize)),
+        }
+    }
+
+    #[cfg(test)]
+    fn to_vec(&self) -> Vec<u32> {
+        let mut out = Vec::with_capacity(self.len());
+        self.for_each(|k| out.push(k as u32));
+        out
     }
 }
 
@@ -190,12 +233,12 @@ impl RayScratch {
 /// wall grid ([`RayCaster::march`]). Both give the same ranges; which is cheaper depends on
 /// how many walls the sweep would visit against how many beams are cast.
 enum Plan<'a> {
-    Sweep(&'a [u32]),
+    Sweep(&'a WallList),
     March,
 }
 
 impl<'a> Plan<'a> {
-    fn cheaper(walls: &'a [u32], beams: usize) -> Self {
+    fn cheaper(walls: &'a WallList, beams: usize) -> Self {
         if Self::march_pays(walls.len(), beams) {
             Plan::March
         } else {
@@ -358,9 +401,7 @@ impl RayCaster {
         };
         match self.plan_with_lists(p, range, cast_beams) {
             Some(Plan::Sweep(near)) => {
-                for &k in near {
-                    visit(k as usize, scratch, out);
-                }
+                near.for_each(|k| visit(k, scratch, out));
                 go_on(out, out.len());
                 return;
             }
@@ -932,7 +973,7 @@ mod tests {
         let mut hidden = 0;
         for r in 0..eager.within.rows() {
             for c in 0..eager.within.cols() {
-                let (a, b) = (eager.visible_in(&walls, c, r), lazy.visible_in(&walls, c, r));
+                let (a, b) = (eager.visible_in(&walls, c, r).to_vec(), lazy.visible_in(&walls, c, r).to_vec());
                 assert_eq!(a, b);
                 hidden += eager.count(&walls, c, r) - a.len();
             }
@@ -973,6 +1014,20 @@ mod tests {
                 Ok(())
             })
             .unwrap();
+    }
+
+    /// A filtered list holds its indices in two bytes while the map's walls all fit, in four
+    /// beyond, and gives the same indices either way.
+    #[test]
+    fn a_wall_list_is_as_narrow_as_the_map_allows() {
+        let kept = [0u32, 7, 65_535];
+        let short = WallList::new(&kept, 65_536);
+        assert!(matches!(short, WallList::Short(_)));
+        assert_eq!(short.to_vec(), kept);
+        let kept = [0u32, 7, 65_536];
+        let long = WallList::new(&kept, 65_537);
+        assert!(matches!(long, WallList::Long(_)));
+        assert_eq!((long.to_vec(), long.len()), (kept.to_vec(), 3));
     }
 
     /// From inside a room, a wall behind the room's wall is dropped from the cell's list, and
