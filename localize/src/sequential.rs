@@ -399,11 +399,12 @@ impl Sequential {
 
     /// The second look for the best track ([`SequentialConfig::second_look_sides`]): when its
     /// search's best pose (in `self.scored`) refined to `edge` or further from the window's
-    /// `centre`, the screen and refinement run again about that pose. With odometry off by more than the window spans, the first look's starts all lie
-    /// short of the truth and refinement stops in a local minimum on the way (0.4-0.8 m off
-    /// on the CARMEN logs with drawn odometry); about where it stopped, a start lies near the
-    /// truth. The better of the two looks is kept in `self.scored`. Returns whether the second
-    /// look won and moved the pose further than `second_look_jump` or `second_look_turn`.
+    /// `centre`, the screen and refinement run again about that pose. With odometry off by
+    /// more than the window spans, the first look's starts all lie short of the truth and
+    /// refinement stops in a local minimum on the way (0.4-0.8 m off on the CARMEN logs with
+    /// drawn odometry); about where it stopped, a start lies near the truth. The better of the
+    /// two looks is kept in `self.scored`. Returns whether the second look won and moved the
+    /// pose further than `second_look_jump` or `second_look_turn`.
     fn look_again(
         &mut self,
         scan: &ScanView<'_>,
@@ -532,10 +533,10 @@ impl Sequential {
 
     /// The scan's answer. A best track seen on this scan alone is `ok` only as the single-scan
     /// search judged it, or with no rival within [`SequentialConfig::lone_gap`]; an older one
-    /// when it leads by the margin and explains the scan. Either must pin the position down and
-    /// withstand the probes. When the best track missed the scan, the answer is `ambiguous`, at
-    /// the held track the single-scan search was sure of if there is one, else where odometry
-    /// put the best.
+    /// when it leads by the margin and explains the scan. Either must pin the position down,
+    /// withstand the probes, and not have been moved far by this scan's second look. When the
+    /// best track missed the scan, the answer is `ambiguous`, at the held track the single-scan
+    /// search was sure of if there is one, else where odometry put the best.
     fn answer(&mut self, scan: &ScanView<'_>, single: Option<(Status, Pose, f64)>) -> SequentialAnswer {
         let mut a = SequentialAnswer {
             status: Status::Failed,
