@@ -759,13 +759,9 @@ fn evaluate_and_bench_write_their_own_sections_of_the_results_page() {
 /// Without the shared data the test says it was skipped (`.ci/run` lists it).
 #[test]
 fn a_real_log_keeps_its_success_and_ok_precision() {
-    let log = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/datasets/carmen/freiburg-101-corrected.log.gz");
-    if !log.is_file() {
-        common::skipped("a_real_log_keeps_its_success_and_ok_precision", &format!("{} is not there", log.display()));
+    let Some(dir) = shared_carmen_log("a_real_log_keeps_its_success_and_ok_precision", "freiburg-101-corrected") else {
         return;
-    }
-    let dir = tempfile::tempdir().unwrap();
-    std::os::unix::fs::symlink(&log, dir.path().join("freiburg-101-corrected.log.gz")).unwrap();
+    };
     let out = gema2(&["evaluate", "--no-sim", "--carmen", dir.path().to_str().unwrap()]);
     assert!(out.status.success(), "{}", text(&out.stderr));
     let table = text(&out.stdout);
@@ -789,11 +785,29 @@ fn a_real_log_keeps_its_success_and_ok_precision() {
     // every start fixed within 3 scans (the median on its first), no wrong ok, 99.3 % right
     // after the first fix
     let row = sequential_row(dir.path(), "freiburg-101-corrected");
-    let percent = |v: &str| v.trim_end_matches(" %").parse::<f64>().unwrap_or_else(|_| panic!("{v:?} in {row:?}"));
     assert_eq!(row[3], "1", "the median start is not sure on its first scan: {row:?}");
-    assert!(percent(&row[4]) >= 80.0, "fewer starts fixed within 3 scans: {row:?}");
+    assert!(percent(&row[4], &row) >= 80.0, "fewer starts fixed within 3 scans: {row:?}");
     assert!(row[5].starts_with("0 "), "a wrong ok: {row:?}");
-    assert!(percent(&row[6]) >= 97.0, "fewer right poses after the first fix: {row:?}");
+    assert!(percent(&row[6], &row) >= 97.0, "fewer right poses after the first fix: {row:?}");
+}
+
+/// A folder linking `name.log.gz` from `../shared/datasets/carmen` (read in place, never
+/// copied), or none, with the test `test` said to be skipped, when the shared data is not there.
+fn shared_carmen_log(test: &str, name: &str) -> Option<tempfile::TempDir> {
+    let file = format!("{name}.log.gz");
+    let log = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/datasets/carmen").join(&file);
+    if !log.is_file() {
+        common::skipped(test, &format!("{} is not there", log.display()));
+        return None;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    std::os::unix::fs::symlink(&log, dir.path().join(file)).unwrap();
+    Some(dir)
+}
+
+/// A table cell such as `97.8 %` as a number.
+fn percent(cell: &str, row: &[String]) -> f64 {
+    cell.trim_end_matches(" %").parse().unwrap_or_else(|_| panic!("{cell:?} in {row:?}"))
 }
 
 /// `gema2 evaluate --sequential`'s row for `log` in `dir`: odometry drawn as issue 48 draws it
@@ -830,15 +844,8 @@ fn sequential_row(dir: &Path, log: &str) -> Vec<String> {
 #[test]
 fn a_track_whose_odometry_is_off_past_the_window_stays_right_on_a_real_log() {
     let test = "a_track_whose_odometry_is_off_past_the_window_stays_right_on_a_real_log";
-    let log = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/datasets/carmen/edmonton-corrected.log.gz");
-    if !log.is_file() {
-        common::skipped(test, &format!("{} is not there", log.display()));
-        return;
-    }
-    let dir = tempfile::tempdir().unwrap();
-    std::os::unix::fs::symlink(&log, dir.path().join("edmonton-corrected.log.gz")).unwrap();
+    let Some(dir) = shared_carmen_log(test, "edmonton-corrected") else { return };
     let row = sequential_row(dir.path(), "edmonton-corrected");
-    let percent = |v: &str| v.trim_end_matches(" %").parse::<f64>().unwrap_or_else(|_| panic!("{v:?} in {row:?}"));
     assert!(row[5].starts_with("0 "), "a wrong ok: {row:?}");
-    assert!(percent(&row[6]) >= 97.0, "fewer right poses after the first fix: {row:?}");
+    assert!(percent(&row[6], &row) >= 97.0, "fewer right poses after the first fix: {row:?}");
 }

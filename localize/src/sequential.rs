@@ -113,6 +113,19 @@ pub struct SequentialConfig {
     pub second_look_turn: f64,
 }
 
+impl SequentialConfig {
+    /// The poses of a search's grid about `centre` into `out`: step (k, i, j) is `centre`
+    /// turned k `start_step`s and moved (i, j) `position_step`s along x and y.
+    fn grid_starts(&self, steps: impl Iterator<Item = (i32, i32, i32)>, centre: &Pose, out: &mut Vec<Pose>) {
+        let (c, heading) = (centre.translation.vector, pose_theta(centre));
+        out.clear();
+        out.extend(steps.map(|(k, i, j)| {
+            let at = c + nalgebra::Vector2::new(f64::from(i), f64::from(j)) * self.position_step;
+            nalgebra::Isometry2::new(at, heading + f64::from(k) * self.start_step)
+        }));
+    }
+}
+
 impl Default for SequentialConfig {
     fn default() -> Self {
         SequentialConfig {
@@ -337,12 +350,8 @@ impl Sequential {
         let mut found = Vec::with_capacity(self.tracks.len());
         for n in 0..self.tracks.len() {
             let predicted = self.tracks[n].pose * delta;
-            starts.clear();
-            let (c, heading) = (predicted.translation.vector, pose_theta(&predicted));
-            for &(k, i, j) in &steps {
-                let at = c + nalgebra::Vector2::new(f64::from(i), f64::from(j)) * cfg.position_step;
-                starts.push(nalgebra::Isometry2::new(at, heading + f64::from(k) * cfg.start_step));
-            }
+            let c = predicted.translation.vector;
+            cfg.grid_starts(steps.iter().copied(), &predicted, &mut starts);
             self.localizer.search_around(scan, seg, &starts, cfg.refined, &mut self.scored);
             let edge = f64::from(shifts) * cfg.position_step;
             let relooked = n == 0 && window_short && self.look_again(scan, seg, &steps, (c, edge), &mut starts);
@@ -418,13 +427,9 @@ impl Sequential {
         if (first.translation.vector - centre).norm() < edge.max(cfg.position_step) {
             return false;
         }
-        let (c, heading) = (first.translation.vector, pose_theta(&first));
         let near = cfg.second_look_sides;
-        starts.clear();
-        for &(k, i, j) in steps.iter().filter(|(k, i, j)| k.abs() <= near && i.abs() <= near && j.abs() <= near) {
-            let at = c + nalgebra::Vector2::new(f64::from(i), f64::from(j)) * cfg.position_step;
-            starts.push(nalgebra::Isometry2::new(at, heading + f64::from(k) * cfg.start_step));
-        }
+        let steps = steps.iter().copied().filter(|(k, i, j)| k.abs() <= near && i.abs() <= near && j.abs() <= near);
+        cfg.grid_starts(steps, &first, starts);
         self.localizer.search_around(scan, seg, starts, 1, &mut self.relook);
         let Some(&(second, second_cost)) = self.relook.first() else { return false };
         if second_cost.value >= first_cost.value {
