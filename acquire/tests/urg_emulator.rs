@@ -95,6 +95,22 @@ fn a_sensor_still_speaking_scip_1_1_is_switched_to_scip_2_0() {
 }
 
 #[test]
+fn a_sensor_that_does_not_describe_itself_fully_still_scans() {
+    let emu = start(emulator(EmulatorFaults { minimal_describe: true, ..Default::default() }));
+    let mut urg = open(&emu.path);
+    let info = urg.connect().unwrap().clone();
+    // PP placed the beams; VV's bad line and II's refusal are noted, not fatal
+    assert_eq!((info.ares, info.amin, info.amax, info.afrt), (1024, 44, 725, 384));
+    assert!(info.product.contains("URG-04LX"), "VV's good lines still count: {info:?}");
+    assert!(info.firmware.is_empty(), "{info:?}");
+    assert_eq!(info.unanswered.len(), 2, "{:?}", info.unanswered);
+    assert!(info.unanswered[0].starts_with("VV:") && info.unanswered[1].starts_with("II: status 0E"), "{info:?}");
+    urg.laser_on().unwrap();
+    urg.start(Encoding::Three, 44, 725, 1, 0).unwrap();
+    assert_eq!(urg.next_scan().unwrap().ranges_mm.len(), 682);
+}
+
+#[test]
 fn a_sensor_left_in_time_adjust_mode_is_brought_out_of_it() {
     let emu = start(emulator(EmulatorFaults { starts_in_time_adjust: true, ..Default::default() }));
     let mut urg = open(&emu.path);

@@ -28,6 +28,9 @@ pub struct SensorInfo {
     pub scan_rpm: u32,
     pub laser_on: bool,
     pub state: String,
+    /// What `VV` or `II` did not say, and why: a status other than `00` or a line that did not
+    /// parse. Neither is needed to scan, so neither stops a connection.
+    pub unanswered: Vec<String>,
 }
 
 impl SensorInfo {
@@ -196,8 +199,8 @@ impl<T: Read + Write> Urg<T> {
     }
 
     /// Brings the sensor to a known state and reads its description: stops any stream, switches
-    /// a SCIP 1.1 sensor to SCIP 2.0, ends a time-adjust mode left open, then `VV`, `PP` and
-    /// `II`.
+    /// a SCIP 1.1 sensor to SCIP 2.0, ends a time-adjust mode left open, then `PP` (required),
+    /// `VV` and `II` (what they do not answer is noted in [`SensorInfo::unanswered`]).
     pub fn connect(&mut self) -> Result<&SensorInfo, ScipError> {
         // QT twice: the first may be lost in a stream already running, and its answer tells
         // what state the sensor is in
@@ -223,11 +226,25 @@ impl<T: Read + Write> Urg<T> {
         self.expect_ok("QT", &["00"])?;
         self.streaming = None;
         let mut info = SensorInfo::default();
-        for cmd in ["VV", "PP", "II"] {
-            let f = self.expect_ok(cmd, &["00"])?;
+        // PP places the beams: it must answer, and every line of it must check
+        let f = self.expect_ok("PP", &["00"])?;
+        for line in &f.lines {
+            let (key, value) = parse_info_line(line)?;
+            info.apply(&key, &value);
+        }
+        // VV and II only describe the sensor: one that does not know them (status 0E), or
+        // sends a line that does not parse, is still a sensor to scan with
+        for cmd in ["VV", "II"] {
+            let f = self.command(cmd)?;
+            if f.status != "00" {
+                info.unanswered.push(format!("{cmd}: status {} ({})", f.status, status_meaning(cmd, &f.status)));
+                continue;
+            }
             for line in &f.lines {
-                let (key, value) = parse_info_line(line)?;
-                info.apply(&key, &value);
+                match parse_info_line(line) {
+                    Ok((key, value)) => info.apply(&key, &value),
+                    Err(e) => info.unanswered.push(format!("{cmd}: {e}")),
+                }
             }
         }
         if !info.usable() {

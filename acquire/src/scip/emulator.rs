@@ -33,6 +33,10 @@ pub struct EmulatorFaults {
     /// at another rate arrives as framing errors and is not answered; `SS` changes the rate.
     /// `None`: connected by USB, where the rate does not matter.
     pub rs232_bit_rate: Option<u32>,
+    /// Know only the commands scanning needs: `II` is answered with status `0E` (undefined),
+    /// and `VV`'s firmware line carries a wrong checksum, as in a minimal third-party
+    /// implementation of SCIP 2.0.
+    pub minimal_describe: bool,
 }
 
 /// Why serving ended.
@@ -222,6 +226,7 @@ impl UrgEmulator {
                 status(if self.laser_on { "02" } else { "00" }, &mut out);
                 self.laser_on = true;
             }
+            "II" if self.faults.minimal_describe => status("0E", &mut out),
             "VV" | "PP" | "II" => self.describe(code, &mut out),
             "TM" => self.time_command(cmd, &mut out),
             "MD" | "MS" | "GD" | "GS" => self.scan_command(cmd, &mut out),
@@ -254,6 +259,11 @@ impl UrgEmulator {
                 info_line("VEND", "Hokuyo Automatic Co.,Ltd.", out);
                 info_line("PROD", m.product, out);
                 info_line("FIRM", "3.4.03(gema2 emulator)", out);
+                if self.faults.minimal_describe {
+                    // the checksum of the line just written, made wrong
+                    let sum = out.len() - 2;
+                    out[sum] = if out[sum] == b'0' { b'1' } else { b'0' };
+                }
                 info_line("PROT", "SCIP 2.0", out);
                 info_line("SERI", "H0000000", out);
             }

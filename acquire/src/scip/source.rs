@@ -46,6 +46,9 @@ impl<C: Connector> ScipSource<C> {
     /// Opens the link, switches the laser on and starts streaming every measurable step.
     fn open(&mut self) -> Result<(), ScipError> {
         let mut urg = self.link.open()?;
+        for what in &urg.info.unanswered {
+            messages::say!("acquire: {}: {what}; going on without it", self.link.name());
+        }
         urg.laser_on()?;
         let (amin, amax) = (urg.info.amin, urg.info.amax);
         urg.start(Encoding::Three, amin, amax, 1, 0)?;
