@@ -1,6 +1,7 @@
 //! A grid of square cells over a rectangle of the map, and a raster of one bit a cell on it:
 //! what [`crate::Outside`] and [`crate::SeenFree`] keep, and how [`crate::FreeSpace`] finds a
-//! point's cell.
+//! point's cell. Its cell arithmetic ([`cell_holding`], [`centre_of`]) is also the wall
+//! grids' ([`crate::grid`]).
 
 use crate::flat::{check_len, Flat, FlatError, FlatReader, FlatWriter};
 use crate::slab::Slab;
@@ -20,13 +21,13 @@ impl Grid {
     /// The number of the cell holding `q`, `None` off the grid (or for NaN coordinates).
     #[inline]
     pub fn index(&self, q: Point2<f64>) -> Option<usize> {
-        let (c, r) = crate::grid::cell_holding(self.origin, self.cell, (self.cols, self.rows), q)?;
+        let (c, r) = cell_holding(self.origin, self.cell, (self.cols, self.rows), q)?;
         Some(r * self.cols + c)
     }
 
     /// Centre of cell (c, r).
     pub fn centre(&self, c: usize, r: usize) -> Point2<f64> {
-        crate::grid::centre_of(self.origin, self.cell, c, r)
+        centre_of(self.origin, self.cell, c, r)
     }
 
     pub fn cells(&self) -> usize {
@@ -51,6 +52,28 @@ impl Grid {
     pub fn cells_along(&self, from: Point2<f64>, to: Point2<f64>) -> impl Iterator<Item = usize> + '_ {
         self.points_along(from, to).filter_map(|q| self.index(q))
     }
+}
+
+/// Column and row of the cell holding `p` in a grid of `cols` x `rows` cells of side `cell`
+/// whose first cell starts at `origin`; `None` off the grid (or for NaN coordinates).
+#[inline]
+pub(crate) fn cell_holding(
+    origin: Point2<f64>,
+    cell: f64,
+    (cols, rows): (usize, usize),
+    p: Point2<f64>,
+) -> Option<(usize, usize)> {
+    // from 0 up, truncation is the floor (no library floor, which baseline x86-64 calls out of
+    // line); below 0 (or NaN) the point is off the grid either way
+    let c = (p.x - origin.x) / cell;
+    let r = (p.y - origin.y) / cell;
+    (c >= 0.0 && r >= 0.0 && (c as usize) < cols && (r as usize) < rows).then_some((c as usize, r as usize))
+}
+
+/// Centre of cell (c, r) of a grid of cells of side `cell` whose first cell starts at `origin`.
+#[inline]
+pub(crate) fn centre_of(origin: Point2<f64>, cell: f64, c: usize, r: usize) -> Point2<f64> {
+    Point2::new(origin.x + (c as f64 + 0.5) * cell, origin.y + (r as f64 + 0.5) * cell)
 }
 
 /// One bit per cell of a [`Grid`]: bit i of word i / 64 for cell i; the bits past the last

@@ -1,6 +1,7 @@
 //! A uniform grid over the map whose cells list the walls within a margin of them: the spatial
 //! index behind ray casting and nearest-wall queries.
 
+use crate::bitgrid::{cell_holding, centre_of, Grid};
 use crate::flat::{check_indices, Flat, FlatError, FlatReader, FlatWriter};
 use crate::slab::Slab;
 use crate::wall::Wall;
@@ -499,28 +500,6 @@ fn segments_cross(p: &Wall, q: &Wall) -> bool {
     s1 * s2 <= 0.0 && t1 * t2 <= 0.0
 }
 
-/// Column and row of the cell holding `p` in a grid of `cols` x `rows` cells of side `cell`
-/// whose first cell starts at `origin`; `None` off the grid (or for NaN coordinates).
-#[inline]
-pub(crate) fn cell_holding(
-    origin: Point2<f64>,
-    cell: f64,
-    (cols, rows): (usize, usize),
-    p: Point2<f64>,
-) -> Option<(usize, usize)> {
-    // from 0 up, truncation is the floor (no library floor, which baseline x86-64 calls out of
-    // line); below 0 (or NaN) the point is off the grid either way
-    let c = (p.x - origin.x) / cell;
-    let r = (p.y - origin.y) / cell;
-    (c >= 0.0 && r >= 0.0 && (c as usize) < cols && (r as usize) < rows).then_some((c as usize, r as usize))
-}
-
-/// Centre of cell (c, r) of a grid of cells of side `cell` whose first cell starts at `origin`.
-#[inline]
-pub(crate) fn centre_of(origin: Point2<f64>, cell: f64, c: usize, r: usize) -> Point2<f64> {
-    Point2::new(origin.x + (c as f64 + 0.5) * cell, origin.y + (r as f64 + 0.5) * cell)
-}
-
 impl WallGrid {
     /// Whether every wall the cells list is one of `walls` walls: for a grid read from a block,
     /// whose lists index another array of it.
@@ -532,14 +511,14 @@ impl WallGrid {
 impl Flat for WallGrid {
     fn put(&self, w: &mut FlatWriter) {
         let ReachFrame { origin, cell, cols, rows, margin, .. } = self.frame;
-        crate::bitgrid::Grid { origin, cell, cols, rows }.put(w);
+        Grid { origin, cell, cols, rows }.put(w);
         w.put_f64(margin);
         self.starts.put(w);
         self.items.put(w);
         self.clear.put(w);
     }
     fn take(r: &mut FlatReader<'_>) -> Result<Self, FlatError> {
-        let crate::bitgrid::Grid { origin, cell, cols, rows } = crate::bitgrid::Grid::take(r)?;
+        let Grid { origin, cell, cols, rows } = Grid::take(r)?;
         let margin = r.take_f64("wall grid margin")?;
         let starts: Slab<u32> = Slab::take(r)?;
         let items: Slab<u32> = Slab::take(r)?;

@@ -12,9 +12,9 @@
 //! format but its own JSON. Map import and building live in `mapio`, generated plans in
 //! `worlds`, the map server process in `mapserver`.
 //!
-//! Inside the crate imports run one way: `hash`, `slab` <- `flat` <- `wall` <- `grid`, `bitgrid` <- `field`, `raycast`,
-//! `sight`, `free_space` <- `seen`, `runs` <- `map` <- `corners`, `view`, `open_floor`,
-//! `thick`, `bundled` <- `model`.
+//! Inside the crate imports run one way: `hash`, `slab` <- `flat` <- `wall`, `bitgrid` <- `grid`
+//! <- `field`, `raycast`, `sight`, `free_space` <- `seen`, `runs` <- `map` <- `corners`, `view`,
+//! `open_floor`, `thick`, `bundled` <- `model`.
 
 pub mod bitgrid;
 pub mod bundled;
