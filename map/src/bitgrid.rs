@@ -1,6 +1,6 @@
 //! A grid of square cells over a rectangle of the map, and a raster of one bit a cell on it:
 //! what [`crate::Outside`] and [`crate::SeenFree`] keep, and how [`crate::FreeSpace`] finds a
-//! point's cell. Its cell arithmetic ([`cell_holding`], [`centre_of`]) is also the wall
+//! point's cell. Its cell arithmetic (`cell_holding`, `centre_of`) is also the wall
 //! grids' ([`crate::grid`]).
 
 use crate::flat::{check_len, Flat, FlatError, FlatReader, FlatWriter};
