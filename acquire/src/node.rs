@@ -477,7 +477,7 @@ fn period(a: &AcquireArgs) -> Result<Option<Duration>> {
 
 /// A `--rate`: scans per second as the time between them, or `max` (`None`: as fast as the
 /// pipeline takes them). `recorded` is `None` here too: the stage paces such scans by their
-/// stamps ([`Pace`]).
+/// stamps (`Pace`).
 pub fn parse_rate(r: &str) -> Result<Option<Duration>, String> {
     match (r, r.parse::<f64>()) {
         ("max" | "recorded", _) => Ok(None),

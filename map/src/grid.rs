@@ -327,7 +327,7 @@ fn clearance_is_safe(cols: usize, rows: usize, occupied: impl Fn(usize) -> bool,
 impl WallGrid {
     /// [`march`](Self::march), visiting only the cells that list a wall: the same cells in the
     /// same order, each with the `t` at which the ray leaves it (to rounding). Across a cell of
-    /// clearance [`JUMP_CLEARANCE`] or more it jumps to where the ray leaves the empty square
+    /// clearance `JUMP_CLEARANCE` or more it jumps to where the ray leaves the empty square
     /// about the cell, instead of stepping through its cells one by one: a beam crosses a room
     /// in a few jumps, and the grid's cells can be small enough to list few walls each.
     pub fn march_walls(

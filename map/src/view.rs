@@ -56,7 +56,7 @@ pub fn in_view(c: &MapCorner, sight: &SightLines) -> bool {
 }
 
 /// The looks [`in_view`] takes, remembered. An arm is looked along at the points of its line
-/// that lie on a lattice of [`ARM_STEP`] along that line (see [`Looks::arm_faces_wedge`]), so
+/// that lie on a lattice of `ARM_STEP` along that line (see `Looks::arm_faces_wedge`), so
 /// every corner along one wall asks about the same points; the answer at each is found once.
 /// On a map built from a real log (freiburg-079) 1.2 million corners ask about some 20 million
 /// points, most of them the same few hundred thousand.

@@ -163,7 +163,7 @@ fn ready_event(
 
 /// Tells the supervisor (listening on `<prefix>/ready`) that this process's ports exist and it
 /// can take data: the event id is the instance number the supervisor gave it. Start-up is over
-/// then, and the stack it used is given back ([`release_start_up_stack`]).
+/// then, and the stack it used is given back (`release_start_up_stack`).
 pub fn announce_ready(node: &Node<ipc::Service>, prefix: &str) -> Result<(), crate::OpenError> {
     let port = |e: &dyn std::fmt::Debug| crate::OpenError::Port {
         service: crate::service_name(prefix, "ready"),
