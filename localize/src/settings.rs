@@ -389,6 +389,13 @@ impl LocalizerConfig {
         ),
         setting!(
             LocalizerConfig,
+            "slide_loose_screened",
+            Range::Count,
+            "loose slide: candidates kept by the screen",
+            slide.loose_screened
+        ),
+        setting!(
+            LocalizerConfig,
             "slide_loose_lines",
             Range::Count,
             "loose slide: lines used (0: no loose slide)",

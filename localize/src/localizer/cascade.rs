@@ -10,7 +10,7 @@
 //! | [`Step::FirstLook`] | always (the paper's search), but on a map built from scans | the best scan corner | `first_look` budgets |
 //! | [`Step::FullSearch`] | no pose is confirmed | the `corners_tried` best corners | `screened` / `refined` |
 //! | [`Step::Slide`] | no pose is confirmed | the longest sure lines along every wall | `slide.screened` / `refined` |
-//! | [`Step::LooseSlide`] | after the slide, no pose is confirmed | lines of uncertain direction | as the slide |
+//! | [`Step::LooseSlide`] | after the slide, no pose is confirmed | lines of uncertain direction | `slide.loose_screened` / `refined` |
 //! | [`Step::WiderSlide`] | after the slide, the best pose sees through walls | the slide's, wider | [`LocalizerConfig::escalated`] |
 //! | [`Step::Grid`] | after the wider slide, it still sees through walls | a grid over the free space | `grid` budgets, escalated refinement |
 //!

@@ -331,6 +331,7 @@ impl LocalizerConfig {
                 min_wall: 0.3,
                 max_poses: 100_000,
                 screened: 100_000,
+                loose_screened: 100_000,
                 ..self.slide
             },
             ..self

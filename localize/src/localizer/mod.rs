@@ -562,7 +562,7 @@ impl Localizer {
                 if self.slide_lines.is_empty() {
                     return false;
                 }
-                self.search(scan, seg, Source::LooseSlides, cfg.prescreened, cfg.slide.screened, cfg.refined);
+                self.search(scan, seg, Source::LooseSlides, cfg.prescreened, cfg.slide.loose_screened, cfg.refined);
                 self.rank();
             }
             Step::WiderSlide => {
