@@ -91,13 +91,12 @@ pub struct SlideConfig {
     pub shorter_walls: f64,
     /// Candidates kept by the screen for the coarse cost (the corner search's `screened`).
     pub screened: usize,
-    /// The same for the loose slide. Its lines are fewer and less sure, and its poses spread
-    /// about as many headings: measured in alternating runs, 512 gave the CARMEN logs both
+    /// The same for the loose slide. Measured in alternating runs, 512 gave the CARMEN logs both
     /// ways the very successes, `ok` and wrong `ok` of 1024 (7966, 3771, 10) for a mean of
     /// the medians 8 % lower (14.5 to 13.4 ms) and p99 10-15 % lower (freiburg-079 47 to 42
     /// ms); the simulated suite lost one scan (13849 to 13848, wrong `ok` 27 either way). At
-    /// 256 CARMEN lost 3 successes. Keeping 512 in the (sure) slide as well lost a scan each way
-    /// on infinite-corridor.
+    /// 384 CARMEN lost a success, at 256 three, neither faster. Keeping 512 in the (sure) slide
+    /// as well lost a scan each way on infinite-corridor.
     pub loose_screened: usize,
     /// Most poses made per scan (see [`slide_step`]).
     pub max_poses: usize,
