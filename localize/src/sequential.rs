@@ -8,7 +8,9 @@
 //! the sum, over the scans it lived through, of its per-beam cost less the best's. It says `ok`
 //! when one track is ahead of every distinct rival by [`SequentialConfig::margin`] on that sum,
 //! and the scan tells its pose from poses at the edge of what `ok` promises
-//! ([`Sequential::withstands_probes`]).
+//! ([`Sequential::withstands_probes`]). A scan the single-scan search is `ok` on is `ok` at that
+//! held track with the same probes, though a twin leads on the sum: the lead was earned where
+//! the two could not be told apart.
 //!
 //! While no track is sure, every scan also runs the global search of [`Localizer::locate`] and
 //! its hypotheses join the tracks (a global pose that lands on a track refreshes it). Once
@@ -539,9 +541,14 @@ impl Sequential {
     /// The scan's answer. A best track seen on this scan alone is `ok` only as the single-scan
     /// search judged it, or with no rival within [`SequentialConfig::lone_gap`]; an older one
     /// when it leads by the margin and explains the scan. Either must pin the position down,
-    /// withstand the probes, and not have been moved far by this scan's second look. When the
-    /// best track missed the scan, the answer is `ambiguous`, at the held track the single-scan
-    /// search was sure of if there is one, else where odometry put the best.
+    /// withstand the probes, and not have been moved far by this scan's second look.
+    ///
+    /// When the best track is not `ok` on those terms, or missed the scan, the held track at the
+    /// pose the scan's own search was `ok` on is the answer ([`Self::single_ok_track`]): `ok`
+    /// when it passes the same constraint and probes, though it is younger than its rivals (a
+    /// twin the robot drove along, or the old place of a kidnapped robot, kept the lead while
+    /// the scan now tells them apart). Else, when the best track missed the scan, the answer is
+    /// `ambiguous`, where odometry put the best.
     fn answer(&mut self, scan: &ScanView<'_>, single: Option<(Status, Pose, f64)>) -> SequentialAnswer {
         let mut a = SequentialAnswer {
             status: Status::Failed,
@@ -553,20 +560,11 @@ impl Sequential {
         };
         let cfg = self.localizer.config;
         let Some(&best) = self.tracks.first().filter(|t| t.misses == 0) else {
-            // the best track missed the scan: the answer is the place a held track explains,
-            // where the scan's own search was sure of it (a kidnapped robot's new place, while
-            // the old one's track lives out its misses); else where odometry put the best
+            // the best track missed the scan (a kidnapped robot's old place, while its track
+            // lives out its misses)
             let Some(first) = self.tracks.first() else { return a };
-            a.status = Status::Ambiguous;
-            a.pose = Some(first.pose);
-            let sure_here = single.filter(|s| s.0 == Status::Ok).and_then(|(_, p, _)| {
-                self.tracks
-                    .iter()
-                    .find(|t| t.misses == 0 && same_pose(&t.pose, &p, cfg.distinct_position, cfg.distinct_heading))
-            });
-            if let Some(t) = sure_here {
-                (a.pose, a.cost, a.scans) = (Some(t.pose), Some(t.cost), t.scans);
-            }
+            (a.status, a.pose) = (Status::Ambiguous, Some(first.pose));
+            self.answer_single_ok(scan, single, &mut a);
             return a;
         };
         (a.pose, a.cost, a.scans) = (Some(best.pose), Some(best.cost), best.scans);
@@ -585,13 +583,44 @@ impl Sequential {
                         && same_pose(&p, &best.pose, cfg.distinct_position, cfg.distinct_heading)
                 })
         };
-        // the weakest direction once: the position's constraint across it, and the probes along it
-        let sure = leads && vouched && !best.relooked && {
-            let (constraint, along) = self.localizer.weakest_direction(&best.pose);
-            constraint >= self.config.min_constraint && self.withstands_probes_along(scan, &best.pose, along)
-        };
+        let sure = leads && vouched && !best.relooked && self.pins_down(scan, &best.pose);
         a.status = if sure { Status::Ok } else { Status::Ambiguous };
+        if !sure {
+            self.answer_single_ok(scan, single, &mut a);
+        }
         a
+    }
+
+    /// Whether `pose` passes what every `ok` must of the scan: the position's constraint across
+    /// the direction the scan pins down least, and the probes along it.
+    fn pins_down(&mut self, scan: &ScanView<'_>, pose: &Pose) -> bool {
+        let (constraint, along) = self.localizer.weakest_direction(pose);
+        constraint >= self.config.min_constraint && self.withstands_probes_along(scan, pose, along)
+    }
+
+    /// Makes `a` the held track at the pose this scan's single-scan search was `ok` on, if there
+    /// is one: `ok` when it explains the scan with the beams an `ok` needs and
+    /// [`pins_down`](Self::pins_down) its pose, else still `ambiguous` but at that pose.
+    fn answer_single_ok(&mut self, scan: &ScanView<'_>, single: Option<(Status, Pose, f64)>, a: &mut SequentialAnswer) {
+        let Some((Status::Ok, p, _)) = single else { return };
+        let cfg = self.localizer.config;
+        let Some(&t) = self
+            .tracks
+            .iter()
+            .find(|t| t.misses == 0 && same_pose(&t.pose, &p, cfg.distinct_position, cfg.distinct_heading))
+        else {
+            return;
+        };
+        let sure = t.cost.inliers >= self.config.min_inliers_ok
+            && !self.localizer.off_limits(&t.pose)
+            && self.pins_down(scan, &t.pose);
+        if sure {
+            (a.pose, a.cost, a.scans, a.status) = (Some(t.pose), Some(t.cost), t.scans, Status::Ok);
+        } else if a.cost.is_none() {
+            // the best track missed: the place the scan is sure of, rather than where odometry
+            // put the best
+            (a.pose, a.cost, a.scans) = (Some(t.pose), Some(t.cost), t.scans);
+        }
     }
 }
 
