@@ -544,11 +544,11 @@ impl Sequential {
     /// withstand the probes, and not have been moved far by this scan's second look.
     ///
     /// When the best track is not `ok` on those terms, or missed the scan, the held track at the
-    /// pose the scan's own search was `ok` on is the answer ([`Self::single_ok_track`]): `ok`
-    /// when it passes the same constraint and probes, though it is younger than its rivals (a
-    /// twin the robot drove along, or the old place of a kidnapped robot, kept the lead while
-    /// the scan now tells them apart). Else, when the best track missed the scan, the answer is
-    /// `ambiguous`, where odometry put the best.
+    /// pose the scan's own search was `ok` on is the answer ([`Self::answer_single_ok`]): `ok`
+    /// when it passes the same bar ([`Self::meets_ok_bar`]), though it is younger than its
+    /// rivals (a twin the robot drove along, or the old place of a kidnapped robot, kept the
+    /// lead while the scan now tells them apart). Else, when the best track missed the scan,
+    /// the answer is `ambiguous`, where odometry put the best.
     fn answer(&mut self, scan: &ScanView<'_>, single: Option<(Status, Pose, f64)>) -> SequentialAnswer {
         let mut a = SequentialAnswer {
             status: Status::Failed,
@@ -568,9 +568,7 @@ impl Sequential {
             return a;
         };
         (a.pose, a.cost, a.scans) = (Some(best.pose), Some(best.cost), best.scans);
-        let leads = self.lead() >= self.config.margin
-            && best.cost.inliers >= self.config.min_inliers_ok
-            && !self.localizer.off_limits(&best.pose);
+        let leads = self.lead() >= self.config.margin;
         // a track that turned up while others were held has not been through their scans: it
         // must outlive them for a while; one of a cold start, as its own search judged it, or
         // with no rival near
@@ -583,7 +581,7 @@ impl Sequential {
                         && same_pose(&p, &best.pose, cfg.distinct_position, cfg.distinct_heading)
                 })
         };
-        let sure = leads && vouched && !best.relooked && self.pins_down(scan, &best.pose);
+        let sure = leads && vouched && !best.relooked && self.meets_ok_bar(scan, &best);
         a.status = if sure { Status::Ok } else { Status::Ambiguous };
         if !sure {
             self.answer_single_ok(scan, single, &mut a);
@@ -591,16 +589,20 @@ impl Sequential {
         a
     }
 
-    /// Whether `pose` passes what every `ok` must of the scan: the position's constraint across
-    /// the direction the scan pins down least, and the probes along it.
-    fn pins_down(&mut self, scan: &ScanView<'_>, pose: &Pose) -> bool {
-        let (constraint, along) = self.localizer.weakest_direction(pose);
-        constraint >= self.config.min_constraint && self.withstands_probes_along(scan, pose, along)
+    /// Whether `track` passes what every `ok` must of the scan: the beams agreeing, a place the
+    /// robot can be, the position's constraint across the direction the scan pins down least,
+    /// and the probes along it (the last two cost most, so they run last).
+    fn meets_ok_bar(&mut self, scan: &ScanView<'_>, track: &Track) -> bool {
+        if track.cost.inliers < self.config.min_inliers_ok || self.localizer.off_limits(&track.pose) {
+            return false;
+        }
+        let (constraint, along) = self.localizer.weakest_direction(&track.pose);
+        constraint >= self.config.min_constraint && self.withstands_probes_along(scan, &track.pose, along)
     }
 
     /// Makes `a` the held track at the pose this scan's single-scan search was `ok` on, if there
-    /// is one: `ok` when it explains the scan with the beams an `ok` needs and
-    /// [`pins_down`](Self::pins_down) its pose, else still `ambiguous` but at that pose.
+    /// is one: `ok` when it [`meets_ok_bar`](Self::meets_ok_bar), else still `ambiguous`, and
+    /// at that pose only when the best track missed the scan.
     fn answer_single_ok(&mut self, scan: &ScanView<'_>, single: Option<(Status, Pose, f64)>, a: &mut SequentialAnswer) {
         let Some((Status::Ok, p, _)) = single else { return };
         let cfg = self.localizer.config;
@@ -611,10 +613,7 @@ impl Sequential {
         else {
             return;
         };
-        let sure = t.cost.inliers >= self.config.min_inliers_ok
-            && !self.localizer.off_limits(&t.pose)
-            && self.pins_down(scan, &t.pose);
-        if sure {
+        if self.meets_ok_bar(scan, &t) {
             (a.pose, a.cost, a.scans, a.status) = (Some(t.pose), Some(t.cost), t.scans, Status::Ok);
         } else if a.cost.is_none() {
             // the best track missed: the place the scan is sure of, rather than where odometry

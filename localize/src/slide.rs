@@ -96,7 +96,7 @@ pub struct SlideConfig {
     /// the medians 8 % lower (14.5 to 13.4 ms) and p99 10-15 % lower (freiburg-079 47 to 42
     /// ms); the simulated suite lost one scan (13849 to 13848, wrong `ok` 27 either way). At
     /// 384 CARMEN lost a success, at 256 three, neither faster. Keeping 512 in the (sure) slide
-    /// as well lost a scan each way on infinite-corridor.
+    /// as well lost two successes, one of them on infinite-corridor's odd scans.
     pub loose_screened: usize,
     /// Most poses made per scan (see [`slide_step`]).
     pub max_poses: usize,
