@@ -9,6 +9,7 @@ use thiserror::Error;
 
 use crate::runs::{RunChain, JOINED, STRAIGHTNESS};
 use crate::seen::SeenFree;
+use crate::slab::Slab;
 pub use crate::wall::{bounds_of, Wall};
 
 /// A map whose `sigma` is at least this (metres) is approximate: built from scans, its walls
@@ -89,7 +90,8 @@ pub fn check_walls(walls: &[Wall]) -> Result<(), WallsProblem> {
 /// A map of walls.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct WallMap {
-    pub walls: Vec<Wall>,
+    /// Owned, or viewed in place in a map model served in shared memory ([`Slab`]).
+    pub walls: Slab<Wall>,
     /// How far the walls may be from the real ones, metres (the optional `"sigma"` key): 0 for
     /// an exact plan, about 0.1 for a map built from scans. The cost function never expects
     /// the sensor to agree with the map better than this.
@@ -115,7 +117,7 @@ pub enum MapError {
 
 impl WallMap {
     pub fn new(walls: Vec<Wall>) -> Self {
-        WallMap { walls, sigma: 0.0, seen_free: None }
+        WallMap { walls: walls.into(), sigma: 0.0, seen_free: None }
     }
 
     /// Whether the map declares itself approximate: a `sigma` of [`APPROXIMATE_MAP`]
@@ -206,7 +208,7 @@ impl WallMap {
             }
             Err(WallsProblem::Extent(message)) => return Err(MapError::Shape { path, message }),
         }
-        Ok(WallMap { walls, sigma, seen_free })
+        Ok(WallMap { walls: walls.into(), sigma, seen_free })
     }
 
     /// The map as JSON (docs/design.md's format), with a name.

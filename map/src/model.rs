@@ -178,7 +178,7 @@ impl MapModel {
             )));
         }
         let corner_config = MapCornerConfig::take(r)?;
-        let walls = r.take_vec::<Wall>("walls")?;
+        let walls: Slab<Wall> = r.take_slab("walls")?;
         let sigma = r.take_finite("sigma")?;
         let seen_free = <Option<SeenFree> as Flat>::take(r)?;
         let map = WallMap { walls, sigma, seen_free };

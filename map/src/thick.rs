@@ -38,7 +38,7 @@ pub fn thicken(map: &WallMap, thickness: f64) -> WallMap {
             push_remaining(a, b, &mut removed, &mut walls);
         }
     }
-    WallMap { walls: merge_collinear(walls), ..map.clone() }
+    WallMap { walls: merge_collinear(walls).into(), ..map.clone() }
 }
 
 /// Joins pieces that continue one another (collinear, meeting end to end where nothing else

@@ -470,7 +470,7 @@ impl OccupancyGrid {
             }
             seen
         });
-        Ok(WallMap { walls, sigma: sigma.unwrap_or(self.resolution / 2.0), seen_free })
+        Ok(WallMap { walls: walls.into(), sigma: sigma.unwrap_or(self.resolution / 2.0), seen_free })
     }
 
     /// A grid of `resolution` metres drawing `map`: a cell is occupied when a wall passes

@@ -71,7 +71,11 @@ pub fn map_from_msg(m: &MapMsg) -> Result<WallMap, WireError> {
                 let origin = nalgebra::Point2::new(m.seen_origin[0], m.seen_origin[1]);
                 Some(SeenFree::from_bits(origin, m.seen_cell, cols, rows, bits).ok_or(seen("are malformed"))?)
             };
-            Ok(WallMap { walls, sigma: if m.sigma.is_finite() { m.sigma.max(0.0) } else { 0.0 }, seen_free })
+            Ok(WallMap {
+                walls: walls.into(),
+                sigma: if m.sigma.is_finite() { m.sigma.max(0.0) } else { 0.0 },
+                seen_free,
+            })
         }
     }
 }

@@ -178,7 +178,7 @@ pub fn build(a: &BuildArgs, malformed: &mut Malformed) -> Result<Built> {
         bail!("{}: no wall was seen (seen twice, with --occupancy-cell 0)", a.source_path().display());
     }
     // a map from scans is good to about a decimetre (pose corrections, merging)
-    Ok(Built { map: WallMap { walls, sigma: a.sigma, seen_free }, scans, lines: seen.len() })
+    Ok(Built { map: WallMap { walls: walls.into(), sigma: a.sigma, seen_free }, scans, lines: seen.len() })
 }
 
 /// A map built from a survey, with what it was built from.
