@@ -13,7 +13,7 @@ use laser::{Pose, ScanGeometry};
 use nalgebra::{Point2, Vector2};
 use std::f64::consts::TAU;
 use std::sync::atomic::{AtomicU32, Ordering};
-use std::sync::OnceLock;
+use std::sync::{Arc as Shared, Mutex, OnceLock, PoisonError};
 
 /// Expected ranges d'_i of eq. 7: what an ideal sensor at a pose would read in the map.
 #[derive(Clone, Debug)]
@@ -44,48 +44,126 @@ struct ReachLists {
     within: ReachFrame,
     /// How many walls each cell lists, counted on first need ([`NOT_COUNTED`] until then).
     counts: Vec<AtomicU32>,
-    /// The walls of a cell's list not hidden from the cell, by cell index. Boxed so that a cell
-    /// not filtered costs 16 bytes, not 32: these per-cell tables are most of what a localizer
-    /// holds of its own beside the shared model.
-    visible: Vec<OnceLock<Box<WallList>>>,
-    /// Beams marched from each cell whose list is not filtered yet ([`Plan`]), saturating.
+    /// Beams marched from each cell whose list is not filtered (kept) now ([`Plan`]),
+    /// saturating; back to 0 when its list is dropped.
     marched: Vec<AtomicU32>,
+    /// The filtered lists this process keeps, at most [`KeptLists::budget`] bytes.
+    kept: Mutex<KeptLists>,
 }
 
 /// A cell whose walls are not counted yet ([`ReachLists::counts`]).
 const NOT_COUNTED: u32 = u32::MAX;
 
+/// The cells' filtered lists ([`potentially_visible`]) this process holds: those it cast from
+/// most recently, in at most `budget` bytes. Every cell's list, kept whole, would grow with
+/// the cells a long run casts from, up to 1-17 MB on the maps built from the CARMEN logs
+/// (11-61 % of the shared model), in each localizer that shares the model; a global search
+/// gains nothing from them (it marches), and tracking casts from a few cells.
+#[derive(Debug)]
+struct KeptLists {
+    /// Per cell: its place in `lists`, or [`NOT_KEPT`].
+    slot: Vec<u32>,
+    lists: Vec<KeptList>,
+    bytes: usize,
+    budget: usize,
+    /// Counts the lists' uses, so the least recently used one makes room.
+    clock: u64,
+}
+
+#[derive(Debug)]
+struct KeptList {
+    cell: u32,
+    list: Shared<WallList>,
+    used: u64,
+}
+
+/// A cell whose list is not kept ([`KeptLists::slot`]).
+const NOT_KEPT: u32 = u32::MAX;
+
+/// The bytes the filtered lists of one caster may hold ([`KeptLists`]). Tracking a robot
+/// casts from the few cells around it, each list a few hundred walls (2 bytes a wall); a
+/// global search's casts from cells it has not filtered march.
+pub const KEPT_LISTS_BYTES: usize = 256 * 1024;
+
+impl KeptLists {
+    fn new(cells: usize, budget: usize) -> Self {
+        KeptLists { slot: vec![NOT_KEPT; cells], lists: Vec::new(), bytes: 0, budget, clock: 0 }
+    }
+
+    /// Cell `cell`'s list, if kept; counts a use.
+    fn get(&mut self, cell: usize) -> Option<Shared<WallList>> {
+        let k = *self.slot.get(cell)?;
+        let kept = self.lists.get_mut(k as usize)?;
+        self.clock += 1;
+        kept.used = self.clock;
+        Some(Shared::clone(&kept.list))
+    }
+
+    /// Keeps `list` as cell `cell`'s (or the one already kept), dropping the least recently
+    /// used lists while the budget has no room for it; returns the cells dropped, which must
+    /// pay for filtering again before they are.
+    fn keep(&mut self, cell: usize, list: Shared<WallList>, dropped: &mut Vec<usize>) -> Shared<WallList> {
+        if let Some(kept) = self.get(cell) {
+            return kept;
+        }
+        let bytes = list.bytes();
+        while self.bytes + bytes > self.budget && !self.lists.is_empty() {
+            let oldest = (0..self.lists.len()).min_by_key(|&k| self.lists[k].used).unwrap_or(0);
+            let gone = self.lists.swap_remove(oldest);
+            self.bytes -= gone.list.bytes();
+            self.slot[gone.cell as usize] = NOT_KEPT;
+            if let Some(moved) = self.lists.get(oldest) {
+                self.slot[moved.cell as usize] = oldest as u32;
+            }
+            dropped.push(gone.cell as usize);
+        }
+        self.clock += 1;
+        self.slot[cell] = self.lists.len() as u32;
+        self.lists.push(KeptList { cell: cell as u32, list: Shared::clone(&list), used: self.clock });
+        self.bytes += bytes;
+        list
+    }
+}
+
 impl Clone for ReachLists {
     fn clone(&self) -> Self {
         let copy = |v: &[AtomicU32]| v.iter().map(|m| AtomicU32::new(m.load(Ordering::Relaxed))).collect();
+        let kept = self.kept.lock().unwrap_or_else(PoisonError::into_inner);
+        let lists =
+            kept.lists.iter().map(|k| KeptList { cell: k.cell, list: Shared::clone(&k.list), used: k.used }).collect();
         ReachLists {
             range: self.range,
             within: self.within,
             counts: copy(&self.counts),
-            visible: self.visible.clone(),
             marched: copy(&self.marched),
+            kept: Mutex::new(KeptLists { slot: kept.slot.clone(), lists, ..*kept }),
         }
     }
 }
 
 impl ReachLists {
-    fn new(walls: &[Wall], range: f64) -> Self {
-        Self::filtering_eagerly_up_to(walls, range, EAGER_PAIRS)
+    fn new(walls: &[Wall], range: f64, budget: usize) -> Self {
+        Self::filtering_eagerly_up_to(walls, range, EAGER_PAIRS, budget)
     }
 
-    fn filtering_eagerly_up_to(walls: &[Wall], range: f64, eager_pairs: f64) -> Self {
+    /// Lists filtered up front when their walls' pairs, summed over the cells, are at most
+    /// `eager_pairs` and every list fits in `budget` bytes at once.
+    fn filtering_eagerly_up_to(walls: &[Wall], range: f64, eager_pairs: f64, budget: usize) -> Self {
         let within = ReachFrame::covering(walls, CELL, range, CELL);
-        let counts = (0..within.cell_count()).map(|_| AtomicU32::new(NOT_COUNTED)).collect();
-        let visible = (0..within.cell_count()).map(|_| OnceLock::new()).collect();
-        let marched = (0..within.cell_count()).map(|_| AtomicU32::new(0)).collect();
-        let lists = ReachLists { range, within, counts, visible, marched };
+        let cells_n = within.cell_count();
+        let counts = (0..cells_n).map(|_| AtomicU32::new(NOT_COUNTED)).collect();
+        let marched = (0..cells_n).map(|_| AtomicU32::new(0)).collect();
+        let kept = Mutex::new(KeptLists::new(cells_n, budget));
+        let lists = ReachLists { range, within, counts, marched, kept };
         let cells = || (0..lists.within.rows()).flat_map(|r| (0..lists.within.cols()).map(move |c| (c, r)));
         // counted only until the sum passes the bound: counting every cell of a large map at a
         // long reach took 40 ms, all of it in the first scan of a localizer that just started
-        let mut pairs = 0.0;
+        let (mut pairs, mut bytes) = (0.0, 0);
         let few = cells().all(|(c, r)| {
-            pairs += (lists.count(walls, c, r) as f64).powi(2);
-            pairs <= eager_pairs
+            let n = lists.count(walls, c, r);
+            pairs += (n as f64).powi(2);
+            bytes += WallList::bytes_for(n, walls.len());
+            pairs <= eager_pairs && bytes <= budget
         });
         if few {
             for (c, r) in cells() {
@@ -99,11 +177,13 @@ impl ReachLists {
     /// cell's list, or march the beams. A cell's list is filtered once marching from it has
     /// cost [`FILTER_AFTER`] times what filtering would (rent, then buy): a cell a global search
     /// visits a few times is not worth filtering at a long reach, one the robot keeps returning
-    /// to is.
-    fn plan(&self, walls: &[Wall], p: Point2<f64>, beams: usize) -> Option<Plan<'_>> {
+    /// to is. A list dropped to make room ([`KeptLists`]) is paid for again the same way, so
+    /// filtering never costs more than an eighth of the marching it saves.
+    fn plan(&self, walls: &[Wall], p: Point2<f64>, beams: usize) -> Option<Plan> {
         let (c, r) = self.within.cell_of(p)?;
         let cell = self.within.cell_index(c, r);
-        let kept = match self.visible[cell].get() {
+        let kept = self.kept.lock().unwrap_or_else(PoisonError::into_inner).get(cell);
+        let kept = match kept {
             Some(kept) => kept,
             None => {
                 let unfiltered = self.count(walls, c, r) as f64;
@@ -141,20 +221,30 @@ impl ReachLists {
         }
     }
 
-    /// The walls of cell (c, r) not hidden from it, filtered on the first call.
-    fn visible_in(&self, walls: &[Wall], c: usize, r: usize) -> &WallList {
-        self.visible[self.within.cell_index(c, r)].get_or_init(|| {
-            let (mut list, mut kept) = (Vec::new(), Vec::new());
-            self.within.list_of(walls, c, r, &mut list);
-            potentially_visible(walls, &self.within.cell_corners(c, r), &list, &mut kept);
-            Box::new(WallList::new(&kept, walls.len()))
-        })
+    /// The walls of cell (c, r) not hidden from it: the list kept, or filtered now and kept.
+    fn visible_in(&self, walls: &[Wall], c: usize, r: usize) -> Shared<WallList> {
+        let cell = self.within.cell_index(c, r);
+        if let Some(kept) = self.kept.lock().unwrap_or_else(PoisonError::into_inner).get(cell) {
+            return kept;
+        }
+        // filtered without the lock (it takes up to milliseconds); two threads may both filter
+        // a cell, and the first kept is the one both use
+        let (mut list, mut visible) = (Vec::new(), Vec::new());
+        self.within.list_of(walls, c, r, &mut list);
+        potentially_visible(walls, &self.within.cell_corners(c, r), &list, &mut visible);
+        let list = Shared::new(WallList::new(&visible, walls.len()));
+        let mut dropped = Vec::new();
+        let kept = self.kept.lock().unwrap_or_else(PoisonError::into_inner).keep(cell, list, &mut dropped);
+        for gone in dropped {
+            self.marched[gone].store(0, Ordering::Relaxed);
+        }
+        kept
     }
 }
 
 /// A filtered list of walls, by index: two bytes an index where the map has at most 65536
 /// walls (every map built from the CARMEN logs), else four. A localizer keeps the lists of
-/// every cell it casts from often, a few hundred walls each.
+/// the cells it cast from most recently ([`KeptLists`]), a few hundred walls each.
 #[derive(Clone, Debug, PartialEq)]
 enum WallList {
     Short(Box<[u16]>),
@@ -176,6 +266,20 @@ impl WallList {
             WallList::Short(v) => v.len(),
             WallList::Long(v) => v.len(),
         }
+    }
+
+    /// The heap bytes a list of `len` of `walls` walls takes, with its [`KeptList`] entry.
+    fn bytes_for(len: usize, walls: usize) -> usize {
+        let each = if walls <= usize::from(u16::MAX) + 1 { 2 } else { 4 };
+        len * each + std::mem::size_of::<KeptList>() + 2 * std::mem::size_of::<usize>() + std::mem::size_of::<Self>()
+    }
+
+    fn bytes(&self) -> usize {
+        let walls = match self {
+            WallList::Short(_) => 1,
+            WallList::Long(_) => usize::from(u16::MAX) + 2,
+        };
+        Self::bytes_for(self.len(), walls)
     }
 
     /// Calls `f` with each wall's index, in order.
@@ -232,13 +336,13 @@ impl RayScratch {
 /// How one cast is made: by sweeping a list of walls, or by marching each beam through the
 /// wall grid ([`RayCaster::march`]). Both give the same ranges; which is cheaper depends on
 /// how many walls the sweep would visit against how many beams are cast.
-enum Plan<'a> {
-    Sweep(&'a WallList),
+enum Plan {
+    Sweep(Shared<WallList>),
     March,
 }
 
-impl<'a> Plan<'a> {
-    fn cheaper(walls: &'a WallList, beams: usize) -> Self {
+impl Plan {
+    fn cheaper(walls: Shared<WallList>, beams: usize) -> Self {
         if Self::march_pays(walls.len(), beams) {
             Plan::March
         } else {
@@ -311,7 +415,7 @@ impl RayCaster {
 
     /// How to cast `beams` beams from `p` with the per-cell reach lists, when they cover
     /// `range` and `p`.
-    fn plan_with_lists(&self, p: Point2<f64>, range: f64, beams: usize) -> Option<Plan<'_>> {
+    fn plan_with_lists(&self, p: Point2<f64>, range: f64, beams: usize) -> Option<Plan> {
         let lists = self.reach.get_or_init(|| {
             // the lists cover the map's bounding box (poses outside it use the plain grid); each
             // wall is listed in the cells within reach of it
@@ -326,7 +430,8 @@ impl RayCaster {
                         / (CELL * CELL)
                 })
                 .sum();
-            (range.is_finite() && entries <= MAX_REACH_ENTRIES).then(|| ReachLists::new(&self.walls, range))
+            (range.is_finite() && entries <= MAX_REACH_ENTRIES)
+                .then(|| ReachLists::new(&self.walls, range, KEPT_LISTS_BYTES))
         });
         let lists = lists.as_ref()?;
         if range > lists.range {
@@ -943,17 +1048,95 @@ mod tests {
             FILTER_AFTER * unfiltered * unfiltered * FILTER_NS_PER_PAIR / (beams as f64 * MARCH_NS_PER_BEAM);
         assert!(casts_to_pay > 3.0, "{casts_to_pay}");
         for _ in 1..casts_to_pay.floor() as usize - 1 {
-            assert!(lists.visible[cell].get().is_none(), "filtered before marching cost as much");
+            assert!(!lists.keeps(cell), "filtered before marching cost as much");
             caster.cast(&p, &g, beams, 1, &mut scratch, &mut out);
             assert_eq!(out, first);
         }
         for _ in 0..3 {
             caster.cast(&p, &g, beams, 1, &mut scratch, &mut out);
         }
-        assert!(lists.visible[cell].get().is_some(), "still not filtered");
+        assert!(lists.keeps(cell), "still not filtered");
         for (a, b) in out.iter().zip(&first) {
             assert!((a - b).abs() < 1e-9 || (a.is_infinite() && b.is_infinite()), "{a} {b}");
         }
+    }
+
+    impl ReachLists {
+        fn keeps(&self, cell: usize) -> bool {
+            self.kept.lock().unwrap().slot[cell] != NOT_KEPT
+        }
+    }
+
+    /// The kept lists stay within their budget: the least recently used list makes room, and
+    /// its cell pays for filtering again (its marched beams start over). Casts give the same
+    /// ranges with any budget.
+    #[test]
+    fn kept_lists_stay_within_their_budget_dropping_the_least_recently_used() {
+        let seed: Vec<(f64, f64, f64, f64)> = (0..80)
+            .map(|k| {
+                let k = k as f64;
+                ((k * 7.3) % 16.0 - 8.0, (k * 3.1) % 16.0 - 8.0, k * 0.7, 0.5 + (k * 1.3) % 4.0)
+            })
+            .collect();
+        let walls = random_walls(&seed);
+        let whole = ReachLists::filtering_eagerly_up_to(&walls, 30.0, 0.0, usize::MAX);
+        let cells: Vec<(usize, usize)> = (0..4).map(|k| (2 + 3 * k, 5)).collect();
+        let sizes: Vec<usize> = cells.iter().map(|&(c, r)| whole.visible_in(&walls, c, r).bytes()).collect();
+        // room for the largest two lists, not for three
+        let mut by_size = sizes.clone();
+        by_size.sort_unstable();
+        let budget = by_size[3] + by_size[2];
+        assert!(by_size[0] + by_size[1] + by_size[2] > budget);
+        let small = ReachLists::filtering_eagerly_up_to(&walls, 30.0, 0.0, budget);
+        let index = |(c, r): (usize, usize)| small.within.cell_index(c, r);
+        small.marched[index(cells[1])].store(1000, Ordering::Relaxed);
+        small.visible_in(&walls, cells[0].0, cells[0].1);
+        small.visible_in(&walls, cells[1].0, cells[1].1);
+        // the first is used again, so the second is the least recently used
+        assert!(small.kept.lock().unwrap().get(index(cells[0])).is_some());
+        small.visible_in(&walls, cells[2].0, cells[2].1);
+        assert!(small.keeps(index(cells[2])), "the newest list is kept");
+        assert!(!small.keeps(index(cells[1])), "the least recently used list made room");
+        assert_eq!(small.marched[index(cells[1])].load(Ordering::Relaxed), 0, "its cell pays again");
+        for &(c, r) in &cells {
+            small.visible_in(&walls, c, r);
+            let kept = small.kept.lock().unwrap();
+            assert!(kept.bytes <= budget, "{} bytes kept, budget {budget}", kept.bytes);
+            assert_eq!(kept.bytes, kept.lists.iter().map(|k| k.list.bytes()).sum::<usize>());
+            assert!(kept.lists.iter().enumerate().all(|(k, l)| kept.slot[l.cell as usize] == k as u32));
+        }
+        for &(c, r) in &cells {
+            assert_eq!(small.visible_in(&walls, c, r).to_vec(), whole.visible_in(&walls, c, r).to_vec());
+        }
+    }
+
+    /// A caster whose lists hold a few cells at a time casts as one that keeps every cell's.
+    #[test]
+    fn a_small_budget_changes_no_cast() {
+        let seed: Vec<(f64, f64, f64, f64)> = (0..60)
+            .map(|k| {
+                let k = k as f64;
+                ((k * 5.3) % 20.0 - 10.0, (k * 2.9) % 20.0 - 10.0, k * 0.9, 0.5 + (k * 1.7) % 3.0)
+            })
+            .collect();
+        let walls = random_walls(&seed);
+        let caster = RayCaster::new(&walls);
+        let lists = ReachLists::filtering_eagerly_up_to(&walls, 40.0, 0.0, 600);
+        caster.reach.set(Some(lists)).unwrap();
+        let g = ScanGeometry::centred(181, TAU * 0.75, 40.0);
+        let mut scratch = RayScratch::default();
+        let mut out = Vec::new();
+        for k in 0..200 {
+            let k = f64::from(k);
+            let (x, y, theta) = ((k * 1.37) % 18.0 - 9.0, (k * 0.71) % 18.0 - 9.0, k * 0.3);
+            caster.cast(&pose(x, y, theta), &g, 181, 1, &mut scratch, &mut out);
+            agrees_with_brute_force(&caster, (Point2::new(x, y), theta), &g, 1, &out, 40.0)
+                .map_err(|e| format!("pose {k}: {e}"))
+                .unwrap();
+        }
+        let reach = caster.reach.get().and_then(Option::as_ref).unwrap();
+        let kept = reach.kept.lock().unwrap();
+        assert!(kept.bytes <= 600 && !kept.lists.is_empty(), "{} bytes in {} lists", kept.bytes, kept.lists.len());
     }
 
     /// A cell's list filtered on first use is the one filtered when the lists are set up.
@@ -966,10 +1149,11 @@ mod tests {
             })
             .collect();
         let walls = random_walls(&seed);
-        let eager = ReachLists::filtering_eagerly_up_to(&walls, 30.0, f64::INFINITY);
-        let lazy = ReachLists::filtering_eagerly_up_to(&walls, 30.0, 0.0);
-        assert!(eager.visible.iter().all(|l| l.get().is_some()));
-        assert!(lazy.visible.iter().all(|l| l.get().is_none()));
+        let eager = ReachLists::filtering_eagerly_up_to(&walls, 30.0, f64::INFINITY, usize::MAX);
+        let lazy = ReachLists::filtering_eagerly_up_to(&walls, 30.0, 0.0, usize::MAX);
+        let cells = eager.within.cell_count();
+        assert!((0..cells).all(|cell| eager.keeps(cell)));
+        assert!((0..cells).all(|cell| !lazy.keeps(cell)));
         let mut hidden = 0;
         for r in 0..eager.within.rows() {
             for c in 0..eager.within.cols() {
@@ -1046,7 +1230,7 @@ mod tests {
             walls
         };
         let listed = |walls: &[Wall]| {
-            let lists = ReachLists::new(walls, 7.0);
+            let lists = ReachLists::new(walls, 7.0, usize::MAX);
             let (c, r) = lists.within.cell_of(Point2::new(0.5, 0.5)).expect("on the grid");
             lists.visible_in(walls, c, r).to_vec()
         };
