@@ -1021,17 +1021,24 @@ mod tests {
         }
     }
 
+    /// `n` walls scattered over a square of side `side` about the origin, by fixed steps:
+    /// wall k starts at ((k ax) mod side, (k ay) mod side) less half the side, at heading
+    /// k turn, 0.5 + (k grow) mod most long.
+    fn scattered_walls(n: u32, side: f64, [ax, ay, turn, grow, most]: [f64; 5]) -> Vec<Wall> {
+        let seed: Vec<(f64, f64, f64, f64)> = (0..n)
+            .map(|k| {
+                let k = f64::from(k);
+                ((k * ax) % side - side / 2.0, (k * ay) % side - side / 2.0, k * turn, 0.5 + (k * grow) % most)
+            })
+            .collect();
+        random_walls(&seed)
+    }
+
     /// At a long reach a cell's list is filtered only once the beams marched from it have cost
     /// [`FILTER_AFTER`] times what filtering it does; the casts agree before and after.
     #[test]
     fn a_cell_is_marched_from_until_filtering_it_pays() {
-        let seed: Vec<(f64, f64, f64, f64)> = (0..120)
-            .map(|k| {
-                let k = k as f64;
-                ((k * 7.3) % 30.0 - 15.0, (k * 3.1) % 30.0 - 15.0, k * 0.7, 0.5 + (k * 1.3) % 4.0)
-            })
-            .collect();
-        let walls = random_walls(&seed);
+        let walls = scattered_walls(120, 30.0, [7.3, 3.1, 0.7, 1.3, 4.0]);
         let caster = RayCaster::new(&walls);
         // few beams a cast: marching them costs less than filtering the cell's list, at first
         let beams = 12;
@@ -1072,13 +1079,7 @@ mod tests {
     /// ranges with any budget.
     #[test]
     fn kept_lists_stay_within_their_budget_dropping_the_least_recently_used() {
-        let seed: Vec<(f64, f64, f64, f64)> = (0..80)
-            .map(|k| {
-                let k = k as f64;
-                ((k * 7.3) % 16.0 - 8.0, (k * 3.1) % 16.0 - 8.0, k * 0.7, 0.5 + (k * 1.3) % 4.0)
-            })
-            .collect();
-        let walls = random_walls(&seed);
+        let walls = scattered_walls(80, 16.0, [7.3, 3.1, 0.7, 1.3, 4.0]);
         let whole = ReachLists::filtering_eagerly_up_to(&walls, 30.0, 0.0, usize::MAX);
         let cells: Vec<(usize, usize)> = (0..4).map(|k| (2 + 3 * k, 5)).collect();
         let sizes: Vec<usize> = cells.iter().map(|&(c, r)| whole.visible_in(&walls, c, r).bytes()).collect();
@@ -1113,13 +1114,7 @@ mod tests {
     /// A caster whose lists hold a few cells at a time casts as one that keeps every cell's.
     #[test]
     fn a_small_budget_changes_no_cast() {
-        let seed: Vec<(f64, f64, f64, f64)> = (0..60)
-            .map(|k| {
-                let k = k as f64;
-                ((k * 5.3) % 20.0 - 10.0, (k * 2.9) % 20.0 - 10.0, k * 0.9, 0.5 + (k * 1.7) % 3.0)
-            })
-            .collect();
-        let walls = random_walls(&seed);
+        let walls = scattered_walls(60, 20.0, [5.3, 2.9, 0.9, 1.7, 3.0]);
         let caster = RayCaster::new(&walls);
         let lists = ReachLists::filtering_eagerly_up_to(&walls, 40.0, 0.0, 600);
         caster.reach.set(Some(lists)).unwrap();
@@ -1142,13 +1137,7 @@ mod tests {
     /// A cell's list filtered on first use is the one filtered when the lists are set up.
     #[test]
     fn lazy_and_eager_lists_agree() {
-        let seed: Vec<(f64, f64, f64, f64)> = (0..80)
-            .map(|k| {
-                let k = k as f64;
-                ((k * 7.3) % 16.0 - 8.0, (k * 3.1) % 16.0 - 8.0, k * 0.7, 0.5 + (k * 1.3) % 4.0)
-            })
-            .collect();
-        let walls = random_walls(&seed);
+        let walls = scattered_walls(80, 16.0, [7.3, 3.1, 0.7, 1.3, 4.0]);
         let eager = ReachLists::filtering_eagerly_up_to(&walls, 30.0, f64::INFINITY, usize::MAX);
         let lazy = ReachLists::filtering_eagerly_up_to(&walls, 30.0, 0.0, usize::MAX);
         let cells = eager.within.cell_count();
