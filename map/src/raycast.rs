@@ -59,7 +59,7 @@ const NOT_COUNTED: u32 = u32::MAX;
 /// the cells a long run casts from, up to 1-17 MB on the maps built from the CARMEN logs
 /// (11-61 % of the shared model), in each localizer that shares the model; a global search
 /// gains nothing from them (it marches), and tracking casts from a few cells.
-#[derive(Debug)]
+#[derive(Clone, Debug)]
 struct KeptLists {
     /// Per cell: its place in `lists`, or [`NOT_KEPT`].
     slot: Vec<u32>,
@@ -70,7 +70,7 @@ struct KeptLists {
     clock: u64,
 }
 
-#[derive(Debug)]
+#[derive(Clone, Debug)]
 struct KeptList {
     cell: u32,
     list: Shared<WallList>,
@@ -79,6 +79,11 @@ struct KeptList {
 
 /// A cell whose list is not kept ([`KeptLists::slot`]).
 const NOT_KEPT: u32 = u32::MAX;
+
+/// What a kept list takes beside its indices: its entry in [`KeptLists::lists`], and the
+/// shared allocation's two counts and the list's own header.
+const KEPT_LIST_OVERHEAD: usize =
+    std::mem::size_of::<KeptList>() + 2 * std::mem::size_of::<usize>() + std::mem::size_of::<WallList>();
 
 /// The bytes the filtered lists of one caster may hold ([`KeptLists`]). Tracking a robot
 /// casts from the few cells around it, each list a few hundred walls (2 bytes a wall); a
@@ -128,15 +133,13 @@ impl KeptLists {
 impl Clone for ReachLists {
     fn clone(&self) -> Self {
         let copy = |v: &[AtomicU32]| v.iter().map(|m| AtomicU32::new(m.load(Ordering::Relaxed))).collect();
-        let kept = self.kept.lock().unwrap_or_else(PoisonError::into_inner);
-        let lists =
-            kept.lists.iter().map(|k| KeptList { cell: k.cell, list: Shared::clone(&k.list), used: k.used }).collect();
+        let kept = self.kept.lock().unwrap_or_else(PoisonError::into_inner).clone();
         ReachLists {
             range: self.range,
             within: self.within,
             counts: copy(&self.counts),
             marched: copy(&self.marched),
-            kept: Mutex::new(KeptLists { slot: kept.slot.clone(), lists, ..*kept }),
+            kept: Mutex::new(kept),
         }
     }
 }
@@ -201,7 +204,7 @@ impl ReachLists {
                         return Some(Plan::March);
                     }
                 }
-                self.visible_in(walls, c, r)
+                self.filter_and_keep(walls, c, r)
             }
         };
         Some(Plan::cheaper(kept, beams))
@@ -223,10 +226,13 @@ impl ReachLists {
 
     /// The walls of cell (c, r) not hidden from it: the list kept, or filtered now and kept.
     fn visible_in(&self, walls: &[Wall], c: usize, r: usize) -> Shared<WallList> {
+        let kept = self.kept.lock().unwrap_or_else(PoisonError::into_inner).get(self.within.cell_index(c, r));
+        kept.unwrap_or_else(|| self.filter_and_keep(walls, c, r))
+    }
+
+    /// Filters the walls of cell (c, r) and keeps the list, or the one kept meanwhile.
+    fn filter_and_keep(&self, walls: &[Wall], c: usize, r: usize) -> Shared<WallList> {
         let cell = self.within.cell_index(c, r);
-        if let Some(kept) = self.kept.lock().unwrap_or_else(PoisonError::into_inner).get(cell) {
-            return kept;
-        }
         // filtered without the lock (it takes up to milliseconds); two threads may both filter
         // a cell, and the first kept is the one both use
         let (mut list, mut visible) = (Vec::new(), Vec::new());
@@ -253,7 +259,7 @@ enum WallList {
 
 impl WallList {
     fn new(kept: &[u32], walls: usize) -> Self {
-        if walls <= usize::from(u16::MAX) + 1 {
+        if Self::index_bytes(walls) == 2 {
             // every index is below `walls`, so each fits
             WallList::Short(kept.iter().map(|&k| k as u16).collect())
         } else {
@@ -268,18 +274,27 @@ impl WallList {
         }
     }
 
-    /// The heap bytes a list of `len` of `walls` walls takes, with its [`KeptList`] entry.
-    fn bytes_for(len: usize, walls: usize) -> usize {
-        let each = if walls <= usize::from(u16::MAX) + 1 { 2 } else { 4 };
-        len * each + std::mem::size_of::<KeptList>() + 2 * std::mem::size_of::<usize>() + std::mem::size_of::<Self>()
+    /// The bytes an index takes in a list of a map of `walls` walls.
+    fn index_bytes(walls: usize) -> usize {
+        if walls <= usize::from(u16::MAX) + 1 {
+            2
+        } else {
+            4
+        }
     }
 
+    /// The heap bytes a list of `len` of `walls` walls takes, with its [`KeptList`] entry.
+    fn bytes_for(len: usize, walls: usize) -> usize {
+        len * Self::index_bytes(walls) + KEPT_LIST_OVERHEAD
+    }
+
+    /// The heap bytes this list takes, with its [`KeptList`] entry.
     fn bytes(&self) -> usize {
-        let walls = match self {
-            WallList::Short(_) => 1,
-            WallList::Long(_) => usize::from(u16::MAX) + 2,
+        let indices = match self {
+            WallList::Short(v) => std::mem::size_of_val::<[u16]>(v),
+            WallList::Long(v) => std::mem::size_of_val::<[u32]>(v),
         };
-        Self::bytes_for(self.len(), walls)
+        indices + KEPT_LIST_OVERHEAD
     }
 
     /// Calls `f` with each wall's index, in order.
