@@ -637,12 +637,23 @@ impl RayCaster {
 /// hidden wall's nearest point crosses it first), and its angular interval holds the hidden
 /// wall's. A long-range sensor has the whole map within reach of every cell, so a cell costs
 /// its walls squared: they halved it.
+///
+/// The two tests run in `f32`, 24 bytes a wall instead of 48: a cell's working list is the
+/// largest thing a localizer allocates (a whole built map's walls are within reach of a
+/// long-range sensor), and what it held stays in the process. Rounding cannot change a cast:
+/// a pair the rounded tests pass wrongly goes on to the exact [`hides`], and one they fail
+/// wrongly leaves a wall in the list that a cast then finds hidden. Distances round up or down
+/// together (rounding is monotone), so every wall nearer than another still comes before it.
 fn potentially_visible(walls: &[Wall], corners: &[Point2<f64>; 4], list: &[u32], kept: &mut Vec<u32>) {
     let centre = Point2::from((corners[0].coords + corners[2].coords) / 2.0);
-    // nearest first: the walls that hide others are mostly the near ones
-    let mut by_distance: Vec<(f64, u32, Arc)> =
-        list.iter().map(|&k| (walls[k as usize].closest(centre).0, k, Arc::of(&walls[k as usize], centre))).collect();
-    by_distance.sort_by(|a, b| a.0.total_cmp(&b.0));
+    // nearest first: the walls that hide others are mostly the near ones; the order of equally
+    // near walls is immaterial (each takes all of them as candidates), so the sort need not be
+    // stable and allocates nothing
+    let mut by_distance: Vec<(f32, u32, Arc)> = list
+        .iter()
+        .map(|&k| (walls[k as usize].closest(centre).0 as f32, k, Arc::of(&walls[k as usize], centre)))
+        .collect();
+    by_distance.sort_unstable_by(|a, b| a.0.total_cmp(&b.0));
     for &(distance, k, arc) in &by_distance {
         let w = &walls[k as usize];
         let hidden = by_distance
@@ -657,28 +668,30 @@ fn potentially_visible(walls: &[Wall], corners: &[Point2<f64>; 4], list: &[u32],
 }
 
 /// The directions in which a wall is seen from a point: the cone counter-clockwise from
-/// `start` to `end` (the wall's ends relative to the point), less than half a turn wide.
+/// `start` to `end` (the wall's ends relative to the point), less than half a turn wide; in
+/// `f32`, for [`potentially_visible`]'s pre-test.
 #[derive(Clone, Copy, Debug)]
 struct Arc {
-    start: Vector2<f64>,
-    end: Vector2<f64>,
+    start: Vector2<f32>,
+    end: Vector2<f32>,
 }
 
 impl Arc {
     fn of(w: &Wall, from: Point2<f64>) -> Arc {
         let (a, b) = (w.a - from, w.b - from);
+        let (a32, b32) = (a.cast::<f32>(), b.cast::<f32>());
         if a.perp(&b) >= 0.0 {
-            Arc { start: a, end: b }
+            Arc { start: a32, end: b32 }
         } else {
-            Arc { start: b, end: a }
+            Arc { start: b32, end: a32 }
         }
     }
 
     /// Whether direction `v` lies in the cone, with a margin that leaves borderline directions
     /// in (the exact test decides them).
     #[inline]
-    fn contains(&self, v: Vector2<f64>) -> bool {
-        let margin = 1e-9 * (self.start.norm_squared() + self.end.norm_squared() + v.norm_squared());
+    fn contains(&self, v: Vector2<f32>) -> bool {
+        let margin = 1e-6 * (self.start.norm_squared() + self.end.norm_squared() + v.norm_squared());
         self.start.perp(&v) >= -margin && v.perp(&self.end) >= -margin
     }
 
