@@ -171,7 +171,14 @@ pub fn run(a: LocalizeArgs) -> Result<()> {
                         state.hold(sample);
                         Ok(())
                     }
-                    Ok(Some((sample, enter))) => state.take(&sample, enter, &mut look, &mut pose_out),
+                    Ok(Some((sample, enter))) => {
+                        let taken = state.take(&sample, enter, &mut look, &mut pose_out);
+                        // a scan that filtered a cell's walls (map::raycast) freed a list the
+                        // size of the map's walls; kept, its pages would count against the
+                        // process for good
+                        messages::return_freed_memory();
+                        taken
+                    }
                     Ok(None) => break,
                     Err(e) => Err(anyhow!("{}: receive: {e}", corners.name)),
                 };

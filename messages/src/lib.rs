@@ -34,8 +34,8 @@ pub use payload::*;
 pub use placement::pin_to_cpu;
 pub use publish::{publish, zeroed_box, PublishError, Zeroable};
 pub use runtime::{
-    announce_ready, cleanup_dead_nodes, create_node, dead_node_pids, instance, monotonic_ns, ready_listener, say_line,
-    RuntimeError, StageArgs, EXPIRED_CONNECTIONS, MAX_INSTANCE, MISSED_WAKEUP_POLL,
+    announce_ready, cleanup_dead_nodes, create_node, dead_node_pids, instance, monotonic_ns, ready_listener,
+    return_freed_memory, say_line, RuntimeError, StageArgs, EXPIRED_CONNECTIONS, MAX_INSTANCE, MISSED_WAKEUP_POLL,
 };
 pub use topic::{
     open_control, open_corner_queries, open_events, open_pubsub, open_topic, service_name, OpenError, Topic,
