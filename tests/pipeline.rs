@@ -1356,3 +1356,25 @@ fn a_stage_is_swapped_to_an_alternative_its_pipeline_file_names() {
     let seqs: BTreeSet<u64> = rows(&csv).iter().map(|r| r[0].parse().unwrap()).collect();
     assert_eq!(seqs.len(), 60);
 }
+
+/// `gema2 bench --memory` runs a pipeline, starts a second localizer beside it and reads its
+/// own memory while the pipeline runs, against a tenth of the model it reported; a pipeline
+/// that cannot start is an error that says why.
+#[test]
+fn bench_memory_reads_a_second_localizers_own_memory() {
+    let out = gema2(&["bench", "--memory", "--seconds", "2"]);
+    let said = String::from_utf8_lossy(&out.stdout).into_owned();
+    assert!(out.status.success(), "{said}{}", String::from_utf8_lossy(&out.stderr));
+    let after =
+        |line: &str, key: &str| -> Option<f64> { line.split(key).nth(1)?.split_whitespace().next()?.parse().ok() };
+    let mb = said.lines().find_map(|l| after(l, "map model: ")).expect("the model's size");
+    let most = said.lines().find_map(|l| after(l, "at most ")).expect("the most memory read");
+    let readings = said.lines().find_map(|l| after(l, " kB over ")).expect("the readings");
+    assert!(mb > 0.0 && most > 0.0 && readings >= 1.0, "{said}");
+    assert!(said.contains(" a tenth of the model"), "{said}");
+
+    let out = gema2(&["bench", "--memory", "--log", "/nonexistent/gema2.log", "--seconds", "2"]);
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("cannot read the log"), "{err}");
+}

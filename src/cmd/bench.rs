@@ -42,8 +42,24 @@ pub struct BenchArgs {
     /// The source's warm-up lead at 10 Hz (acquire's --warm-up-us; 0: none), to compare.
     #[arg(long, default_value_t = acquire::node::DEFAULT_WARM_UP_US)]
     pub warm_up_us: u64,
-    /// Also write the per-stage and scaling tables into this markdown file (its `bench`
-    /// section, the rest kept): `--markdown docs/results.md`.
+    /// Measure what a second localizer adds to the machine's memory instead
+    /// ([`super::bench_memory`]): a pipeline on --map, scans from --log (or simulated in --map)
+    /// at --rate, a second localize stage beside it, its own memory read once a second for
+    /// --seconds after it is ready.
+    #[arg(long, conflicts_with = "pipeline")]
+    pub memory: bool,
+    /// With --memory: the map served (a bundled map's name, a JSON wall map, a ROS .yaml).
+    #[arg(long, default_value = "office", requires = "memory")]
+    pub map: String,
+    /// With --memory: a CARMEN log to replay (default: simulate in --map).
+    #[arg(long, requires = "memory")]
+    pub log: Option<PathBuf>,
+    /// With --memory: scans per second.
+    #[arg(long, default_value = "20", requires = "memory", value_parser = acquire::node::rate_arg)]
+    pub rate: String,
+    /// Also write the per-stage and scaling tables (or, with --memory, its figures) into this
+    /// markdown file (its `bench` or `bench-memory` section, the rest kept):
+    /// `--markdown docs/results.md`.
     #[arg(long, value_name = "FILE", conflicts_with = "pipeline")]
     pub markdown: Option<PathBuf>,
 }
@@ -213,6 +229,9 @@ fn median(run: &Run, k: usize) -> f64 {
 pub fn run_bench(a: BenchArgs) -> Result<()> {
     if a.pipeline {
         return bench_pipeline(&a);
+    }
+    if a.memory {
+        return super::bench_memory::bench_memory(&a);
     }
     let office = mapio::load_map("office")?;
     // what is printed, kept for --markdown

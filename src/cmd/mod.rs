@@ -2,6 +2,7 @@
 
 pub mod amcl;
 pub mod bench;
+pub mod bench_memory;
 pub mod build_map;
 pub mod corners;
 pub mod demo;
