@@ -42,8 +42,8 @@ pub struct BenchArgs {
     /// The source's warm-up lead at 10 Hz (acquire's --warm-up-us; 0: none), to compare.
     #[arg(long, default_value_t = acquire::node::DEFAULT_WARM_UP_US)]
     pub warm_up_us: u64,
-    /// Measure what a second localizer adds to the machine's memory instead
-    /// ([`super::bench_memory`]): a pipeline on --map, scans from --log (or simulated in --map)
+    /// Measure what a second localizer adds to the machine's memory instead: a pipeline on
+    /// --map, scans from --log (or simulated in --map)
     /// at --rate, a second localize stage beside it, its own memory read once a second for
     /// --seconds after it is ready.
     #[arg(long, conflicts_with = "pipeline")]
