@@ -20,7 +20,7 @@ use localize::{Gema2Config, MapModel};
 use map::WallMap;
 use std::io::{BufRead, BufReader, BufWriter, Write};
 use std::path::{Path, PathBuf};
-use std::process::{Child, ChildStdin, ChildStdout, Command, Stdio};
+use std::process::{ChildStdin, ChildStdout, Command, Stdio};
 use std::sync::Arc;
 
 /// Scans a right pose must hold, the first included, to count as settled.
@@ -122,7 +122,8 @@ impl Track {
 
 /// The AMCL worker process.
 struct Worker {
-    child: Child,
+    /// Killed first when the worker is dropped, then its pipes close.
+    _child: super::KilledOnDrop,
     input: BufWriter<ChildStdin>,
     output: BufReader<ChildStdout>,
 }
@@ -139,7 +140,7 @@ impl Worker {
         let (Some(input), Some(output)) = (child.stdin.take(), child.stdout.take()) else {
             bail!("the AMCL worker has no pipes");
         };
-        Ok(Worker { child, input: BufWriter::new(input), output: BufReader::new(output) })
+        Ok(Worker { _child: super::KilledOnDrop(child), input: BufWriter::new(input), output: BufReader::new(output) })
     }
 
     /// Sends one request and reads its reply, which must begin with `expect`; the reply's
@@ -181,13 +182,6 @@ impl Worker {
             f.get(i).and_then(|s| s.parse().ok()).with_context(|| format!("the AMCL worker's pose {f:?}"))
         };
         Ok((Pose::new(nalgebra::Vector2::new(num(0)?, num(1)?), num(2)?), num(3)?))
-    }
-}
-
-impl Drop for Worker {
-    fn drop(&mut self) {
-        let _ = self.child.kill();
-        let _ = self.child.wait();
     }
 }
 

@@ -43,9 +43,8 @@ pub struct BenchArgs {
     #[arg(long, default_value_t = acquire::node::DEFAULT_WARM_UP_US)]
     pub warm_up_us: u64,
     /// Measure what a second localizer adds to the machine's memory instead: a pipeline on
-    /// --map, scans from --log (or simulated in --map)
-    /// at --rate, a second localize stage beside it, its own memory read once a second for
-    /// --seconds after it is ready.
+    /// --map, scans from --log (or simulated in --map) at --rate, a second localize stage
+    /// beside it, its own memory read once a second for --seconds after it is ready.
     #[arg(long, conflicts_with = "pipeline")]
     pub memory: bool,
     /// With --memory: the map served (a bundled map's name, a JSON wall map, a ROS .yaml).

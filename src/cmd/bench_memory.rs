@@ -10,10 +10,11 @@
 //! would count as this process's own.
 
 use super::bench::BenchArgs;
+use super::KilledOnDrop;
 use anyhow::{bail, Context, Result};
 use std::io::{BufRead, BufReader};
 use std::path::Path;
-use std::process::{Child, Command, Stdio};
+use std::process::{Command, Stdio};
 use std::sync::mpsc;
 use std::time::{Duration, Instant};
 
@@ -23,16 +24,6 @@ const PIPELINE_LEAD: Duration = Duration::from_secs(4);
 
 /// How long the second localizer gets to read the model.
 const READY_PATIENCE: Duration = Duration::from_secs(30);
-
-/// A child process killed when dropped, however the benchmark ends.
-struct Killed(Child);
-
-impl Drop for Killed {
-    fn drop(&mut self) {
-        let _ = self.0.kill();
-        let _ = self.0.wait();
-    }
-}
 
 /// A TOML basic string holding `s`.
 fn toml_string(s: &str) -> String {
@@ -96,7 +87,7 @@ pub fn bench_memory(a: &BenchArgs) -> Result<()> {
     let said_path = scratch.path().join("pipeline.err");
     let said = std::fs::File::create(&said_path).context("creating the pipeline's log")?;
     run.args(["--timeout", &format!("{timeout}")]).stdout(Stdio::null()).stderr(said);
-    let mut pipeline = Killed(run.spawn().context("starting the pipeline")?);
+    let mut pipeline = KilledOnDrop(run.spawn().context("starting the pipeline")?);
     std::thread::sleep(PIPELINE_LEAD);
     if let Some(status) = pipeline.0.try_wait()? {
         let said = std::fs::read_to_string(&said_path).unwrap_or_default();
@@ -110,7 +101,7 @@ pub fn bench_memory(a: &BenchArgs) -> Result<()> {
         let last: Vec<&str> = last.into_iter().rev().collect();
         bail!("the pipeline ended before the second localizer started ({status}):\n{}", last.join("\n"));
     }
-    let mut second = Killed(
+    let mut second = KilledOnDrop(
         Command::new(&exe)
             .args(["stage", "localize", "--prefix", &prefix])
             .stdout(Stdio::null())

@@ -39,6 +39,16 @@ impl Drop for ScratchDir {
     }
 }
 
+/// A child process killed (and reaped) when dropped, however the command that started it ends.
+pub struct KilledOnDrop(pub std::process::Child);
+
+impl Drop for KilledOnDrop {
+    fn drop(&mut self) {
+        let _ = self.0.kill();
+        let _ = self.0.wait();
+    }
+}
+
 /// Parses a count that must be at least 1: `--every` (every 0th scan selects nothing),
 /// `sim --scans` (an empty log is no test of anything).
 pub fn positive_count(s: &str) -> Result<usize, String> {
