@@ -81,11 +81,15 @@ impl Localizer {
         };
         hyps[..=at].rotate_right(1);
         let best = hyps[0];
-        let max_through = if self.model.map.is_approximate() { cfg.max_through_approximate } else { cfg.max_through };
+        let (max_through, margin) = if self.model.map.is_approximate() {
+            (cfg.max_through_approximate, cfg.ambiguity_margin_approximate)
+        } else {
+            (cfg.max_through, cfg.ambiguity_margin)
+        };
         self.out.status = if best.cost.inliers < cfg.min_inliers || best.cost.through > max_through {
             Status::Failed
         } else if best.cost.through > cfg.max_through_ok
-            || rival_gap(hyps, cfg.distinct_position, cfg.distinct_heading) < cfg.ambiguity_margin
+            || rival_gap(hyps, cfg.distinct_position, cfg.distinct_heading) < margin
         {
             Status::Ambiguous
         } else {
@@ -164,6 +168,34 @@ mod tests {
         let mut localizer = Localizer::new(Arc::clone(&localizer.model), off);
         localizer.out.hypotheses = vec![at(5.0, 2.0), at(15.0, 2.6)];
         assert!(!localizer.rival_within_misfit());
+    }
+
+    /// A distinct rival between the two margins behind the best: far enough behind on a drawn
+    /// map, whose walls are exact, for `ok`; not on a built one, whose walls are known only to
+    /// their spread (`ambiguity_margin_approximate`).
+    #[test]
+    fn a_built_map_asks_a_wider_gap_of_a_rival() {
+        let config = LocalizerConfig::default();
+        assert!(config.ambiguity_margin < config.ambiguity_margin_approximate);
+        let gap = (config.ambiguity_margin + config.ambiguity_margin_approximate) / 2.0;
+        let walls = vec![map::Wall::new(0.0, 0.0, 20.0, 0.0)];
+        let status_against = |map: map::WallMap| {
+            let model = Arc::new(MapModel::new(map, &map::MapCornerConfig::default()));
+            let mut localizer = Localizer::new(model, config);
+            let at = |x: f64, value: f64| Hypothesis {
+                pose: Pose::new(nalgebra::Vector2::new(x, 1.5), 0.3),
+                cost: Cost { value, inliers: 0.9, through: 0.0, beams: 680 },
+                scan_corner: 0,
+                map_corner: 0,
+            };
+            localizer.out.hypotheses = vec![at(5.0, 0.4), at(15.0, 0.4 + gap)];
+            localizer.rank();
+            localizer.out.status
+        };
+        assert_eq!(status_against(map::WallMap::new(walls.clone())), Status::Ok);
+        let built = map::WallMap { sigma: 0.1, ..map::WallMap::new(walls) };
+        assert!(built.is_approximate());
+        assert_eq!(status_against(built), Status::Ambiguous);
     }
 
     /// Beams through mapped walls: up to `max_through_ok` the best pose may be `ok`, up to
