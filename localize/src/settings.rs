@@ -255,17 +255,17 @@ impl LocalizerConfig {
         ),
         setting!(
             LocalizerConfig,
-            "ambiguity_approximate",
-            Range::NonNegative,
-            "ambiguity on a map built from scans (its walls known only to their spread)",
-            ambiguity_margin_approximate
-        ),
-        setting!(
-            LocalizerConfig,
             "ambiguity_ratio",
             Range::NonNegative,
             "...or less than this share of the best's own cost more (after the last search)",
             ambiguity_ratio
+        ),
+        setting!(
+            LocalizerConfig,
+            "ambiguity_approximate",
+            Range::NonNegative,
+            "ambiguity on a map built from scans (its walls known only to their spread)",
+            ambiguity_margin_approximate
         ),
         setting!(
             LocalizerConfig,

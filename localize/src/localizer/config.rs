@@ -96,15 +96,6 @@ pub struct LocalizerConfig {
     pub distinct_heading: f64,
     /// The best pose is `ambiguous` when a distinct hypothesis costs less than this much more.
     pub ambiguity_margin: f64,
-    /// [`ambiguity_margin`](Self::ambiguity_margin) for a map that declares itself approximate
-    /// ([`map::WallMap::is_approximate`], as maps built from scans do). A built map knows its
-    /// walls only to their spread, and each rival's cost per beam carries that misfit too: a
-    /// wrong pose can lead the right one by a third of a unit where the map is poorer at the
-    /// right place. On the seven CARMEN logs both ways, 0.4 instead of 0.3 made 3 of the 10
-    /// wrong `ok` answers `ambiguous` (infinite-corridor, 8-23 m off) against 32 of the 3761
-    /// right ones, and no other answer changed. Drawn maps are exact: there the same 0.4 took
-    /// 49 right `ok` answers of the simulated suite's 10169 and no wrong one.
-    pub ambiguity_margin_approximate: f64,
     /// ...or, once the scan's last search is ranked, less than this share of the best's own
     /// cost more: a rival is told apart by a gap the size of the best pose's misfit, not only a
     /// fixed one. On a map built from a log the right pose's cost is noisy in proportion to
@@ -114,6 +105,15 @@ pub struct LocalizerConfig {
     /// them by a gap under half the best cost, against 9 % of the right ones. Applied after
     /// the search, so it changes which answers are `ok`, never the search or its answer.
     pub ambiguity_ratio: f64,
+    /// [`ambiguity_margin`](Self::ambiguity_margin) for a map that declares itself approximate
+    /// ([`map::WallMap::is_approximate`], as maps built from scans do). A built map knows its
+    /// walls only to their spread, and each rival's cost per beam carries that misfit too: a
+    /// wrong pose can lead the right one by a third of a unit where the map is poorer at the
+    /// right place. On the seven CARMEN logs both ways, 0.4 instead of 0.3 made 3 of the 10
+    /// wrong `ok` answers `ambiguous` (infinite-corridor, 8-23 m off) against 32 of the 3761
+    /// right ones, and no other answer changed. Drawn maps are exact: there the same 0.4 took
+    /// 49 right `ok` answers of the simulated suite's 10169 and no wrong one.
+    pub ambiguity_margin_approximate: f64,
     /// In a scan with no corner, a slid pose along the best one's wall explains the scan as
     /// well as the best when their costs, summed over the beams (squared standard deviations,
     /// twice the log-likelihood ratio), differ by less than this; the scan then does not say
@@ -288,8 +288,8 @@ impl Default for LocalizerConfig {
             distinct_position: 0.3,
             distinct_heading: 5f64.to_radians(),
             ambiguity_margin: 0.3,
-            ambiguity_margin_approximate: 0.4,
             ambiguity_ratio: 0.5,
+            ambiguity_margin_approximate: 0.4,
             cornerless_tie: 10.0,
             min_inliers: 0.3,
             max_through: 0.2,
