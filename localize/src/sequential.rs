@@ -113,6 +113,17 @@ pub struct SequentialConfig {
     pub second_look_sides: i32,
     pub second_look_jump: f64,
     pub second_look_turn: f64,
+    /// The look along (`Sequential::look_along`): when the best track's window could not span
+    /// the motion's spread, and its pose leaves a direction free (under `min_constraint`) or
+    /// explains the scan worse by more than `along_look_jump` per beam than the track explained
+    /// its last one, poses along the direction the scan pins down least are screened across the
+    /// gate (`position_step` apart, at most `along_look_most` either way, 3 headings) and the
+    /// best refined. Its pose replaces the window's only when it costs `along_look_margin` per
+    /// beam less by eq. 7: in a corridor with nothing along it, eq. 7 is flat and odometry's
+    /// pose is as good as any. Negative margin: no look along.
+    pub along_look_margin: f64,
+    pub along_look_jump: f64,
+    pub along_look_most: i32,
 }
 
 impl SequentialConfig {
@@ -159,6 +170,9 @@ impl Default for SequentialConfig {
             second_look_sides: 1,
             second_look_jump: 0.15,
             second_look_turn: 5f64.to_radians(),
+            along_look_margin: 0.15,
+            along_look_jump: 0.5,
+            along_look_most: 10,
         }
     }
 }
@@ -356,7 +370,11 @@ impl Sequential {
             cfg.grid_starts(steps.iter().copied(), &predicted, &mut starts);
             self.localizer.search_around(scan, seg, &starts, cfg.refined, &mut self.scored);
             let edge = f64::from(shifts) * cfg.position_step;
-            let relooked = n == 0 && window_short && self.look_again(scan, seg, &steps, (c, edge), &mut starts);
+            let mut relooked = n == 0 && window_short && self.look_again(scan, seg, &steps, (c, edge), &mut starts);
+            if n == 0 && window_short && cfg.along_look_margin >= 0.0 {
+                let before = self.tracks[0].cost.value;
+                relooked |= self.look_along(scan, seg, gate, before, &mut starts);
+            }
             let fallback = (predicted, Cost { value: f64::INFINITY, inliers: 0.0, through: 1.0, beams: 0 });
             found.push((predicted, self.scored.first().copied().unwrap_or(fallback), relooked));
         }
@@ -435,6 +453,53 @@ impl Sequential {
         self.localizer.search_around(scan, seg, starts, 1, &mut self.relook);
         let Some(&(second, second_cost)) = self.relook.first() else { return false };
         if second_cost.value >= first_cost.value {
+            return false;
+        }
+        std::mem::swap(&mut self.scored, &mut self.relook);
+        !same_pose(&second, &first, cfg.second_look_jump, cfg.second_look_turn)
+    }
+
+    /// The look along for the best track ([`SequentialConfig::along_look_margin`]), after its
+    /// window (and second look) left the best pose in `self.scored`; `before` is what the track
+    /// cost on its last scan. In a corridor a window's starts all lie on the flat of eq. 7 along
+    /// it when odometry's drive is off by more than the window spans: refinement has no slope to
+    /// follow, so the pose stays where odometry put it, short of or past the truth (0.6-3.8 m
+    /// off after a few scans on aces with drawn odometry), until the track is lost. The scan
+    /// often sees where along the corridor it is (a door, a corner, its end), further off than
+    /// the window reaches; starts along the weakest direction across the whole gate find it.
+    /// The better pose is kept in `self.scored`. Returns whether it won and moved the pose
+    /// further than `second_look_jump` or `second_look_turn` (then not `ok` on this scan).
+    fn look_along(
+        &mut self,
+        scan: &ScanView<'_>,
+        seg: &Segmentation,
+        gate: f64,
+        before: f64,
+        starts: &mut Vec<Pose>,
+    ) -> bool {
+        let cfg = self.config;
+        let Some(&(first, first_cost)) = self.scored.first() else { return false };
+        let (constraint, along) = self.localizer.weakest_direction(&first);
+        // pinned down across every direction, and explaining the scan about as well as the last
+        // scan: the window's pose stands
+        if constraint >= cfg.min_constraint && first_cost.value <= before + cfg.along_look_jump {
+            return false;
+        }
+        let sides = ((gate / cfg.position_step).ceil() as i32).min(cfg.along_look_most);
+        let (t, heading) = (first.translation.vector, pose_theta(&first));
+        starts.clear();
+        // within a step of the pose, refinement already looked
+        for i in (-sides..=sides).filter(|i| i.abs() > 1) {
+            for k in -1..=1 {
+                starts.push(nalgebra::Isometry2::new(
+                    t + along * (f64::from(i) * cfg.position_step),
+                    heading + f64::from(k) * cfg.start_step,
+                ));
+            }
+        }
+        self.localizer.search_around(scan, seg, starts, 1, &mut self.relook);
+        let Some(&(second, second_cost)) = self.relook.first() else { return false };
+        if second_cost.value >= first_cost.value - cfg.along_look_margin {
             return false;
         }
         std::mem::swap(&mut self.scored, &mut self.relook);
