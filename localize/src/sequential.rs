@@ -113,14 +113,16 @@ pub struct SequentialConfig {
     pub second_look_sides: i32,
     pub second_look_jump: f64,
     pub second_look_turn: f64,
-    /// The look along (`Sequential::look_along`): when the best track's window could not span
-    /// the motion's spread, and its pose leaves a direction free (under `min_constraint`) or
-    /// explains the scan worse by more than `along_look_jump` per beam than the track explained
-    /// its last one, poses along the direction the scan pins down least are screened across the
-    /// gate (`position_step` apart, at most `along_look_most` either way, 3 headings) and the
-    /// best refined. Its pose replaces the window's only when it costs `along_look_margin` per
-    /// beam less by eq. 7: in a corridor with nothing along it, eq. 7 is flat and odometry's
-    /// pose is as good as any. Negative margin: no look along.
+    /// The look along (`Sequential::look_along`): when the best track's pose explains the scan
+    /// worse by more than `along_look_jump` per beam than the track explained its last one, or
+    /// its window could not span the motion's spread and the pose leaves a direction free
+    /// (under `min_constraint`), poses along the direction the scan pins down least are
+    /// screened across the gate (`position_step` apart, at most `along_look_most` either way,
+    /// 3 headings) and the best refined. A pose that costs `along_look_margin` per beam less by
+    /// eq. 7 (in a corridor with nothing along it, eq. 7 is flat and odometry's pose is as good
+    /// as any) is kept as the track's `shadow`; found so again on the next scan, within the
+    /// gate of where odometry moved the shadow, it replaces the window's pose. Negative
+    /// margin: no look along.
     pub along_look_margin: f64,
     pub along_look_jump: f64,
     pub along_look_most: i32,
@@ -193,6 +195,9 @@ pub struct Track {
     pub late: bool,
     /// Whether this scan's second look moved it ([`SequentialConfig::second_look_jump`]).
     pub relooked: bool,
+    /// A pose the look along found for it on the last scan ([`Sequential::look_along`]), to
+    /// be weighed against it again on this one.
+    pub shadow: Option<Pose>,
 }
 
 /// One scan's answer.
@@ -364,6 +369,7 @@ impl Sequential {
         let mut starts = Vec::with_capacity(steps.len());
         // per track: where odometry puts it, and the best pose found about there
         let mut found = Vec::with_capacity(self.tracks.len());
+        let mut shadow = None;
         for n in 0..self.tracks.len() {
             let predicted = self.tracks[n].pose * delta;
             let c = predicted.translation.vector;
@@ -371,9 +377,23 @@ impl Sequential {
             self.localizer.search_around(scan, seg, &starts, cfg.refined, &mut self.scored);
             let edge = f64::from(shifts) * cfg.position_step;
             let mut relooked = n == 0 && window_short && self.look_again(scan, seg, &steps, (c, edge), &mut starts);
-            if n == 0 && window_short && cfg.along_look_margin >= 0.0 {
-                let before = self.tracks[0].cost.value;
-                relooked |= self.look_along(scan, seg, gate, before, &mut starts);
+            if n == 0 && cfg.along_look_margin >= 0.0 {
+                let track = &self.tracks[0];
+                let (before, earlier) = (track.cost.value, track.shadow.map(|p| p * delta));
+                if let Some((pose, cost)) =
+                    self.look_along(scan, seg, gate, (before, window_short, earlier.is_some()), &mut starts)
+                {
+                    // the last scan's look found it too, about where odometry moved it since:
+                    // two scans agree on it, where one alone may see an imperfect map's flaw
+                    if earlier.is_some_and(|p| (p.translation.vector - pose.translation.vector).norm() <= gate) {
+                        let first = self.scored[0].0;
+                        self.scored.clear();
+                        self.scored.push((pose, cost));
+                        relooked |= !same_pose(&pose, &first, cfg.second_look_jump, cfg.second_look_turn);
+                    } else {
+                        shadow = Some(pose);
+                    }
+                }
             }
             let fallback = (predicted, Cost { value: f64::INFINITY, inliers: 0.0, through: 1.0, beams: 0 });
             found.push((predicted, self.scored.first().copied().unwrap_or(fallback), relooked));
@@ -381,6 +401,7 @@ impl Sequential {
         let min_inliers = self.config.min_inliers_held;
         for (track, &(predicted, (refined, cost), relooked)) in self.tracks.iter_mut().zip(&found) {
             track.relooked = false;
+            track.shadow = None;
             let held = (refined.translation.vector - predicted.translation.vector).norm() <= gate
                 && angle_diff(pose_theta(&refined), pose_theta(&predicted)).abs() <= gate_heading
                 && cost.value.is_finite()
@@ -401,6 +422,9 @@ impl Sequential {
                 track.cost.value = f64::INFINITY;
                 track.misses += 1;
             }
+        }
+        if let Some(best) = self.tracks.first_mut().filter(|t| t.misses == 0) {
+            best.shadow = shadow;
         }
         // the best track (the first: the tracks are sorted by lag) lost by its search: look
         // for it within the odometry's spread with the cascade, before taking it for lost
@@ -460,30 +484,42 @@ impl Sequential {
     }
 
     /// The look along for the best track ([`SequentialConfig::along_look_margin`]), after its
-    /// window (and second look) left the best pose in `self.scored`; `before` is what the track
-    /// cost on its last scan. In a corridor a window's starts all lie on the flat of eq. 7 along
-    /// it when odometry's drive is off by more than the window spans: refinement has no slope to
-    /// follow, so the pose stays where odometry put it, short of or past the truth (0.6-3.8 m
-    /// off after a few scans on aces with drawn odometry), until the track is lost. The scan
-    /// often sees where along the corridor it is (a door, a corner, its end), further off than
-    /// the window reaches; starts along the weakest direction across the whole gate find it.
-    /// The better pose is kept in `self.scored`. Returns whether it won and moved the pose
-    /// further than `second_look_jump` or `second_look_turn` (then not `ok` on this scan).
+    /// window (and second look) left the best pose in `self.scored`. `before` is what the track
+    /// cost on its last scan, `window_short` whether the window could not span the spread, and
+    /// `pending` whether the last scan's look left a shadow to weigh again (then it looks
+    /// whatever the triggers say).
+    ///
+    /// In a corridor a window's starts all lie on the flat of eq. 7 along it when odometry's
+    /// drive is off by more than the window spans: refinement has no slope to follow, so the
+    /// pose stays where odometry put it, short of or past the truth (0.6-3.8 m off after a few
+    /// scans on aces with drawn odometry, the truth costing 0.5-1.5 per beam less), until the
+    /// track is lost. The scan often sees where along the corridor it is (a door, a corner, its
+    /// end) further off than the window reaches; starts along the weakest direction across the
+    /// whole gate find it. A pose that explains this scan much worse than the track did its
+    /// last one was likely left behind the same way, window short or not.
+    ///
+    /// Returns the pose found and its cost when it costs `along_look_margin` less than the
+    /// window's; `self.scored` is left as it was.
     fn look_along(
         &mut self,
         scan: &ScanView<'_>,
         seg: &Segmentation,
         gate: f64,
-        before: f64,
+        (before, window_short, pending): (f64, bool, bool),
         starts: &mut Vec<Pose>,
-    ) -> bool {
+    ) -> Option<(Pose, Cost)> {
         let cfg = self.config;
-        let Some(&(first, first_cost)) = self.scored.first() else { return false };
+        let &(first, first_cost) = self.scored.first()?;
+        // explaining the scan about as well as the last, and either the window spanned the
+        // spread or the pose is pinned down in every direction: the window's pose stands,
+        // unless the last scan's look found another to weigh again
+        let jumped = first_cost.value > before + cfg.along_look_jump;
+        if !window_short && !jumped && !pending {
+            return None;
+        }
         let (constraint, along) = self.localizer.weakest_direction(&first);
-        // pinned down across every direction, and explaining the scan about as well as the last
-        // scan: the window's pose stands
-        if constraint >= cfg.min_constraint && first_cost.value <= before + cfg.along_look_jump {
-            return false;
+        if constraint >= cfg.min_constraint && !jumped && !pending {
+            return None;
         }
         let sides = ((gate / cfg.position_step).ceil() as i32).min(cfg.along_look_most);
         let (t, heading) = (first.translation.vector, pose_theta(&first));
@@ -498,12 +534,8 @@ impl Sequential {
             }
         }
         self.localizer.search_around(scan, seg, starts, 1, &mut self.relook);
-        let Some(&(second, second_cost)) = self.relook.first() else { return false };
-        if second_cost.value >= first_cost.value - cfg.along_look_margin {
-            return false;
-        }
-        std::mem::swap(&mut self.scored, &mut self.relook);
-        !same_pose(&second, &first, cfg.second_look_jump, cfg.second_look_turn)
+        let &(second, second_cost) = self.relook.first()?;
+        (second_cost.value < first_cost.value - cfg.along_look_margin).then_some((second, second_cost))
     }
 
     /// The global search; its hypotheses join the tracks. Returns the single-scan status, best
@@ -549,6 +581,7 @@ impl Sequential {
                     misses: 0,
                     late: had_tracks,
                     relooked: false,
+                    shadow: None,
                 }),
             }
         }

@@ -306,36 +306,40 @@ fn corridor_with_alcoves() -> Vec<map::Wall> {
 /// Down a corridor odometry's drive is off by more than the tracking window spans (1.1 m
 /// short of 2.6 m, inside its spread): every start of the window lies where eq. 7 is flat
 /// along the corridor, so refinement leaves the pose short of the truth. The look along the
-/// corridor finds the truth by the alcoves in view; without it the pose stays behind.
+/// corridor finds the truth by the alcoves in view, but one scan's word does not move the
+/// pose (on a map built from a log it may be a flaw of the map's); on the next scan, found
+/// again where odometry moved it, it is the answer.
 #[test]
 fn a_drive_odometry_reports_short_is_found_along_the_corridor() {
     use map::WallMap;
     let map = WallMap::new(corridor_with_alcoves());
     let model = Arc::new(MapModel::new(map.clone(), &MapCornerConfig::default()));
-    let mut found = Vec::new();
-    for along_look_margin in [SequentialConfig::default().along_look_margin, -1.0] {
-        let localizer = Localizer::new(Arc::clone(&model), LocalizerConfig::default());
-        let mut sequential = Sequential::new(localizer, SequentialConfig { along_look_margin, ..Default::default() });
-        let mut sim = Simulator::new(&map, SensorModel::urg04lx(), Scenario::Clean, 2);
-        let mut segmenter = LineVisibilitySegmenter::new(SegmenterConfig::default());
-        let mut locate = |truth: &Pose, odometry: Pose| {
-            let scan = sim.scan_at(truth, &Obstacles::default());
-            let seg = segmenter.segment(&scan.view());
-            sequential.locate(&scan.view(), seg, Some(odometry))
-        };
-        // sure of the pose first, driving 0.3 m a scan with exact odometry
-        let mut truth = pose(2.0, 1.0, 0.0);
-        let mut sure = false;
-        for _ in 0..8 {
-            truth *= pose(0.3, 0.0, 0.0);
-            let a = locate(&truth, truth);
-            sure = a.status == Status::Ok && right(&a, &truth);
-        }
-        assert!(sure, "not sure of the pose before the drive");
-        let odometry = truth * pose(1.5, 0.0, 0.0);
-        truth *= pose(2.6, 0.0, 0.0);
-        let a = locate(&truth, odometry);
-        found.push(right(&a, &truth));
+    let localizer = Localizer::new(Arc::clone(&model), LocalizerConfig::default());
+    let mut sequential = Sequential::new(localizer, SequentialConfig::default());
+    let mut sim = Simulator::new(&map, SensorModel::urg04lx(), Scenario::Clean, 2);
+    let mut segmenter = LineVisibilitySegmenter::new(SegmenterConfig::default());
+    let mut locate = |sequential: &mut Sequential, truth: &Pose, odometry: Pose| {
+        let scan = sim.scan_at(truth, &Obstacles::default());
+        let seg = segmenter.segment(&scan.view());
+        sequential.locate(&scan.view(), seg, Some(odometry))
+    };
+    // sure of the pose first, driving 0.3 m a scan with exact odometry
+    let mut truth = pose(2.0, 1.0, 0.0);
+    let mut sure = false;
+    for _ in 0..8 {
+        truth *= pose(0.3, 0.0, 0.0);
+        let a = locate(&mut sequential, &truth, truth);
+        sure = a.status == Status::Ok && right(&a, &truth);
     }
-    assert_eq!(found, [true, false], "right with the look along, and without it");
+    assert!(sure, "not sure of the pose before the drive");
+    let mut odometry = truth * pose(1.5, 0.0, 0.0);
+    truth *= pose(2.6, 0.0, 0.0);
+    let a = locate(&mut sequential, &truth, odometry);
+    assert!(!right(&a, &truth), "the window alone found the truth: {a:?}");
+    let shadow = sequential.tracks().first().and_then(|t| t.shadow);
+    assert!(shadow.is_some_and(|p| same_pose(&p, &truth, 0.1, 2f64.to_radians())), "the look along found {shadow:?}");
+    odometry *= pose(1.0, 0.0, 0.0);
+    truth *= pose(1.0, 0.0, 0.0);
+    let a = locate(&mut sequential, &truth, odometry);
+    assert!(right(&a, &truth), "{a:?} for {truth:?}");
 }
