@@ -15,13 +15,17 @@ struct Rig {
 
 impl Rig {
     fn new(name: &str, seed: u64) -> Self {
-        let map = worlds::by_name(name).expect("a bundled world");
+        Rig::on(&worlds::by_name(name).expect("a bundled world"), seed, SequentialConfig::default())
+    }
+
+    /// A clean simulator of `map` and the sequential localizer on it with `config`.
+    fn on(map: &map::WallMap, seed: u64, config: SequentialConfig) -> Self {
         let model = Arc::new(MapModel::new(map.clone(), &MapCornerConfig::default()));
         let localizer = Localizer::new(model, LocalizerConfig::default());
         Rig {
-            sim: Simulator::new(&map, SensorModel::urg04lx(), Scenario::Clean, seed),
+            sim: Simulator::new(map, SensorModel::urg04lx(), Scenario::Clean, seed),
             segmenter: LineVisibilitySegmenter::new(SegmenterConfig::default()),
-            sequential: Sequential::new(localizer, SequentialConfig::default()),
+            sequential: Sequential::new(localizer, config),
         }
     }
 
@@ -311,36 +315,26 @@ fn corridor_with_alcoves() -> Vec<map::Wall> {
 /// again where odometry moved it, it is the answer.
 #[test]
 fn a_drive_odometry_reports_short_is_found_along_the_corridor() {
-    use map::WallMap;
-    let map = WallMap::new(corridor_with_alcoves());
-    let model = Arc::new(MapModel::new(map.clone(), &MapCornerConfig::default()));
-    let localizer = Localizer::new(Arc::clone(&model), LocalizerConfig::default());
-    let mut sequential = Sequential::new(localizer, SequentialConfig::default());
-    let mut sim = Simulator::new(&map, SensorModel::urg04lx(), Scenario::Clean, 2);
-    let mut segmenter = LineVisibilitySegmenter::new(SegmenterConfig::default());
-    let mut locate = |sequential: &mut Sequential, truth: &Pose, odometry: Pose| {
-        let scan = sim.scan_at(truth, &Obstacles::default());
-        let seg = segmenter.segment(&scan.view());
-        sequential.locate(&scan.view(), seg, Some(odometry))
-    };
+    let map = map::WallMap::new(corridor_with_alcoves());
+    let mut rig = Rig::on(&map, 2, SequentialConfig::default());
     // sure of the pose first, driving 0.3 m a scan with exact odometry
     let mut truth = pose(2.0, 1.0, 0.0);
     let mut sure = false;
     for _ in 0..8 {
         truth *= pose(0.3, 0.0, 0.0);
-        let a = locate(&mut sequential, &truth, truth);
+        let a = rig.locate(&truth, Some(truth));
         sure = a.status == Status::Ok && right(&a, &truth);
     }
     assert!(sure, "not sure of the pose before the drive");
     let mut odometry = truth * pose(1.5, 0.0, 0.0);
     truth *= pose(2.6, 0.0, 0.0);
-    let a = locate(&mut sequential, &truth, odometry);
+    let a = rig.locate(&truth, Some(odometry));
     assert!(!right(&a, &truth), "the window alone found the truth: {a:?}");
-    let shadow = sequential.tracks().first().and_then(|t| t.shadow);
+    let shadow = rig.sequential.tracks().first().and_then(|t| t.shadow);
     assert!(shadow.is_some_and(|p| same_pose(&p, &truth, 0.1, 2f64.to_radians())), "the look along found {shadow:?}");
     odometry *= pose(1.0, 0.0, 0.0);
     truth *= pose(1.0, 0.0, 0.0);
-    let a = locate(&mut sequential, &truth, odometry);
+    let a = rig.locate(&truth, Some(odometry));
     assert!(right(&a, &truth), "{a:?} for {truth:?}");
 }
 
@@ -373,34 +367,24 @@ fn square_room_with_bay() -> Vec<map::Wall> {
 /// it, on that same scan; without it the answer is wrong.
 #[test]
 fn a_turn_odometry_made_up_is_found_by_the_near_look() {
-    use map::WallMap;
-    let map = WallMap::new(square_room_with_bay());
-    let model = Arc::new(MapModel::new(map.clone(), &MapCornerConfig::default()));
+    let map = map::WallMap::new(square_room_with_bay());
     for near_look in [true, false] {
-        let localizer = Localizer::new(Arc::clone(&model), LocalizerConfig::default());
         let mut config = SequentialConfig::default();
         if !near_look {
             config.near_look_jump = -1.0;
         }
-        let mut sequential = Sequential::new(localizer, config);
-        let mut sim = Simulator::new(&map, SensorModel::urg04lx(), Scenario::Clean, 5);
-        let mut segmenter = LineVisibilitySegmenter::new(SegmenterConfig::default());
-        let mut locate = |sequential: &mut Sequential, truth: &Pose, odometry: Pose| {
-            let scan = sim.scan_at(truth, &Obstacles::default());
-            let seg = segmenter.segment(&scan.view());
-            sequential.locate(&scan.view(), seg, Some(odometry))
-        };
+        let mut rig = Rig::on(&map, 5, config);
         let start = pose(3.0, 3.0, -0.3);
         let mut sure = false;
         for k in 0..6 {
             let truth = start * pose(0.0, 0.0, 0.1 * k as f64);
-            let a = locate(&mut sequential, &truth, truth);
+            let a = rig.locate(&truth, Some(truth));
             sure = a.status == Status::Ok && right(&a, &truth);
         }
         assert!(sure, "not sure of the pose before the slip");
         let truth = start * pose(0.0, 0.0, 0.6);
         let odometry = truth * pose(0.0, 0.0, std::f64::consts::FRAC_PI_2);
-        let a = locate(&mut sequential, &truth, odometry);
+        let a = rig.locate(&truth, Some(odometry));
         assert_eq!(right(&a, &truth), near_look, "near look {near_look}: {a:?} for {truth:?}");
     }
 }
