@@ -120,9 +120,9 @@ pub struct SequentialConfig {
     /// screened across the gate (`position_step` apart, at most `along_look_most` either way,
     /// 3 headings) and the best refined. A pose that costs `along_look_margin` per beam less by
     /// eq. 7 (in a corridor with nothing along it, eq. 7 is flat and odometry's pose is as good
-    /// as any) is kept as the track's `shadow`; found so again on the next scan, within the
-    /// gate of where odometry moved the shadow, it replaces the window's pose. Negative
-    /// margin: no look along.
+    /// as any) is kept as the track's `shadow`; found so again on the next scan, within
+    /// `gate_position` and one spread of where odometry moved the shadow, it replaces the
+    /// window's pose. Negative margin: no look along.
     pub along_look_margin: f64,
     pub along_look_jump: f64,
     pub along_look_most: i32,
@@ -206,8 +206,9 @@ pub struct Track {
     pub late: bool,
     /// Whether this scan's second look moved it ([`SequentialConfig::second_look_jump`]).
     pub relooked: bool,
-    /// A pose the look along found for it on the last scan ([`Sequential::look_along`]), to
-    /// be weighed against it again on this one.
+    /// A pose the look along or the near look found for it on the last scan
+    /// ([`Sequential::look_along`], [`Sequential::look_near`]), to be weighed against it again
+    /// on this one.
     pub shadow: Option<Pose>,
 }
 
@@ -381,6 +382,8 @@ impl Sequential {
         // per track: where odometry puts it, and the best pose found about there
         let mut found = Vec::with_capacity(self.tracks.len());
         let mut shadow = None;
+        // the near look's cascade about the best track's prediction, when it ran
+        let mut cascade = None;
         for n in 0..self.tracks.len() {
             let predicted = self.tracks[n].pose * delta;
             let c = predicted.translation.vector;
@@ -393,6 +396,8 @@ impl Sequential {
                 let (before, earlier) = (track.cost.value, track.shadow.map(|p| p * delta));
                 let pending = earlier.is_some();
                 let near = self.look_near(scan, seg, (&predicted, gate, gate_heading), before, pending);
+                cascade = near.map(|(found, _)| found);
+                let near = near.and_then(|(_, cheaper)| cheaper);
                 let along = if cfg.along_look_margin >= 0.0 {
                     self.look_along(scan, seg, gate, (before, window_short, pending), &mut starts)
                 } else {
@@ -460,16 +465,11 @@ impl Sequential {
             return false;
         };
         if best.misses > 0 {
-            let centre = nalgebra::Point2::from(predicted.translation.vector);
-            let loc = self.localizer.locate_near(scan, seg, centre, gate);
+            let found = cascade
+                .unwrap_or_else(|| cascade_near(&mut self.localizer, scan, seg, &predicted, (gate, gate_heading)));
             // only a pose with no rival within the spread: a twin there is no track
-            let near = loc.hypotheses.iter().take(1).find(|h| {
-                loc.status == Status::Ok
-                    && h.cost.inliers >= min_inliers
-                    && angle_diff(pose_theta(&h.pose), pose_theta(&predicted)).abs() <= gate_heading
-            });
-            if let Some(h) = near {
-                (best.pose, best.cost) = (h.pose, h.cost);
+            if let Some((pose, cost, _)) = found.filter(|&(_, cost, sure)| sure && cost.inliers >= min_inliers) {
+                (best.pose, best.cost) = (pose, cost);
                 best.scans += 1;
                 best.misses = 0;
             }
@@ -524,9 +524,8 @@ impl Sequential {
     /// does not go by the screen, and costs a track only when its window's pose explains the
     /// scan much worse than the track explained its last.
     ///
-    /// Returns the cascade's best pose within the gate's heading when it costs less than the
-    /// window's, and whether the cascade was sure of it (`ok` within the gate: no distinct
-    /// rival near it); `self.scored` is left as it was.
+    /// Returns, when it looked, what the cascade found ([`cascade_near`]), and that pose again
+    /// when it costs less than the window's; `self.scored` is left as it was.
     fn look_near(
         &mut self,
         scan: &ScanView<'_>,
@@ -534,22 +533,14 @@ impl Sequential {
         (predicted, gate, gate_heading): (&Pose, f64, f64),
         before: f64,
         pending: bool,
-    ) -> Option<(Pose, Cost, bool)> {
+    ) -> Option<(Found, Found)> {
         let cfg = self.config;
         let &(_, first_cost) = self.scored.first()?;
         if cfg.near_look_jump < 0.0 || (first_cost.value <= before + cfg.near_look_jump && !pending) {
             return None;
         }
-        let centre = nalgebra::Point2::from(predicted.translation.vector);
-        let heading = pose_theta(predicted);
-        let loc = self.localizer.locate_near(scan, seg, centre, gate);
-        let ok = loc.status == Status::Ok;
-        loc.hypotheses
-            .iter()
-            .enumerate()
-            .find(|(_, h)| angle_diff(pose_theta(&h.pose), heading).abs() <= gate_heading)
-            .filter(|(_, h)| h.cost.value < first_cost.value)
-            .map(|(k, h)| (h.pose, h.cost, ok && k == 0))
+        let found = cascade_near(&mut self.localizer, scan, seg, predicted, (gate, gate_heading));
+        Some((found, found.filter(|(_, cost, _)| cost.value < first_cost.value)))
     }
 
     /// The look along for the best track ([`SequentialConfig::along_look_margin`]), after its
@@ -788,6 +779,30 @@ impl Sequential {
             (a.pose, a.cost, a.scans) = (Some(t.pose), Some(t.cost), t.scans);
         }
     }
+}
+
+/// What [`cascade_near`] found: a pose, its cost, and whether the cascade was sure of it.
+type Found = Option<(Pose, Cost, bool)>;
+
+/// The single-scan cascade kept to `gate` about the `predicted` pose: its best pose within
+/// `gate_heading` of the prediction, with its cost and whether the cascade was sure of it (`ok`
+/// within the gate, and that pose its best: no distinct rival near it).
+fn cascade_near(
+    localizer: &mut Localizer,
+    scan: &ScanView<'_>,
+    seg: &Segmentation,
+    predicted: &Pose,
+    (gate, gate_heading): (f64, f64),
+) -> Found {
+    let centre = nalgebra::Point2::from(predicted.translation.vector);
+    let heading = pose_theta(predicted);
+    let loc = localizer.locate_near(scan, seg, centre, gate);
+    let ok = loc.status == Status::Ok;
+    loc.hypotheses
+        .iter()
+        .enumerate()
+        .find(|(_, h)| angle_diff(pose_theta(&h.pose), heading).abs() <= gate_heading)
+        .map(|(k, h)| (h.pose, h.cost, ok && k == 0))
 }
 
 /// `refined` moved towards `predicted` along the unit direction `along` by their information
