@@ -9,7 +9,7 @@ use clap::Args;
 use laser::motion::OdometryNoise;
 use laser::rng::Rng;
 use laser::{LaserScan, Pose};
-use localize::{Gema2, Gema2Config, MapModel, Sequential, SequentialAnswer, SequentialConfig, Status};
+use localize::{Gema2, Gema2Config, MapModel, Sequential, SequentialAnswer, Status};
 use segment::Segmenter;
 use std::sync::Arc;
 use std::time::Instant;
@@ -116,7 +116,7 @@ impl SeqRun {
     /// its [`Gema2`], with a cold start every `restart_every` located scans.
     pub fn new(model: Arc<MapModel>, config: &Gema2Config, restart_every: Option<usize>) -> Self {
         let Gema2 { segmenter, localizer } = Gema2::new(model, config.segmenter, config.localizer);
-        let sequential = Sequential::new(localizer, SequentialConfig::default());
+        let sequential = Sequential::new(localizer, config.sequential);
         SeqRun { segmenter, sequential, restart_every, located: 0, outcomes: Vec::new() }
     }
 
@@ -300,5 +300,23 @@ impl Kidnap {
             }
         }
         k
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `--set`'s sequential keys (the odometry's alphas) reach the localizer a run makes.
+    #[test]
+    fn a_run_s_localizer_takes_the_configured_motion_model() {
+        let walls = map::bundled("apartment").expect("a readable bundled map").expect("a bundled apartment");
+        let model = Arc::new(MapModel::new(walls, &map::MapCornerConfig::default()));
+        let mut config = Gema2Config::default();
+        config.apply(&["odom_alpha1=0.3", "odom_alpha4=0.07"]).expect("known keys");
+        let run = SeqRun::new(model, &config, None);
+        assert_eq!(run.sequential.config, config.sequential);
+        assert_eq!(run.sequential.config.motion.alphas[0], 0.3);
+        assert_eq!(run.sequential.config.motion.alphas[3], 0.07);
     }
 }

@@ -3,6 +3,7 @@
 
 use crate::localizer::{Localization, Localizer, LocalizerConfig};
 use crate::model::MapModel;
+use crate::sequential::SequentialConfig;
 use laser::ScanView;
 use map::MapCornerConfig;
 use segment::{LineVisibilitySegmenter, Segmentation, Segmenter, SegmenterConfig};
@@ -16,6 +17,9 @@ pub struct Gema2Config {
     pub localizer: LocalizerConfig,
     /// Map corners, which the localizer matches scan corners against.
     pub map_corners: MapCornerConfig,
+    /// The sequential localizer's (`gema2 locate --sequential`, the stage's `--impl
+    /// sequential`): chiefly how far the robot's odometry may be off.
+    pub sequential: SequentialConfig,
 }
 
 pub struct Gema2 {

@@ -66,10 +66,7 @@ impl Engine {
         if !sequential {
             return Engine::Single(Box::new(localizer));
         }
-        Engine::Sequential(Box::new((
-            crate::Sequential::new(localizer, crate::SequentialConfig::default()),
-            Localization::none(),
-        )))
+        Engine::Sequential(Box::new((crate::Sequential::new(localizer, config.sequential), Localization::none())))
     }
 
     fn set_model(&mut self, model: Arc<MapModel>) {

@@ -3,6 +3,7 @@
 
 use crate::gema2::Gema2Config;
 use crate::localizer::LocalizerConfig;
+use crate::sequential::SequentialConfig;
 use crate::CostKind;
 use map::MapCornerConfig;
 use segment::setting;
@@ -20,6 +21,9 @@ pub struct SettingRow {
     pub range: &'static str,
     pub meaning: &'static str,
 }
+
+/// The stage of the sequential localizer's keys as `gema2 settings` groups them.
+const SEQUENTIAL: &str = "localize, sequential (--sequential, --impl sequential)";
 
 impl LocalizerConfig {
     /// Every localization parameter settable by name.
@@ -481,6 +485,30 @@ impl LocalizerConfig {
     }
 }
 
+/// One alpha of the sequential localizer's odometry motion model, by its index.
+macro_rules! odometry_alpha {
+    ($key:literal, $k:literal, $meaning:literal) => {
+        SettingSpec::<SequentialConfig> {
+            key: $key,
+            range: Range::NonNegative,
+            meaning: $meaning,
+            get: |c| c.motion.alphas[$k],
+            put: |c, v| c.motion.alphas[$k] = v,
+        }
+    };
+}
+
+impl SequentialConfig {
+    /// The sequential localizer's parameters settable by name: the odometry motion model, as
+    /// AMCL's `alpha1`-`alpha4` (variances per squared radian or metre of the motion).
+    pub const SETTINGS: &'static [SettingSpec<SequentialConfig>] = &[
+        odometry_alpha!("odom_alpha1", 0, "odometry: a turn's error from turning (AMCL's alpha1)"),
+        odometry_alpha!("odom_alpha2", 1, "odometry: a turn's error from driving (AMCL's alpha2)"),
+        odometry_alpha!("odom_alpha3", 2, "odometry: a drive's error from driving (AMCL's alpha3)"),
+        odometry_alpha!("odom_alpha4", 3, "odometry: a drive's error from turning (AMCL's alpha4)"),
+    ];
+}
+
 impl Gema2Config {
     /// The map-corner parameters settable by name (the corners the localizer matches).
     pub const MAP_SETTINGS: &'static [SettingSpec<MapCornerConfig>] = &[
@@ -534,7 +562,8 @@ impl Gema2Config {
     pub fn keys() -> impl Iterator<Item = &'static str> + Clone {
         let segment = SegmenterConfig::SETTINGS.iter().map(|s| s.key);
         let localize = LocalizerConfig::SETTINGS.iter().map(|s| s.key);
-        segment.chain(localize).chain(Self::MAP_SETTINGS.iter().map(|s| s.key))
+        let sequential = SequentialConfig::SETTINGS.iter().map(|s| s.key);
+        segment.chain(localize).chain(Self::MAP_SETTINGS.iter().map(|s| s.key)).chain(sequential)
     }
 
     /// Every key with its value in `self`, its range and meaning, grouped by stage; a key
@@ -560,8 +589,17 @@ impl Gema2Config {
                 rows.push(SettingRow { stage: "localize", key, default, range: range.describe(), meaning });
             }
         }
+        rows.extend(SequentialConfig::SETTINGS.iter().map(|s| SettingRow {
+            stage: SEQUENTIAL,
+            key: s.key,
+            default: s.shown(&self.sequential),
+            range: s.range.describe(),
+            meaning: s.meaning,
+        }));
         // one group per stage: a shared key between the two stages' own
-        rows.sort_by_key(|r| ["segment", "segment, localize", "localize"].iter().position(|&s| s == r.stage));
+        rows.sort_by_key(|r| {
+            ["segment", "segment, localize", "localize", SEQUENTIAL].iter().position(|&s| s == r.stage)
+        });
         rows
     }
 
@@ -571,6 +609,7 @@ impl Gema2Config {
         let mut known = self.segmenter.set(s)?;
         known |= self.localizer.set(s)?;
         known |= set_by_table(Self::MAP_SETTINGS, &mut self.map_corners, s)?;
+        known |= set_by_table(SequentialConfig::SETTINGS, &mut self.sequential, s)?;
         match known {
             true => Ok(()),
             false => Err(SettingError::unknown(s.key, Self::keys())),
@@ -607,6 +646,23 @@ mod tests {
         c.apply(&["reach=0.7", "long_line=0.9"]).unwrap();
         assert_eq!((c.segmenter.corner.reach, c.map_corners.short_reach), (0.7, 0.7));
         assert_eq!((c.segmenter.corner.long_line, c.map_corners.long_wall), (0.9, 0.9));
+    }
+
+    /// The odometry's alphas, named as AMCL names them, set the sequential localizer's motion
+    /// model and nothing else; a negative one is refused.
+    #[test]
+    fn the_odometry_alphas_set_the_sequential_localizer_s_motion_model() {
+        let plain = Gema2Config::default();
+        let mut c = plain;
+        c.apply(&["odom_alpha1=0.2", "odom_alpha2=0.03", "odom_alpha3=0.4", "odom_alpha4=0.05"]).unwrap();
+        assert_eq!(c.sequential.motion.alphas, [0.2, 0.03, 0.4, 0.05]);
+        assert_eq!(c.sequential, SequentialConfig { motion: c.sequential.motion, ..plain.sequential });
+        assert_eq!(format!("{:?}", (c.segmenter, c.localizer)), format!("{:?}", (plain.segmenter, plain.localizer)));
+        let err = c.apply(&["odom_alpha1=0.1", "odom_alpha3=-0.1"]).unwrap_err();
+        assert!(matches!(err, SettingError::OutOfRange { .. }) && err.to_string().contains("odom_alpha3"), "{err}");
+        assert_eq!(c.sequential.motion.alphas, [0.2, 0.03, 0.4, 0.05]);
+        let row = plain.rows().into_iter().find(|r| r.key == "odom_alpha2").unwrap();
+        assert_eq!((row.stage, row.default.as_str()), (SEQUENTIAL, "0.02"));
     }
 
     #[test]

@@ -300,14 +300,15 @@ mod tests {
     /// arguments; a bad key is refused naming the file.
     #[test]
     fn the_pipeline_s_settings_go_to_every_stage_that_takes_them() {
-        let text = "settings = [\"error_constant=0.05\", \"screened=100\", \"map_reach=3\"]\n\
+        let text = "settings = [\"error_constant=0.05\", \"screened=100\", \"map_reach=3\", \"odom_alpha1=0.2\"]\n\
                     [[stage]]\nname = \"s\"\nkind = \"segment\"\nargs = [\"--impl\", \"x\"]\n\
                     [[stage]]\nname = \"l\"\nkind = \"localize\"\n\
                     [[stage]]\nname = \"a\"\nkind = \"acquire\"\n\
                     [[stage]]\nname = \"m\"\nkind = \"mapserver\"\n";
         let p = Pipeline::parse(text, Path::new("p.toml")).unwrap();
         assert_eq!(p.stages[0].args, ["--impl", "x", "--set", "error_constant=0.05"]);
-        assert_eq!(p.stages[1].args, ["--set", "error_constant=0.05", "--set", "screened=100", "--set", "map_reach=3"]);
+        let localize = ["error_constant=0.05", "screened=100", "map_reach=3", "odom_alpha1=0.2"];
+        assert_eq!(p.stages[1].args, localize.iter().flat_map(|kv| ["--set", kv]).collect::<Vec<_>>());
         assert!(p.stages[2].args.is_empty());
         // the model is built with the localizer's corner settings
         assert_eq!(p.stages[3].args, ["--set", "map_reach=3"]);
