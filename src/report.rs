@@ -22,9 +22,15 @@ pub fn csv_row(
     candidates: usize,
     scans: u32,
 ) -> String {
+    // a pose with no cost of its own (where odometry put a track that missed the scan) leaves
+    // the cost's fields empty
+    let known = |v: f64, decimals: usize| if v.is_finite() { format!("{v:.decimals$}") } else { String::new() };
     match best {
         Some((x, y, t, c, i, th)) => format!(
-            "{scan},{x:.4},{y:.4},{t:.5},{c:.4},{status},{micros:.1},{hypotheses},{candidates},{i:.3},{th:.3},{scans}"
+            "{scan},{x:.4},{y:.4},{t:.5},{},{status},{micros:.1},{hypotheses},{candidates},{},{},{scans}",
+            known(c, 4),
+            known(i, 3),
+            known(th, 3)
         ),
         None => format!("{scan},,,,,failed,{micros:.1},{hypotheses},{candidates},,,0"),
     }
@@ -220,6 +226,18 @@ impl Summary {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A pose without a cost of its own (a track that missed the scan, where odometry put it)
+    /// keeps its pose and status; only the cost's fields are empty. No answer is `failed`.
+    #[test]
+    fn a_row_without_a_cost_keeps_its_pose() {
+        let row = csv_row(17, Some((1.5, -2.0, 0.25, f64::INFINITY, f64::NAN, f64::NAN)), "ambiguous", 8.0, 7, 0, 9);
+        assert_eq!(row, "17,1.5000,-2.0000,0.25000,,ambiguous,8.0,7,0,,,9");
+        assert_eq!(row.split(',').count(), CSV_HEADER.split(',').count());
+        let row = csv_row(3, Some((1.0, 2.0, 0.5, 0.75, 0.9, 0.01)), "ok", 100.0, 1, 2, 1);
+        assert_eq!(row, "3,1.0000,2.0000,0.50000,0.7500,ok,100.0,1,2,0.900,0.010,1");
+        assert_eq!(csv_row(4, None, "ambiguous", 1.0, 0, 0, 0), "4,,,,,failed,1.0,0,0,,,0");
+    }
 
     /// No scan, no success, no `ok`: the summary says so instead of printing NaN or a 0 that
     /// reads as a measurement.

@@ -95,12 +95,7 @@ impl Engine {
                 let answer = s.locate_with_lines(view, seg, lines, odometry);
                 out.status = answer.status;
                 out.hypotheses.clear();
-                out.hypotheses.extend(s.tracks().iter().map(|t| crate::Hypothesis {
-                    pose: t.pose,
-                    cost: t.cost,
-                    scan_corner: 0,
-                    map_corner: 0,
-                }));
+                out.hypotheses.extend(s.hypotheses(&answer));
                 (out, answer.scans)
             }
         }

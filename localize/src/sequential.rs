@@ -225,6 +225,9 @@ pub struct SequentialAnswer {
     pub global: bool,
     /// Tracks held after the scan.
     pub tracks: usize,
+    /// Which of [`Sequential::tracks`] the answer is: the best, or a younger one the scan's own
+    /// search was `ok` on; none when `failed`.
+    pub track: Option<usize>,
 }
 
 /// The sequential localizer over a single-scan [`Localizer`].
@@ -268,6 +271,21 @@ impl Sequential {
 
     pub fn tracks(&self) -> &[Track] {
         &self.tracks
+    }
+
+    /// The tracks as hypotheses, `answer`'s first (it need not be the best track: see
+    /// [`SequentialAnswer::track`]), then the rest best first: what a pipeline publishes, whose
+    /// readers take the first hypothesis as the answer. A track that missed the scan stands
+    /// where odometry put it, at an infinite cost.
+    pub fn hypotheses<'a>(&'a self, answer: &SequentialAnswer) -> impl Iterator<Item = crate::Hypothesis> + 'a {
+        let first = answer.track.filter(|&k| k < self.tracks.len());
+        let rest = (0..self.tracks.len()).filter(move |&k| Some(k) != first);
+        first.into_iter().chain(rest).map(|k| crate::Hypothesis {
+            pose: self.tracks[k].pose,
+            cost: self.tracks[k].cost,
+            scan_corner: 0,
+            map_corner: 0,
+        })
     }
 
     /// Locates one scan, whose odometry pose (any frame, the robot's or the sensor's: only the
@@ -715,17 +733,18 @@ impl Sequential {
             scans: 0,
             global: false,
             tracks: self.tracks.len(),
+            track: None,
         };
         let cfg = self.localizer.config;
         let Some(&best) = self.tracks.first().filter(|t| t.misses == 0) else {
             // the best track missed the scan (a kidnapped robot's old place, while its track
             // lives out its misses)
             let Some(first) = self.tracks.first() else { return a };
-            (a.status, a.pose) = (Status::Ambiguous, Some(first.pose));
+            (a.status, a.pose, a.scans, a.track) = (Status::Ambiguous, Some(first.pose), first.scans, Some(0));
             self.answer_single_ok(scan, single, &mut a);
             return a;
         };
-        (a.pose, a.cost, a.scans) = (Some(best.pose), Some(best.cost), best.scans);
+        (a.pose, a.cost, a.scans, a.track) = (Some(best.pose), Some(best.cost), best.scans, Some(0));
         let leads = self.lead() >= self.config.margin;
         // a track that turned up while others were held has not been through their scans: it
         // must outlive them for a while; one of a cold start, as its own search judged it, or
@@ -764,19 +783,20 @@ impl Sequential {
     fn answer_single_ok(&mut self, scan: &ScanView<'_>, single: Option<(Status, Pose, f64)>, a: &mut SequentialAnswer) {
         let Some((Status::Ok, p, _)) = single else { return };
         let cfg = self.localizer.config;
-        let Some(&t) = self
+        let Some(k) = self
             .tracks
             .iter()
-            .find(|t| t.misses == 0 && same_pose(&t.pose, &p, cfg.distinct_position, cfg.distinct_heading))
+            .position(|t| t.misses == 0 && same_pose(&t.pose, &p, cfg.distinct_position, cfg.distinct_heading))
         else {
             return;
         };
+        let t = self.tracks[k];
         if self.meets_ok_bar(scan, &t) {
-            (a.pose, a.cost, a.scans, a.status) = (Some(t.pose), Some(t.cost), t.scans, Status::Ok);
+            (a.pose, a.cost, a.scans, a.status, a.track) = (Some(t.pose), Some(t.cost), t.scans, Status::Ok, Some(k));
         } else if a.cost.is_none() {
             // the best track missed: the place the scan is sure of, rather than where odometry
             // put the best
-            (a.pose, a.cost, a.scans) = (Some(t.pose), Some(t.cost), t.scans);
+            (a.pose, a.cost, a.scans, a.track) = (Some(t.pose), Some(t.cost), t.scans, Some(k));
         }
     }
 }

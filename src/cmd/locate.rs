@@ -223,11 +223,12 @@ impl CsvOut {
     /// Scan `index`'s row of a sequential run.
     fn sequential_row(&mut self, index: usize, o: &crate::sequential::SeqOutcome) -> Result<()> {
         let a = &o.answer;
+        // a best track that missed the scan answers where odometry put it, with no cost
+        let cost = a.cost.map_or((f64::NAN, f64::NAN, f64::NAN), |c| (c.value, c.inliers, c.through));
         let fields = a
             .pose
-            .zip(a.cost)
             .filter(|_| a.status != Status::Failed)
-            .map(|(p, c)| (p.translation.x, p.translation.y, laser::pose_theta(&p), c.value, c.inliers, c.through));
+            .map(|p| (p.translation.x, p.translation.y, laser::pose_theta(&p), cost.0, cost.1, cost.2));
         let row = crate::report::csv_row(index, fields, a.status.as_str(), o.outcome.micros, a.tracks, 0, a.scans);
         writeln!(self.0, "{row}")?;
         Ok(())
