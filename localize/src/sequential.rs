@@ -314,6 +314,9 @@ impl Sequential {
         seg: &Segmentation,
         odometry: Option<Pose>,
     ) -> SequentialAnswer {
+        // a reading that is not a number is no reading
+        let odometry =
+            odometry.filter(|p| p.translation.vector.iter().all(|v| v.is_finite()) && p.rotation.angle().is_finite());
         let moved = match (self.last_odometry, odometry) {
             (Some(a), Some(b)) => Some((motion(&a, &b), a, b)),
             _ => None,

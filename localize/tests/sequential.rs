@@ -152,6 +152,29 @@ fn without_odometry_every_scan_is_located_from_scratch() {
     }
 }
 
+/// An odometry reading that is not a number (a driver's glitch) is no reading: the run
+/// answers exactly as it would with none on that scan (located from scratch, nothing carried
+/// over), and tracks again after.
+#[test]
+fn an_odometry_reading_that_is_not_a_number_is_taken_as_none() {
+    let run = |glitch: Option<Pose>| {
+        let mut rig = Rig::new("apartment", 3);
+        let start = rig.sim.random_pose();
+        let truth = |k: usize| start * pose(0.0, 0.0, 0.2 * k as f64);
+        let answers: Vec<_> = (0..16)
+            .map(|k| {
+                let a = rig.locate(&truth(k), if k == 8 { glitch } else { Some(truth(k)) });
+                (format!("{a:?}"), !a.global && right(&a, &truth(k)))
+            })
+            .collect();
+        answers
+    };
+    let (none, nan) = (run(None), run(Some(pose(f64::NAN, 0.0, 0.0))));
+    assert_eq!(none, nan);
+    let tracked_after = nan[9..].iter().filter(|(_, tracked_right)| *tracked_right).count();
+    assert!(tracked_after >= 4, "tracked {tracked_after} of the 7 scans after the glitch");
+}
+
 /// Tracking screens hundreds of starts about where odometry puts the robot (on a few points,
 /// then the best few of them on every point) and refines the best: with furniture in view, a
 /// truth between the starts and well off the prediction is the answer.
