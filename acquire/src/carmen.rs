@@ -1,5 +1,5 @@
 //! CARMEN text logs (the format of the public Radish data sets): `ROBOTLASER1` and `FLASER`
-//! lines become scans, with odometry; every other line (PARAM, comments...) is skipped. Files ending in
+//! lines become scans, with odometry, and `RAWLASER1` lines in a log without those; every other line (PARAM, comments...) is skipped. Files ending in
 //! `.gz` are decompressed on the fly. A malformed laser line is an error naming the file and
 //! line; nothing is guessed.
 //!
@@ -12,6 +12,11 @@
 //! `FLASER n r1..rn x y theta odom_x odom_y odom_theta timestamp host logger_timestamp`: a 180
 //! degree scan from -pi/2, step pi/(n-1) for n in {181, 361}, pi/n for n in {180, 360}
 //! (overridable with [`FlaserLayout`]).
+//!
+//! `RAWLASER1 laser_type start_angle fov angular_resolution max_range accuracy remission_mode n
+//! r1..rn m rem1..remm timestamp host logger_timestamp`: a raw log's scan, with no pose, so no
+//! truth. Read only in a log whose first [`RAW_LOOKAHEAD`] laser lines hold no ROBOTLASER1 or
+//! FLASER line: a log with both writes each scan twice, once with its poses.
 //!
 //! Odometry: a FLASER line's `odom_*` fields, a ROBOTLASER1 line's robot pose; and when the log
 //! has `ODOM x y theta tv rv accel timestamp host logger_timestamp` lines, those, interpolated
@@ -167,6 +172,11 @@ pub struct LogScan {
     pub odometry: Option<Pose>,
 }
 
+/// How many laser lines (RAWLASER1, ROBOTLASER1, FLASER) from a log's start decide whether its
+/// RAWLASER1 lines are its scans; and the most bytes read ahead to find them.
+pub const RAW_LOOKAHEAD: usize = 200;
+const RAW_LOOKAHEAD_BYTES: usize = 32 << 20;
+
 /// How far past the last ODOM line a scan may lie and still wait for the next one, seconds;
 /// and the most scans that wait.
 const ODOM_WAIT: f64 = 1.0;
@@ -186,6 +196,8 @@ pub struct CarmenReader {
     /// them (`true`), and whatever follows a waiting scan waits behind it.
     pending: std::collections::VecDeque<(Result<LogScan, LogError>, bool)>,
     ended: bool,
+    /// Whether RAWLASER1 lines are scans; `None` until the look ahead decides.
+    raw_scans: Option<bool>,
 }
 
 impl CarmenReader {
@@ -206,6 +218,7 @@ impl CarmenReader {
             odom: None,
             pending: std::collections::VecDeque::new(),
             ended: false,
+            raw_scans: None,
         }
     }
 
@@ -215,9 +228,40 @@ impl CarmenReader {
 }
 
 impl CarmenReader {
+    /// Reads ahead up to [`RAW_LOOKAHEAD`] laser lines and decides whether RAWLASER1 lines are
+    /// scans (none of those lines carries poses); what it read is then read again as usual.
+    fn look_ahead(&mut self) -> Result<bool, LogError> {
+        let mut ahead = Vec::new();
+        let (mut lasers, mut posed) = (0, false);
+        while lasers < RAW_LOOKAHEAD && !posed && ahead.len() < RAW_LOOKAHEAD_BYTES {
+            let start = ahead.len();
+            match self.reader.read_until(b'\n', &mut ahead) {
+                Ok(0) => break,
+                Ok(_) => {}
+                Err(cause) => return Err(LogError::Io { path: self.path.clone(), cause }),
+            }
+            let keyword = ahead[start..].split(|b| b.is_ascii_whitespace()).next().unwrap_or_default();
+            posed = keyword == b"ROBOTLASER1" || keyword == b"FLASER";
+            lasers += usize::from(posed || keyword == b"RAWLASER1");
+        }
+        let rest = std::mem::replace(&mut self.reader, Box::new(std::io::empty()));
+        self.reader = Box::new(std::io::Cursor::new(ahead).chain(rest));
+        Ok(!posed)
+    }
+
     /// The next item as the file has it, ODOM lines taken in ([`Self::take_odom`]); `None` at
     /// the end.
     fn read(&mut self) -> Option<Result<LogScan, LogError>> {
+        let raw_scans = match self.raw_scans {
+            Some(raw) => raw,
+            None => match self.look_ahead() {
+                Ok(raw) => *self.raw_scans.insert(raw),
+                Err(e) => {
+                    self.raw_scans = Some(false);
+                    return Some(Err(e));
+                }
+            },
+        };
         loop {
             if let Err(e) = next_line(&mut self.reader, &mut self.buf, &mut self.line, &self.path)? {
                 return Some(Err(e));
@@ -230,6 +274,7 @@ impl CarmenReader {
             let parsed = match tokens.next() {
                 Some("ROBOTLASER1") => parse_robotlaser1(&tokens.collect::<Vec<_>>()),
                 Some("FLASER") => parse_flaser(&tokens.collect::<Vec<_>>(), &self.layout),
+                Some("RAWLASER1") if raw_scans => parse_rawlaser1(&tokens.collect::<Vec<_>>()),
                 Some("ODOM") => {
                     // not a scan: one that cannot be read leaves the scans around it their own
                     // odometry, and no item (items count laser lines)
@@ -365,18 +410,9 @@ fn parse_robotlaser1(t: &[&str]) -> Result<(LaserScan, Option<Pose>), String> {
     let m = count(t, base + 7 + n, "remission count")?;
     let p = base + 8 + n + m;
     let truth = finite_pose(num(t, p, "laser_x")?, num(t, p + 1, "laser_y")?, num(t, p + 2, "laser_theta")?)?;
-    // the resolution gives beam i's angle, start + i * resolution, as CARMEN reads it: negative
-    // for a laser that lists its beams clockwise (mounted upside down); 0 when not recorded
-    let increment = if res != 0.0 {
-        res
-    } else if n > 1 {
-        fov / (n - 1) as f64
-    } else {
-        0.0
-    };
     let geometry = ScanGeometry {
         angle_min: start,
-        angle_increment: increment,
+        angle_increment: beam_increment(res, fov, n),
         range_min: laser::MIN_VALID_RANGE,
         range_max: max_range,
     };
@@ -389,6 +425,44 @@ fn parse_robotlaser1(t: &[&str]) -> Result<(LaserScan, Option<Pose>), String> {
     let odometry =
         (|| finite_pose(num(t, p + 3, "robot_x")?, num(t, p + 4, "robot_y")?, num(t, p + 5, "robot_theta")?))().ok();
     Ok((LaserScan { geometry, ranges: r, stamp, truth: Some(truth) }, odometry))
+}
+
+/// A RAWLASER1 line's scan: no pose, so no truth and no odometry of its own.
+fn parse_rawlaser1(t: &[&str]) -> Result<(LaserScan, Option<Pose>), String> {
+    let n = count(t, 7, "RAWLASER1 reading count")?;
+    let m = count(t, 8 + n.min(t.len()), "RAWLASER1 remission count")?;
+    if [9, n, m].into_iter().try_fold(0usize, usize::checked_add).is_none_or(|need| t.len() < need) {
+        return Err("RAWLASER1: the reading and remission counts do not match the line's length".into());
+    }
+    let (start, fov, res, max_range) =
+        (num(t, 1, "start_angle")?, num(t, 2, "fov")?, num(t, 3, "angular_resolution")?, num(t, 4, "max_range")?);
+    let r = ranges(t, 8, n)?;
+    let geometry = ScanGeometry {
+        angle_min: start,
+        angle_increment: beam_increment(res, fov, n),
+        range_min: laser::MIN_VALID_RANGE,
+        range_max: max_range,
+    };
+    if !geometry.is_well_formed() {
+        return Err(format!(
+            "RAWLASER1: unusable scan layout (start {start}, resolution {res}, max range {max_range})"
+        ));
+    }
+    let stamp = t.get(9 + n + m).and_then(|s| s.parse::<f64>().ok()).unwrap_or(f64::NAN);
+    Ok((LaserScan { geometry, ranges: r, stamp, truth: None }, None))
+}
+
+/// Beam i's angle is start + i * the resolution, as CARMEN reads it: negative for a laser that
+/// lists its beams clockwise (mounted upside down); when not recorded (0), the field of view
+/// over the gaps between the beams.
+fn beam_increment(resolution: f64, fov: f64, n: usize) -> f64 {
+    if resolution != 0.0 {
+        resolution
+    } else if n > 1 {
+        fov / (n - 1) as f64
+    } else {
+        0.0
+    }
 }
 
 /// Whether the reading count at `k` and the remission count after the readings leave room for
@@ -598,6 +672,54 @@ mod tests {
         assert_eq!(odometry_of(&items[4]), (9.0, 9.0, 0.0));
     }
 
+    /// A RAWLASER1 line of three readings at `stamp`, one remission.
+    fn rawlaser1_at(stamp: f64) -> String {
+        format!("RAWLASER1 0 -1.5 3.0 1.5 30 0.01 0 3 1 2 3 1 100 {stamp} h {stamp}\n")
+    }
+
+    /// A raw log's RAWLASER1 lines are its scans: their layout as written, no truth, and the
+    /// ODOM lines' odometry at their time.
+    #[test]
+    fn a_raw_log_s_rawlaser1_lines_are_its_scans_with_the_odom_lines_odometry() {
+        let text = ["PARAM robot_width 0.5\n".to_string(), "ODOM 0 0 0 0 0 0 10.0 h 10.0\n".into(), rawlaser1_at(10.5)]
+            .into_iter()
+            .chain(["ODOM 2 0 0.4 0 0 0 11.0 h 11.0\n".into(), rawlaser1_at(11.5)])
+            .collect::<String>();
+        let items = read(&text);
+        assert_eq!(items.len(), 2);
+        let first = items[0].as_ref().expect("a scan");
+        assert_eq!((first.line, first.scan.ranges.as_slice(), first.scan.truth), (3, &[1.0f32, 2.0, 3.0][..], None));
+        let g = first.scan.geometry;
+        assert_eq!((g.angle_min, g.angle_increment, g.range_max, first.scan.stamp), (-1.5, 1.5, 30.0, 10.5));
+        let half = odometry_of(&items[0]);
+        assert!((half.0 - 1.0).abs() < 1e-9 && (half.2 - 0.2).abs() < 1e-9, "{half:?}");
+        // after the last ODOM line a raw scan has no odometry of its own
+        assert_eq!(items[1].as_ref().expect("a scan").odometry, None);
+        // malformed: the line is named and the next one read
+        let bad = read(&["RAWLASER1 0 -1.5 3.0 1.5 30 0.01 0 5 1 2\n".to_string(), rawlaser1_at(1.0)].concat());
+        let err = bad[0].as_ref().unwrap_err().to_string();
+        assert!(err.starts_with("t.log:1: ") && err.contains("RAWLASER1"), "{err}");
+        assert!(bad[1].is_ok());
+        let unusable = read("RAWLASER1 0 -1.5 3.0 0 30 0.01 0 1 1 0 1.0 h 1.0\n").remove(0).unwrap_err().to_string();
+        assert!(unusable.starts_with("t.log:1: RAWLASER1: unusable scan layout"), "{unusable}");
+    }
+
+    /// A log that writes each scan twice, raw and with its poses, gives each once: the posed
+    /// lines, whichever comes first.
+    #[test]
+    fn a_log_with_posed_laser_lines_reads_no_raw_ones() {
+        let robotlaser = |stamp: f64| {
+            format!("ROBOTLASER1 0 -1.5 3.0 1.5 30 0.01 0 3 1 2 3 0 1 2 0.3 4 5 0.6 0 0 0 0 0 {stamp} h {stamp}\n")
+        };
+        let text = (0..3).map(|k| rawlaser1_at(k as f64) + &robotlaser(k as f64)).collect::<String>();
+        let items = read(&text);
+        assert_eq!(items.len(), 3);
+        assert!(items.iter().all(|i| i.as_ref().is_ok_and(|s| s.scan.truth.is_some() && s.line % 2 == 0)));
+        // past the look ahead, raw lines stay scans in a raw log
+        let long = (0..RAW_LOOKAHEAD + 5).map(|k| rawlaser1_at(k as f64)).collect::<String>();
+        assert_eq!(read(&long).len(), RAW_LOOKAHEAD + 5);
+    }
+
     /// Items count laser lines: an ODOM line that cannot be read is passed over.
     #[test]
     fn a_malformed_odom_line_is_passed_over() {
@@ -669,7 +791,7 @@ mod tests {
         #![proptest_config(ProptestConfig::with_cases(2000))]
         /// Any text: the reader never panics, and every line it reports is a real line.
         #[test]
-        fn arbitrary_text_never_panics(text in "(ROBOTLASER1|FLASER|ODOM| |[0-9]{1,3}|[0-9]{1,20}|18446744073709551615|18446744073709551616|-?[0-9]\\.[0-9]|nan|inf|x|\n){0,60}") {
+        fn arbitrary_text_never_panics(text in "(ROBOTLASER1|FLASER|RAWLASER1|ODOM| |[0-9]{1,3}|[0-9]{1,20}|18446744073709551615|18446744073709551616|-?[0-9]\\.[0-9]|nan|inf|x|\n){0,60}") {
             let lines = text.lines().count().max(1);
             for item in read(&text) {
                 match item {
