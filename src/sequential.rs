@@ -6,8 +6,7 @@
 use crate::report::{quantile, Outcome, SUCCESS_HEADING_DEG, SUCCESS_POSITION};
 use anyhow::{bail, Result};
 use clap::Args;
-use laser::motion::OdometryNoise;
-use laser::rng::Rng;
+use laser::motion::{DriftingOdometry, OdometryNoise};
 use laser::{LaserScan, Pose};
 use localize::{Gema2, Gema2Config, MapModel, Sequential, SequentialAnswer, Status};
 use segment::Segmenter;
@@ -53,43 +52,28 @@ impl SequentialArgs {
 
 /// `--odom-noise A1,A2,A3,A4` (of `locate`, `evaluate` and `sim`), checked.
 pub fn odometry_noise(alphas: &[f64]) -> Result<OdometryNoise> {
-    let alphas: [f64; 4] = match alphas {
-        [a1, a2, a3, a4] => [*a1, *a2, *a3, *a4],
-        _ => bail!("--odom-noise takes four alphas, A1,A2,A3,A4"),
-    };
-    if alphas.iter().any(|v| !v.is_finite() || *v < 0.0) {
-        bail!("--odom-noise: each alpha is a finite number, 0 or more (got {alphas:?})");
-    }
-    Ok(OdometryNoise::new(alphas))
+    OdometryNoise::from_alphas(alphas).map_err(|e| anyhow::anyhow!("--odom-noise: {e}"))
 }
 
 /// Where each located scan's odometry comes from: the log's, or drawn from the true motion.
 pub struct Odometry {
-    drawn: Option<(OdometryNoise, Rng)>,
-    /// The last scan's truth and drawn odometry.
-    last: Option<(Pose, Pose)>,
+    drawn: Option<DriftingOdometry>,
 }
 
 impl Odometry {
     pub fn new(noise: Option<OdometryNoise>, seed: u64) -> Self {
-        Odometry { drawn: noise.map(|n| (n, Rng::new(seed))), last: None }
+        Odometry { drawn: noise.map(|n| DriftingOdometry::new(n, seed)) }
     }
 
     /// The odometry of the next located scan: `logged` as the log gives it, or drawn from the
     /// motion between the last scan's truth and `truth`. A cut (`cut`: the robot was carried
     /// elsewhere) is no motion to the odometry.
     pub fn next(&mut self, logged: Option<Pose>, truth: Option<&Pose>, cut: bool) -> Result<Option<Pose>> {
-        let Some((noise, rng)) = self.drawn.as_mut() else { return Ok(logged) };
+        let Some(drawn) = self.drawn.as_mut() else { return Ok(logged) };
         let Some(truth) = truth else {
             bail!("--odom-noise draws odometry from the log's true poses, and a scan has none");
         };
-        let odom = match self.last {
-            None => *truth,
-            Some((_, odom)) if cut => odom,
-            Some((from, odom)) => noise.sample(&from, truth, &odom, rng),
-        };
-        self.last = Some((*truth, odom));
-        Ok(Some(odom))
+        Ok(Some(drawn.next(truth, cut)))
     }
 }
 

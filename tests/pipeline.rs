@@ -176,6 +176,43 @@ fn the_sequential_localizer_in_the_pipeline_answers_as_offline() {
     assert!(a.iter().any(|r| r[11].parse::<u32>().unwrap() > 3), "{a:?}");
 }
 
+/// The pipeline's simulator walking a robot with drifting odometry (`--step`, `--odom-noise`)
+/// gives the sequential localizer what `gema2 sim --trajectory` gives it offline: the same
+/// poses, and answers resting on many scans.
+#[test]
+fn the_pipeline_s_walking_simulator_drives_the_sequential_localizer_as_a_walked_log_does() {
+    let dir = tempfile::tempdir().unwrap();
+    let walk = ["--map", "office", "--scenario", "people", "--seed", "3", "--step", "0.2"];
+    let noise = ["--odom-noise", "0.05,0.01,0.05,0.01"];
+    let acquire: Vec<&str> = walk.iter().chain(&noise).chain(&["--rate", "max"]).copied().collect();
+    let text = std::fs::read_to_string(common::write_pipeline(dir.path(), "p.toml", "office", &acquire)).unwrap();
+    let pipeline = dir.path().join("walk.toml");
+    std::fs::write(&pipeline, common::with_stage_lines(&text, "localize", "implementation = \"sequential\"")).unwrap();
+    let (online, offline, log) = (dir.path().join("on.csv"), dir.path().join("off.csv"), dir.path().join("walk.log"));
+    run_to_csv(&pipeline, &prefix("walk"), 40, &online);
+    let log = log.to_str().unwrap();
+    let sim: Vec<&str> = ["sim"]
+        .iter()
+        .chain(&walk)
+        .chain(&noise)
+        .chain(&["--trajectory", "--scans", "40", "--out", log])
+        .copied()
+        .collect();
+    let out = gema2(&sim);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let out = gema2(&["locate", "--map", "office", "--log", log, "--sequential", "--out", offline.to_str().unwrap()]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let (a, b) = (rows(&online), rows(&offline));
+    assert_eq!((a.len(), b.len()), (40, 40));
+    for (x, y) in a.iter().zip(&b) {
+        // the log rounds each range to 0.1 mm: the pose and cost may differ in their last digit
+        let same = [0, 5, 11].iter().all(|&k| x[k] == y[k]);
+        let close = |k: usize| (x[k].parse::<f64>().unwrap() - y[k].parse::<f64>().unwrap()).abs() < 1e-3;
+        assert!(same && [1, 2, 3, 4].into_iter().all(close), "pipeline {x:?}\noffline  {y:?}");
+    }
+    assert!(a.iter().any(|r| r[11].parse::<u32>().unwrap() > 10), "{a:?}");
+}
+
 /// The README's main job: `gema2` with no arguments runs the pipeline of processes on the
 /// embedded default and reports each stage's and hop's latency, the success rate, and where to
 /// go next. The only test that uses the default prefix.

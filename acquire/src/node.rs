@@ -6,6 +6,7 @@
 use crate::{CarmenReader, Scenario, SensorModel, Simulator};
 use anyhow::{anyhow, Context, Result};
 use clap::Args;
+use laser::motion::{DriftingOdometry, OdometryNoise};
 use laser::{pose_theta, LaserScan};
 use messages::iceoryx2::prelude::*;
 use messages::{monotonic_ns, Header, Outlet, PoseMsgXyt, ScanMsg, Stage, Topic, MAX_BEAMS};
@@ -70,6 +71,14 @@ pub struct AcquireArgs {
     /// Simulator: seed of the path, the noise and the people.
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
+    /// Simulator: walk the robot through the free space about this many metres a scan (as
+    /// `gema2 sim --trajectory --step`), instead of drawing each scan's pose anew.
+    #[arg(long, value_parser = walk_step)]
+    pub step: Option<f64>,
+    /// Simulator, with --step: wheel odometry drawn from the walk by the odometry motion model
+    /// with these alphas (AMCL's alpha1..alpha4), so that it drifts; without, it is exact.
+    #[arg(long, value_name = "A1,A2,A3,A4", value_delimiter = ',', requires = "step")]
+    pub odom_noise: Option<Vec<f64>>,
     /// Scans to publish (0: until the source ends or forever).
     #[arg(long, default_value_t = 0)]
     pub scans: u64,
@@ -204,15 +213,38 @@ fn source(a: &AcquireArgs) -> Result<(Source, &'static str)> {
     }
     let map = mapio::load_map(&a.map)?;
     let mut sim = Simulator::new(&map, SensorModel::urg04lx(), a.scenario, a.seed);
-    // the simulator's robot is where it says, and so is its odometry
+    let noise = a
+        .odom_noise
+        .as_deref()
+        .map(OdometryNoise::from_alphas)
+        .transpose()
+        .map_err(|e| anyhow!("--odom-noise: {e}"))?;
+    let mut drawn = noise.map(|n| DriftingOdometry::new(n, crate::sim::odometry_seed(a.seed)));
+    let (step, mut last) = (a.step, None);
+    // a robot drawn anew each scan, or walking; its odometry exact, or drifting
     Ok((
         Box::new(std::iter::from_fn(move || {
-            let scan = sim.next_scan();
-            let odometry = scan.truth;
+            let scan = match step {
+                Some(step) => sim.next_scan_walking(last.as_ref(), step),
+                None => sim.next_scan(),
+            };
+            last = scan.truth;
+            let odometry = match (drawn.as_mut(), scan.truth.as_ref()) {
+                (Some(drawn), Some(truth)) => Some(drawn.next(truth, false)),
+                _ => scan.truth,
+            };
             Some(Ok((scan, odometry)))
         })),
         "simulator",
     ))
+}
+
+/// Parses `--step`: metres above 0.
+fn walk_step(s: &str) -> Result<f64, String> {
+    match s.parse::<f64>() {
+        Ok(v) if v.is_finite() && v > 0.0 => Ok(v),
+        _ => Err(format!("{s}: a distance in metres above 0")),
+    }
 }
 
 static STOP: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);

@@ -400,6 +400,12 @@ fn ray_circle(o: Point2<f64>, dir: Vector2<f64>, c: Point2<f64>, r: f64) -> Opti
     (t > 0.0).then_some(t)
 }
 
+/// The seed of the walking robot's drifting odometry for a simulator of `seed`: one for
+/// `gema2 sim --trajectory` and the acquire stage's `--step`, so both draw the same.
+pub fn odometry_seed(seed: u64) -> u64 {
+    seed ^ 0x0D0_0D0
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

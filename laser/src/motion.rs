@@ -77,6 +77,19 @@ impl OdometryNoise {
         OdometryNoise { alphas }
     }
 
+    /// The model of four alphas as a user writes them (`--odom-noise A1,A2,A3,A4`): four
+    /// finite numbers, none negative; else what is wrong, in words.
+    pub fn from_alphas(alphas: &[f64]) -> Result<Self, String> {
+        let &[a1, a2, a3, a4] = alphas else {
+            return Err(format!("four alphas, A1,A2,A3,A4 (got {})", alphas.len()));
+        };
+        let alphas = [a1, a2, a3, a4];
+        if alphas.iter().any(|v| !v.is_finite() || *v < 0.0) {
+            return Err(format!("each alpha is a finite number, 0 or more (got {alphas:?})"));
+        }
+        Ok(OdometryNoise::new(alphas))
+    }
+
     /// The standard deviations of the first turn, the drive and the second turn of a motion
     /// that turns by `r1` and `r2` (their sizes) and drives `trans`.
     fn sigmas(&self, (r1, r2): (f64, f64), trans: f64) -> (f64, f64, f64) {
@@ -117,6 +130,36 @@ impl OdometryNoise {
     }
 }
 
+/// Wheel odometry drawn along a robot's true path: each true motion between two poses is
+/// disturbed by [`OdometryNoise::sample`] and added to where odometry was, so it drifts as
+/// wheels do. The simulator's walking robot and the evaluation's `--odom-noise` draw it.
+#[derive(Clone, Debug)]
+pub struct DriftingOdometry {
+    noise: OdometryNoise,
+    rng: Rng,
+    /// The last true pose and the odometry drawn for it.
+    last: Option<(Pose, Pose)>,
+}
+
+impl DriftingOdometry {
+    pub fn new(noise: OdometryNoise, seed: u64) -> Self {
+        DriftingOdometry { noise, rng: Rng::new(seed), last: None }
+    }
+
+    /// The odometry at the true pose `truth`: `truth` itself the first time, then the last
+    /// odometry moved by the true motion since, disturbed. A `cut` (the robot was carried
+    /// elsewhere) is no motion to the wheels: the odometry stays.
+    pub fn next(&mut self, truth: &Pose, cut: bool) -> Pose {
+        let odometry = match self.last {
+            None => *truth,
+            Some((_, odometry)) if cut => odometry,
+            Some((from, odometry)) => self.noise.sample(&from, truth, &odometry, &mut self.rng),
+        };
+        self.last = Some((*truth, odometry));
+        odometry
+    }
+}
+
 /// The motion from odometry pose `a` to odometry pose `b`, in `a`'s frame: what a pose moves by
 /// between two scans (`pose * motion(a, b)`).
 pub fn motion(a: &Pose, b: &Pose) -> Pose {
@@ -130,6 +173,32 @@ mod tests {
     fn close(a: &Pose, b: &Pose) -> bool {
         (a.translation.vector - b.translation.vector).norm() < 1e-9
             && angle_diff(pose_theta(a), pose_theta(b)).abs() < 1e-9
+    }
+
+    /// Drawn odometry starts at the truth, follows it exactly without noise, drifts with it,
+    /// stays put over a cut, and draws the same for the same seed.
+    #[test]
+    fn drifting_odometry_follows_the_truth_as_far_as_its_noise_lets_it() {
+        // 4 m along a circle of 5 m radius, facing along it
+        let arc = |k: usize| 0.02 * k as f64;
+        let path: Vec<Pose> = (0..40).map(|k| pose(5.0 * arc(k).sin(), 5.0 * (1.0 - arc(k).cos()), arc(k))).collect();
+        let mut exact = DriftingOdometry::new(OdometryNoise::NONE, 1);
+        assert!(path.iter().all(|p| close(&exact.next(p, false), p)));
+        let draw = |seed: u64| {
+            let mut d = DriftingOdometry::new(OdometryNoise::new([0.05, 0.01, 0.05, 0.01]), seed);
+            path.iter().map(|p| d.next(p, false)).collect::<Vec<_>>()
+        };
+        let (a, b) = (draw(7), draw(7));
+        assert!(close(&a[0], &path[0]) && a.iter().zip(&b).all(|(x, y)| close(x, y)));
+        let drift = (a[39].translation.vector - path[39].translation.vector).norm();
+        assert!(drift > 1e-3 && drift < 1.0, "drifted {drift} m over 4 m");
+        let mut cut = DriftingOdometry::new(OdometryNoise::new([0.05, 0.01, 0.05, 0.01]), 7);
+        let before = cut.next(&path[0], false);
+        assert!(close(&cut.next(&path[30], true), &before));
+        assert!(OdometryNoise::from_alphas(&[0.1, 0.0, 0.1]).is_err());
+        assert!(OdometryNoise::from_alphas(&[0.1, -0.01, 0.1, 0.0]).is_err());
+        assert!(OdometryNoise::from_alphas(&[0.1, f64::NAN, 0.1, 0.0]).is_err());
+        assert_eq!(OdometryNoise::from_alphas(&[0.1, 0.0, 0.2, 0.3]), Ok(OdometryNoise::new([0.1, 0.0, 0.2, 0.3])));
     }
 
     #[test]

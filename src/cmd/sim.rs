@@ -128,7 +128,7 @@ pub fn run(a: SimArgs) -> Result<()> {
         let noise = a.odom_noise.as_deref().map(crate::sequential::odometry_noise).transpose()?;
         let noise = noise.unwrap_or(laser::motion::OdometryNoise::NONE);
         writeln!(w, "# gema2 sim: --trajectory --step {} --odom-noise {:?}", a.step, noise.alphas)?;
-        let mut odometry = crate::sequential::Odometry::new(Some(noise), a.seed ^ 0x0D0_0D0);
+        let mut odometry = crate::sequential::Odometry::new(Some(noise), acquire::sim::odometry_seed(a.seed));
         let mut last: Option<laser::Pose> = None;
         for _ in 0..a.scans {
             let scan = sim.next_scan_walking(last.as_ref(), a.step);
