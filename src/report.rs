@@ -23,8 +23,14 @@ pub fn csv_row(
     scans: u32,
 ) -> String {
     // a pose with no cost of its own (where odometry put a track that missed the scan) leaves
-    // the cost's fields empty
-    let known = |v: f64, decimals: usize| if v.is_finite() { format!("{v:.decimals$}") } else { String::new() };
+    // the cost's fields empty, whatever the others hold (a pipeline sends the track's last)
+    let known = |v: f64, decimals: usize| {
+        if v.is_finite() && best.is_some_and(|b| b.3.is_finite()) {
+            format!("{v:.decimals$}")
+        } else {
+            String::new()
+        }
+    };
     match best {
         Some((x, y, t, c, i, th)) => format!(
             "{scan},{x:.4},{y:.4},{t:.5},{},{status},{micros:.1},{hypotheses},{candidates},{},{},{scans}",
@@ -233,6 +239,8 @@ mod tests {
     fn a_row_without_a_cost_keeps_its_pose() {
         let row = csv_row(17, Some((1.5, -2.0, 0.25, f64::INFINITY, f64::NAN, f64::NAN)), "ambiguous", 8.0, 7, 0, 9);
         assert_eq!(row, "17,1.5000,-2.0000,0.25000,,ambiguous,8.0,7,0,,,9");
+        let stale = csv_row(17, Some((1.5, -2.0, 0.25, f64::INFINITY, 0.8, 0.01)), "ambiguous", 8.0, 7, 0, 9);
+        assert_eq!(stale, row);
         assert_eq!(row.split(',').count(), CSV_HEADER.split(',').count());
         let row = csv_row(3, Some((1.0, 2.0, 0.5, 0.75, 0.9, 0.01)), "ok", 100.0, 1, 2, 1);
         assert_eq!(row, "3,1.0000,2.0000,0.50000,0.7500,ok,100.0,1,2,0.900,0.010,1");
