@@ -410,17 +410,7 @@ fn parse_robotlaser1(t: &[&str]) -> Result<(LaserScan, Option<Pose>), String> {
     let m = count(t, base + 7 + n, "remission count")?;
     let p = base + 8 + n + m;
     let truth = finite_pose(num(t, p, "laser_x")?, num(t, p + 1, "laser_y")?, num(t, p + 2, "laser_theta")?)?;
-    let geometry = ScanGeometry {
-        angle_min: start,
-        angle_increment: beam_increment(res, fov, n),
-        range_min: laser::MIN_VALID_RANGE,
-        range_max: max_range,
-    };
-    if !geometry.is_well_formed() {
-        return Err(format!(
-            "ROBOTLASER1: unusable scan layout (start {start}, resolution {res}, max range {max_range})"
-        ));
-    }
+    let geometry = scan_layout("ROBOTLASER1", (start, fov, res, max_range), n)?;
     let stamp = t.get(p + 11).and_then(|s| s.parse::<f64>().ok()).unwrap_or(f64::NAN);
     let odometry =
         (|| finite_pose(num(t, p + 3, "robot_x")?, num(t, p + 4, "robot_y")?, num(t, p + 5, "robot_theta")?))().ok();
@@ -437,32 +427,38 @@ fn parse_rawlaser1(t: &[&str]) -> Result<(LaserScan, Option<Pose>), String> {
     let (start, fov, res, max_range) =
         (num(t, 1, "start_angle")?, num(t, 2, "fov")?, num(t, 3, "angular_resolution")?, num(t, 4, "max_range")?);
     let r = ranges(t, 8, n)?;
-    let geometry = ScanGeometry {
-        angle_min: start,
-        angle_increment: beam_increment(res, fov, n),
-        range_min: laser::MIN_VALID_RANGE,
-        range_max: max_range,
-    };
-    if !geometry.is_well_formed() {
-        return Err(format!(
-            "RAWLASER1: unusable scan layout (start {start}, resolution {res}, max range {max_range})"
-        ));
-    }
+    let geometry = scan_layout("RAWLASER1", (start, fov, res, max_range), n)?;
     let stamp = t.get(9 + n + m).and_then(|s| s.parse::<f64>().ok()).unwrap_or(f64::NAN);
     Ok((LaserScan { geometry, ranges: r, stamp, truth: None }, None))
 }
 
-/// Beam i's angle is start + i * the resolution, as CARMEN reads it: negative for a laser that
-/// lists its beams clockwise (mounted upside down); when not recorded (0), the field of view
-/// over the gaps between the beams.
-fn beam_increment(resolution: f64, fov: f64, n: usize) -> f64 {
-    if resolution != 0.0 {
-        resolution
+/// The layout of `n` beams a `kind` line gives as (start angle, field of view, angular
+/// resolution, max range), or why it is unusable. Beam i's angle is start + i * the
+/// resolution, as CARMEN reads it: negative for a laser that lists its beams clockwise
+/// (mounted upside down); when not recorded (0), the field of view over the gaps between the
+/// beams.
+fn scan_layout(
+    kind: &str,
+    (start, fov, res, max_range): (f64, f64, f64, f64),
+    n: usize,
+) -> Result<ScanGeometry, String> {
+    let increment = if res != 0.0 {
+        res
     } else if n > 1 {
         fov / (n - 1) as f64
     } else {
         0.0
+    };
+    let geometry = ScanGeometry {
+        angle_min: start,
+        angle_increment: increment,
+        range_min: laser::MIN_VALID_RANGE,
+        range_max: max_range,
+    };
+    if !geometry.is_well_formed() {
+        return Err(format!("{kind}: unusable scan layout (start {start}, resolution {res}, max range {max_range})"));
     }
+    Ok(geometry)
 }
 
 /// Whether the reading count at `k` and the remission count after the readings leave room for
