@@ -55,6 +55,9 @@ enum Command {
     Demo(cmd::demo::DemoArgs),
     /// Time each stage per scan and print how locate scales with beams and map walls.
     Bench(cmd::bench::BenchArgs),
+    /// How far a log's odometry strays from its true poses: the motion model's four alphas,
+    /// for the sequential localizer's `odom_alpha1`..`odom_alpha4`.
+    Odometry(cmd::odometry::OdometryArgs),
     /// Every key `--set` takes, with its default, range and meaning, grouped by stage.
     Settings(cmd::settings::SettingsArgs),
     /// Success over a suite of simulated logs (bundled and generated maps, every scenario) and
@@ -107,6 +110,7 @@ fn main() -> anyhow::Result<()> {
         Some(Command::Evaluate(a)) => cmd::evaluate::run(a),
         Some(Command::Amcl(a)) => cmd::amcl::run(*a),
         Some(Command::Settings(a)) => cmd::settings::run(a),
+        Some(Command::Odometry(a)) => cmd::odometry::run(a),
         Some(Command::Run(a)) => supervisor::run(a),
         Some(Command::EmulateUrg(a)) => cmd::emulate::run(a),
         Some(Command::Lines(a)) => cmd::lines::run(a),

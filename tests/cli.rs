@@ -849,3 +849,42 @@ fn a_track_whose_odometry_is_off_past_the_window_stays_right_on_a_real_log() {
     assert!(row[5].starts_with("0 "), "a wrong ok: {row:?}");
     assert!(percent(&row[6], &row) >= 97.0, "fewer right poses after the first fix: {row:?}");
 }
+
+/// `gema2 odometry` fits the alphas a walked log's odometry was drawn with, and prints the
+/// settings the sequential localizer takes; a log without odometry errors say so.
+#[test]
+fn odometry_fits_the_alphas_a_log_was_drawn_with() {
+    let dir = tempfile::tempdir().unwrap();
+    let log = dir.path().join("walk.log");
+    let log_s = log.to_str().unwrap();
+    let walk = ["--trajectory", "--step", "0.5", "--odom-noise", "0.05,0.01,0.05,0.01", "--scans", "1200"];
+    let args =
+        ["sim", "--map", "warehouse", "--seed", "4", "--out", log_s].iter().chain(&walk).copied().collect::<Vec<_>>();
+    let out = gema2(&args);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let out = gema2(&["odometry", "--log", log_s]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let said = text(&out.stdout);
+    let alphas: Vec<f64> = said
+        .lines()
+        .find_map(|l| l.strip_prefix("alphas (AMCL's): "))
+        .unwrap_or_else(|| panic!("no alphas in {said}"))
+        .split_whitespace()
+        .skip(1)
+        .step_by(2)
+        .map(|v| v.parse().unwrap())
+        .collect();
+    for (k, (&got, want)) in alphas.iter().zip([0.05, 0.01, 0.05, 0.01]).enumerate() {
+        assert!(got > want * 0.6 && got < want * 1.5, "alpha{}: {got} against {want} in {said}", k + 1);
+    }
+    assert!(said.contains("--set odom_alpha1=") && said.contains("--set odom_alpha4="), "{said}");
+    // without odometry drawn, ROBOTLASER1's robot pose is the truth: alphas of 0
+    let exact = dir.path().join("exact.log");
+    let exact_s = exact.to_str().unwrap();
+    let out = gema2(&["sim", "--map", "warehouse", "--trajectory", "--scans", "40", "--out", exact_s]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let said = text(&gema2(&["odometry", "--log", exact_s]).stdout);
+    assert!(said.contains("a1 0.0000  a2 0.0000  a3 0.0000  a4 0.0000"), "{said}");
+    let out = gema2(&["odometry", "--log", log_s, "--every", "700"]);
+    assert!(!out.status.success() && text(&out.stderr).contains("too few to fit"), "{}", text(&out.stderr));
+}

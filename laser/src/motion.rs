@@ -160,6 +160,105 @@ impl DriftingOdometry {
     }
 }
 
+/// The alphas [`OdometryNoise::fit`] found, and what they rest on.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct OdometryFit {
+    pub noise: OdometryNoise,
+    /// Motions the fit used, and those left out: a split that one side took as a drive and
+    /// the other as a turn on the spot or a drive the other way, or an error beyond four
+    /// standard deviations of the first fit (a glitch of the truth, a wheel that slipped).
+    pub used: usize,
+    pub left_out: usize,
+}
+
+impl OdometryNoise {
+    /// The alphas that best explain how odometry's motions differ from the true ones: each
+    /// of `motions` is (truth from, truth to, odometry from, odometry to). Each part's squared
+    /// error is fitted, by least squares with no alpha negative, to the variance
+    /// [`OdometryNoise::sample`] gives it (turns: a1 turn^2 + a2 drive^2; drive: a3 drive^2 +
+    /// a4 turns^2), then again without the errors beyond four standard deviations of that
+    /// fit. `None` with fewer than 10 motions to fit.
+    pub fn fit(motions: &[(Pose, Pose, Pose, Pose)]) -> Option<OdometryFit> {
+        // (squared error, regressors) of the turns and of the drive
+        let mut turns = Vec::new();
+        let mut drives = Vec::new();
+        let mut ambiguous = 0;
+        for (ta, tb, oa, ob) in motions {
+            let (s, o) = (Split::between(ta, tb), Split::between(oa, ob));
+            // a split one side takes as a drive and the other as a turn on the spot, or as a
+            // drive the other way, is not one the model's errors describe
+            if (s.trans < STILL) != (o.trans < STILL) || angle_diff(o.rot1, s.rot1).abs() > PI / 2.0 {
+                ambiguous += 1;
+                continue;
+            }
+            let (r1, r2) = s.folded_turns();
+            let t2 = s.trans * s.trans;
+            turns.push((angle_diff(o.rot1, s.rot1).powi(2), [r1 * r1, t2]));
+            turns.push((angle_diff(o.rot2, s.rot2).powi(2), [r2 * r2, t2]));
+            drives.push(((o.trans - s.trans).powi(2), [t2, r1 * r1 + r2 * r2]));
+        }
+        if drives.len() < 10 {
+            return None;
+        }
+        let ((a1, a2), turn_out) = fit_robust(&mut turns);
+        let ((a3, a4), drive_out) = fit_robust(&mut drives);
+        Some(OdometryFit {
+            noise: OdometryNoise::new([a1, a2, a3, a4]),
+            used: drives.len(),
+            left_out: ambiguous + turn_out.max(drive_out),
+        })
+    }
+}
+
+/// [`fit_nonnegative`] unweighted, then three times again without the samples beyond four
+/// standard deviations of the last fit and each weighted by one over its variance squared
+/// (a squared normal error's spread grows with its variance: unweighted, the few largest
+/// motions decide); how many were left out.
+fn fit_robust(samples: &mut Vec<(f64, [f64; 2])>) -> ((f64, f64), usize) {
+    let before = samples.len();
+    let variance = |c: (f64, f64), x: [f64; 2]| c.0 * x[0] + c.1 * x[1];
+    let mut fit = fit_nonnegative(samples, |_| 1.0);
+    for _ in 0..3 {
+        let last = fit;
+        samples.retain(|&(y, x)| y <= 16.0 * variance(last, x));
+        if samples.is_empty() {
+            break;
+        }
+        // a variance floor keeps a motion of no turn and no drive from weighing without end
+        let floor = samples.iter().map(|&(_, x)| variance(last, x)).fold(0.0, f64::max) * 1e-6;
+        fit = fit_nonnegative(samples, |x| 1.0 / (variance(last, x).max(floor).max(1e-300)).powi(2));
+    }
+    (fit, before - samples.len())
+}
+
+/// Weighted least squares y ~ c1 x1 + c2 x2 with c1, c2 >= 0, each sample weighing `weight(x)`.
+fn fit_nonnegative(samples: &[(f64, [f64; 2])], weight: impl Fn([f64; 2]) -> f64) -> (f64, f64) {
+    let (mut s11, mut s12, mut s22, mut b1, mut b2) = (0.0, 0.0, 0.0, 0.0, 0.0);
+    for &(y, x) in samples {
+        let w = weight(x);
+        let [x1, x2] = x;
+        (s11, s12, s22) = (s11 + w * x1 * x1, s12 + w * x1 * x2, s22 + w * x2 * x2);
+        (b1, b2) = (b1 + w * x1 * y, b2 + w * x2 * y);
+    }
+    let alone = |b: f64, s: f64| if s > 0.0 { (b / s).max(0.0) } else { 0.0 };
+    let det = s11 * s22 - s12 * s12;
+    if det > 1e-12 * (s11 * s22).max(f64::MIN_POSITIVE) {
+        let (c1, c2) = ((b1 * s22 - b2 * s12) / det, (b2 * s11 - b1 * s12) / det);
+        if c1 >= 0.0 && c2 >= 0.0 {
+            return (c1, c2);
+        }
+    }
+    // one of them at 0: the better of the two fits with one regressor
+    let residual =
+        |c1: f64, c2: f64| samples.iter().map(|&(y, x)| weight(x) * (y - c1 * x[0] - c2 * x[1]).powi(2)).sum::<f64>();
+    let (only1, only2) = ((alone(b1, s11), 0.0), (0.0, alone(b2, s22)));
+    if residual(only1.0, only1.1) <= residual(only2.0, only2.1) {
+        only1
+    } else {
+        only2
+    }
+}
+
 /// The motion from odometry pose `a` to odometry pose `b`, in `a`'s frame: what a pose moves by
 /// between two scans (`pose * motion(a, b)`).
 pub fn motion(a: &Pose, b: &Pose) -> Pose {
@@ -173,6 +272,34 @@ mod tests {
     fn close(a: &Pose, b: &Pose) -> bool {
         (a.translation.vector - b.translation.vector).norm() < 1e-9
             && angle_diff(pose_theta(a), pose_theta(b)).abs() < 1e-9
+    }
+
+    /// Odometry drawn with known alphas along a long walk of drives and turns: the fit finds
+    /// them again, and leaves out a truth that jumped.
+    #[test]
+    fn the_fit_finds_the_alphas_odometry_was_drawn_with() {
+        let mut rng = Rng::new(3);
+        let mut truth = vec![pose(0.0, 0.0, 0.0)];
+        for _ in 0..4000 {
+            let last = *truth.last().unwrap();
+            let (turn, drive) = (0.6 * rng.normal(), (0.5 + 0.4 * rng.normal()).abs());
+            truth.push(last * pose(drive * (0.5 * turn).cos(), drive * (0.5 * turn).sin(), turn));
+        }
+        let alphas = [0.05, 0.01, 0.08, 0.02];
+        let mut odometry = DriftingOdometry::new(OdometryNoise::new(alphas), 9);
+        let odom: Vec<Pose> = truth.iter().map(|t| odometry.next(t, false)).collect();
+        let mut motions: Vec<_> = (1..truth.len()).map(|k| (truth[k - 1], truth[k], odom[k - 1], odom[k])).collect();
+        // a glitch of the truth: 2 m and a right angle off for one scan
+        motions[100].1 = motions[100].1 * pose(2.0, 0.0, 1.5);
+        let fit = OdometryNoise::fit(&motions).expect("enough motions");
+        for (k, (&got, &want)) in fit.noise.alphas.iter().zip(&alphas).enumerate() {
+            assert!((got / want - 1.0).abs() < 0.25, "alpha{}: {got} against {want}", k + 1);
+        }
+        // the glitch, and the few drives so short that odometry took them backwards
+        assert!(fit.left_out >= 1 && fit.left_out < motions.len() / 20, "{fit:?}");
+        let exact: Vec<_> = motions.iter().map(|&(a, b, _, _)| (a, b, a, b)).collect();
+        assert_eq!(OdometryNoise::fit(&exact).map(|f| f.noise), Some(OdometryNoise::NONE));
+        assert_eq!(OdometryNoise::fit(&motions[..5]), None);
     }
 
     /// Drawn odometry starts at the truth, follows it exactly without noise, drifts with it,

@@ -12,6 +12,7 @@ pub mod inspect;
 pub mod lines;
 pub mod locate;
 pub mod map;
+pub mod odometry;
 pub mod scans;
 pub mod settings;
 pub mod sim;
