@@ -56,7 +56,8 @@ enum Command {
     /// Time each stage per scan and print how locate scales with beams and map walls.
     Bench(cmd::bench::BenchArgs),
     /// How far a log's odometry strays from its true poses: the motion model's four alphas,
-    /// for the sequential localizer's `odom_alpha1`..`odom_alpha4`.
+    /// for the sequential localizer's `odom_alpha1`..`odom_alpha4`. Fit at the `--every` the
+    /// scans are located at: odometry's errors add up over the scans between.
     Odometry(cmd::odometry::OdometryArgs),
     /// Every key `--set` takes, with its default, range and meaning, grouped by stage.
     Settings(cmd::settings::SettingsArgs),

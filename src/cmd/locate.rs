@@ -1,7 +1,7 @@
 //! `gema2 locate`: the whole algorithm over a log, offline (no IPC). Writes the CSV of
 //! docs/design.md and prints timing and, when the log holds truth, accuracy.
 
-use super::scans::{BagArgs, Source, SourceError};
+use super::scans::{ScanArgs, SourceError};
 use super::Malformed;
 use crate::report::{Outcome, Summary};
 use anyhow::{Context, Result};
@@ -18,19 +18,9 @@ pub struct LocateArgs {
     /// ROS map_server map's .yaml (the PGM beside it is read and traced into walls).
     #[arg(long, default_value = "office")]
     pub map: String,
-    /// CARMEN log (ROBOTLASER1 or FLASER; .gz is fine).
-    #[arg(long, required_unless_present = "bag")]
-    pub log: Option<PathBuf>,
+    /// The scans located.
     #[command(flatten)]
-    pub flaser: acquire::FlaserArgs,
-    #[command(flatten)]
-    pub bag: BagArgs,
-    /// Locate every K-th laser line (or LaserScan message)...
-    #[arg(long, default_value_t = 1, value_parser = super::positive_count)]
-    pub every: usize,
-    /// ...starting at this one.
-    #[arg(long, default_value_t = 0)]
-    pub offset: usize,
+    pub scans: ScanArgs,
     /// CSV output (default: none).
     #[arg(long)]
     pub out: Option<PathBuf>,
@@ -106,7 +96,7 @@ pub fn run(a: LocateArgs) -> Result<()> {
     let loc_cfg = config.localizer;
     let model = Arc::new(MapModel::new(map, &config.map_corners));
     let mut gema2 = Gema2::new(Arc::clone(&model), config.segmenter, config.localizer);
-    let source = Source::open(a.log.as_deref(), &a.bag, &a.flaser)?;
+    let source = a.scans.open()?;
     let mut csv = a.out.as_deref().map(CsvOut::create).transpose()?;
     let dump = dump_request(&a)?;
     let mut run = Run {
@@ -183,7 +173,7 @@ fn selected_items(
     a: &LocateArgs,
     scans: Box<dyn Iterator<Item = Result<acquire::LogScan, SourceError>>>,
 ) -> impl Iterator<Item = (usize, Result<acquire::LogScan, SourceError>)> {
-    let (every, offset, no_truth) = (a.every, a.offset, a.no_truth);
+    let (every, offset, no_truth) = (a.scans.every, a.scans.offset, a.no_truth);
     scans
         .enumerate()
         .filter(move |(index, item)| {
@@ -292,15 +282,15 @@ impl Run {
             anyhow::bail!(
                 "{}: no laser scan located (no ROBOTLASER1 or FLASER line, or none that --every {} --offset {} selects)",
                 self.path.display(),
-                a.every,
-                a.offset
+                a.scans.every,
+                a.scans.offset
             );
         }
         if let Some((n, _)) = dump.filter(|_| !self.dumped) {
             anyhow::bail!(
                 "--dump-scan {n}: no such scan among the {located} located (--every {} --offset {})",
-                a.every,
-                a.offset
+                a.scans.every,
+                a.scans.offset
             );
         }
         if a.diagnose && self.diagnosis.is_empty() {
@@ -322,7 +312,7 @@ fn run_sequential(a: LocateArgs) -> Result<()> {
     let model = Arc::new(MapModel::new(map, &config.map_corners));
     let mut run = SeqRun::new(model, &config, a.seq.restart_every);
     let mut odometry = Odometry::new(a.seq.noise()?, a.seq.odom_seed);
-    let source = Source::open(a.log.as_deref(), &a.bag, &a.flaser)?;
+    let source = a.scans.open()?;
     let mut csv = a.out.as_deref().map(CsvOut::create).transpose()?;
     let mut malformed = Malformed::of(source.unit);
     let mut summary = Summary::default();

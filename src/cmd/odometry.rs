@@ -2,32 +2,19 @@
 //! the odometry motion model (AMCL's), which the sequential localizer takes as `odom_alpha1`
 //! to `odom_alpha4` ([`laser::motion::OdometryNoise::fit`]).
 
-use super::scans::{BagArgs, Source, SourceError};
+use super::scans::{ScanArgs, SourceError};
 use anyhow::{bail, Result};
 use clap::Args;
 use laser::motion::OdometryNoise;
 use laser::Pose;
-use std::path::PathBuf;
 
 #[derive(Args, Debug)]
 pub struct OdometryArgs {
-    /// A CARMEN log whose scans carry the true pose (SLAM-corrected or simulated) and odometry
-    /// (ODOM lines, FLASER's odometry, ROBOTLASER1's robot pose).
-    #[arg(long)]
-    pub log: Option<PathBuf>,
+    /// A log whose scans carry the true pose (SLAM-corrected or simulated) and odometry (ODOM
+    /// lines, FLASER's odometry, ROBOTLASER1's robot pose), or a bag with its --truth-topic and
+    /// --odom-topic; the motions between every K-th scan (`--every`).
     #[command(flatten)]
-    pub flaser: acquire::FlaserArgs,
-    /// A bag instead, with its --truth-topic and --odom-topic.
-    #[command(flatten)]
-    pub bag: BagArgs,
-    /// The motions between every K-th scan, as `gema2 locate --every K` locates them: the
-    /// alphas are per squared unit of motion, but odometry's errors between scans far apart
-    /// add up over the scans between.
-    #[arg(long, default_value_t = 1, value_parser = super::positive_count)]
-    pub every: usize,
-    /// The first scan taken.
-    #[arg(long, default_value_t = 0)]
-    pub offset: usize,
+    pub scans: ScanArgs,
 }
 
 /// The margin the sequential localizer's defaults keep over the noise they are measured with
@@ -35,12 +22,12 @@ pub struct OdometryArgs {
 const MARGIN: f64 = 2.0;
 
 pub fn run(a: OdometryArgs) -> Result<()> {
-    let source = Source::open(a.log.as_deref(), &a.bag, &a.flaser)?;
+    let source = a.scans.open()?;
     // (truth, odometry) of the selected scans that have both
     let mut poses: Vec<Option<(Pose, Pose)>> = Vec::new();
     let (mut unread, mut without) = (0usize, 0usize);
     for (index, item) in source.scans.enumerate() {
-        if !super::selected(index, a.every, a.offset) {
+        if !a.scans.takes(index) {
             continue;
         }
         match item {
@@ -77,7 +64,7 @@ pub fn run(a: OdometryArgs) -> Result<()> {
          taken for turns or the other way, or errors beyond four standard deviations)",
         source.path.display(),
         fit.used,
-        a.every,
+        a.scans.every,
         fit.left_out
     );
     println!("alphas (AMCL's): a1 {a1:.4}  a2 {a2:.4}  a3 {a3:.4}  a4 {a4:.4}");

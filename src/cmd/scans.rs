@@ -30,6 +30,36 @@ pub struct BagArgs {
     pub odom_topic: Option<String>,
 }
 
+/// The scans a command reads: a log's or a bag's, every K-th from an offset.
+#[derive(Args, Clone, Debug)]
+pub struct ScanArgs {
+    /// CARMEN log (ROBOTLASER1, FLASER or RAWLASER1; .gz is fine).
+    #[arg(long, required_unless_present = "bag")]
+    pub log: Option<PathBuf>,
+    #[command(flatten)]
+    pub flaser: acquire::FlaserArgs,
+    #[command(flatten)]
+    pub bag: BagArgs,
+    /// Every K-th laser line (or LaserScan message)...
+    #[arg(long, default_value_t = 1, value_parser = super::positive_count)]
+    pub every: usize,
+    /// ...starting at this one.
+    #[arg(long, default_value_t = 0)]
+    pub offset: usize,
+}
+
+impl ScanArgs {
+    /// The log or bag these arguments name.
+    pub fn open(&self) -> Result<Source> {
+        Source::open(self.log.as_deref(), &self.bag, &self.flaser)
+    }
+
+    /// Whether the scan at `index` is one of those taken.
+    pub fn takes(&self, index: usize) -> bool {
+        super::selected(index, self.every, self.offset)
+    }
+}
+
 /// Why a scan was not read.
 #[derive(Debug)]
 pub enum SourceError {
