@@ -328,3 +328,22 @@ fn a_bag_s_odometry_carries_the_sequential_localizer_as_the_log_s_does() {
     let (_, _) = locate(dir.path(), "walk-bare", MAP, &["--bag", bag_s, "--truth-topic", "/truth"], &seq);
     assert!(resting("walk-bare").iter().all(|&n| n <= 1), "{:?}", resting("walk-bare"));
 }
+
+/// `gema2 odometry` reads a bag's truth and odometry topics as it reads a log's poses: the
+/// same alphas from the bag carmen2bag.py wrote of a walked log with drifting odometry.
+#[test]
+fn a_bag_s_odometry_fits_the_alphas_the_log_s_does() {
+    let dir = tempfile::tempdir().unwrap();
+    let walk = ["--trajectory", "--step", "0.5", "--odom-noise", "0.05,0.01,0.05,0.01"];
+    let log = sim(dir.path(), "drift.log", 200, &walk);
+    let bag = dir.path().join("drift-bag");
+    carmen2bag(&log, &bag, &[]);
+    let alphas = |source: &[&str]| -> String {
+        let said = ok(gema2(&["odometry"].iter().chain(source).copied().collect::<Vec<_>>()));
+        said.lines().find(|l| l.starts_with("alphas")).unwrap_or_else(|| panic!("no alphas in {said}")).to_owned()
+    };
+    let by_log = alphas(&["--log", log.to_str().unwrap()]);
+    let by_bag = alphas(&["--bag", bag.to_str().unwrap(), "--truth-topic", "/truth", "--odom-topic", "/odom"]);
+    assert_eq!(by_log, by_bag);
+    assert!(!by_log.contains("a1 0.0000"), "{by_log}");
+}
