@@ -14,4 +14,4 @@ pub use carmen::{
     write_robotlaser1, write_robotlaser1_with_odometry, CarmenReader, FlaserArgs, FlaserError, FlaserLayout, LogError,
     LogScan, NO_TRUTH_MARKER,
 };
-pub use sim::{Obstacles, Scenario, SensorModel, Simulator};
+pub use sim::{Obstacles, Scenario, SensorModel, Simulator, Walk};

@@ -3,10 +3,10 @@
 //! in the subscribers' buffers, so no scan is dropped; at a fixed rate a scan that finds a full
 //! buffer is not delivered to that subscriber (the stage is too slow), and the run goes on.
 
-use crate::{CarmenReader, Scenario, SensorModel, Simulator};
+use crate::{CarmenReader, Scenario, SensorModel, Simulator, Walk};
 use anyhow::{anyhow, Context, Result};
 use clap::Args;
-use laser::motion::{DriftingOdometry, OdometryNoise};
+use laser::motion::OdometryNoise;
 use laser::{pose_theta, LaserScan};
 use messages::iceoryx2::prelude::*;
 use messages::{monotonic_ns, Header, Outlet, PoseMsgXyt, ScanMsg, Stage, Topic, MAX_BEAMS};
@@ -219,24 +219,20 @@ fn source(a: &AcquireArgs) -> Result<(Source, &'static str)> {
         .map(OdometryNoise::from_alphas)
         .transpose()
         .map_err(|e| anyhow!("--odom-noise: {e}"))?;
-    let mut drawn = noise.map(|n| DriftingOdometry::new(n, crate::sim::odometry_seed(a.seed)));
-    let (step, mut last) = (a.step, None);
-    // a robot drawn anew each scan, or walking; its odometry exact, or drifting
-    Ok((
-        Box::new(std::iter::from_fn(move || {
-            let scan = match step {
-                Some(step) => sim.next_scan_walking(last.as_ref(), step),
-                None => sim.next_scan(),
-            };
-            last = scan.truth;
-            let odometry = match (drawn.as_mut(), scan.truth.as_ref()) {
-                (Some(drawn), Some(truth)) => Some(drawn.next(truth, false)),
-                _ => scan.truth,
-            };
+    // a robot drawn anew each scan, where its odometry says; or walking, its odometry exact or
+    // drifting
+    let scans: Source = match a.step {
+        Some(step) => {
+            let mut walk = Walk::new(sim, step, noise, a.seed);
+            Box::new(std::iter::from_fn(move || Some(Ok(walk.next_scan()))))
+        }
+        None => Box::new(std::iter::from_fn(move || {
+            let scan = sim.next_scan();
+            let odometry = scan.truth;
             Some(Ok((scan, odometry)))
         })),
-        "simulator",
-    ))
+    };
+    Ok((scans, "simulator"))
 }
 
 /// Parses `--step`: metres above 0.

@@ -6,6 +6,7 @@
 //! and in the connected region of the free space that holds most of it (see [`FreeSpace`]), so
 //! the robot is never inside a rack, a pillar or any other closed outline.
 
+use laser::motion::{DriftingOdometry, OdometryNoise};
 use laser::rng::Rng;
 use laser::{pose, LaserScan, Pose, ScanGeometry};
 use map::{DistanceField, FreeSpace, RayCaster, RayScratch, Wall, WallMap};
@@ -400,10 +401,34 @@ fn ray_circle(o: Point2<f64>, dir: Vector2<f64>, c: Point2<f64>, r: f64) -> Opti
     (t > 0.0).then_some(t)
 }
 
-/// The seed of the walking robot's drifting odometry for a simulator of `seed`: one for
-/// `gema2 sim --trajectory` and the acquire stage's `--step`, so both draw the same.
-pub fn odometry_seed(seed: u64) -> u64 {
-    seed ^ 0x0D0_0D0
+/// A robot walking through the main free space about `step` metres a scan
+/// ([`Simulator::next_scan_walking`]), and its odometry: exact, or drawn by the motion model
+/// so that it drifts. `gema2 sim --trajectory` and the acquire stage's `--step` walk it: the
+/// same simulator and noise give both the same scans and odometry.
+pub struct Walk {
+    sim: Simulator,
+    step: f64,
+    last: Option<Pose>,
+    drawn: Option<DriftingOdometry>,
+}
+
+impl Walk {
+    /// The walk of `sim`, whose seed was `seed`; odometry drawn with `noise`, or exact without.
+    pub fn new(sim: Simulator, step: f64, noise: Option<OdometryNoise>, seed: u64) -> Self {
+        let drawn = noise.map(|n| DriftingOdometry::new(n, seed ^ 0x0D0_0D0));
+        Walk { sim, step, last: None, drawn }
+    }
+
+    /// The next scan and the odometry at it.
+    pub fn next_scan(&mut self) -> (LaserScan, Option<Pose>) {
+        let scan = self.sim.next_scan_walking(self.last.as_ref(), self.step);
+        self.last = scan.truth;
+        let odometry = match (self.drawn.as_mut(), scan.truth.as_ref()) {
+            (Some(drawn), Some(truth)) => Some(drawn.next(truth, false)),
+            _ => scan.truth,
+        };
+        (scan, odometry)
+    }
 }
 
 #[cfg(test)]

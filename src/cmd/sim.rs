@@ -128,14 +128,10 @@ pub fn run(a: SimArgs) -> Result<()> {
         let noise = a.odom_noise.as_deref().map(crate::sequential::odometry_noise).transpose()?;
         let noise = noise.unwrap_or(laser::motion::OdometryNoise::NONE);
         writeln!(w, "# gema2 sim: --trajectory --step {} --odom-noise {:?}", a.step, noise.alphas)?;
-        let mut odometry = crate::sequential::Odometry::new(Some(noise), acquire::sim::odometry_seed(a.seed));
-        let mut last: Option<laser::Pose> = None;
+        let mut walk = acquire::Walk::new(sim, a.step, Some(noise), a.seed);
         for _ in 0..a.scans {
-            let scan = sim.next_scan_walking(last.as_ref(), a.step);
-            let truth = scan.truth.context("a simulated scan has its pose")?;
-            let odom = odometry.next(None, Some(&truth), false)?;
-            acquire::write_robotlaser1_with_odometry(&mut w, &scan, odom.as_ref())?;
-            last = Some(truth);
+            let (scan, odometry) = walk.next_scan();
+            acquire::write_robotlaser1_with_odometry(&mut w, &scan, odometry.as_ref())?;
         }
     }
     w.flush().with_context(|| format!("writing {}", a.out.display()))?;
