@@ -185,15 +185,16 @@ impl OdometryNoise {
         let mut ambiguous = 0;
         for (ta, tb, oa, ob) in motions {
             let (s, o) = (Split::between(ta, tb), Split::between(oa, ob));
+            let first_turn_error = angle_diff(o.rot1, s.rot1);
             // a split one side takes as a drive and the other as a turn on the spot, or as a
             // drive the other way, is not one the model's errors describe
-            if (s.trans < STILL) != (o.trans < STILL) || angle_diff(o.rot1, s.rot1).abs() > PI / 2.0 {
+            if (s.trans < STILL) != (o.trans < STILL) || first_turn_error.abs() > PI / 2.0 {
                 ambiguous += 1;
                 continue;
             }
             let (r1, r2) = s.folded_turns();
             let t2 = s.trans * s.trans;
-            turns.push((angle_diff(o.rot1, s.rot1).powi(2), [r1 * r1, t2]));
+            turns.push((first_turn_error.powi(2), [r1 * r1, t2]));
             turns.push((angle_diff(o.rot2, s.rot2).powi(2), [r2 * r2, t2]));
             drives.push(((o.trans - s.trans).powi(2), [t2, r1 * r1 + r2 * r2]));
         }

@@ -437,10 +437,9 @@ impl Located {
         };
         segmentation_from(msg, &view, &self.config, &mut self.seg);
         let lines = msg.lines[..(msg.line_count as usize).min(msg.lines.len())].iter().filter_map(slide_line);
+        // one that is not a number the sequential localizer takes as none
         let odometry = (msg.scan.has_odometry == 1)
-            .then_some(msg.scan.odometry)
-            .filter(|o| o.x.is_finite() && o.y.is_finite() && o.theta.is_finite())
-            .map(|o| laser::pose(o.x, o.y, o.theta));
+            .then(|| laser::pose(msg.scan.odometry.x, msg.scan.odometry.y, msg.scan.odometry.theta));
         let (result, scans) = loc.locate(&view, &self.seg, lines, odometry);
         Some((result, scans, *version))
     }

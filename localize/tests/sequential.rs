@@ -171,6 +171,7 @@ fn an_odometry_reading_that_is_not_a_number_is_taken_as_none() {
     };
     let (none, nan) = (run(None), run(Some(pose(f64::NAN, 0.0, 0.0))));
     assert_eq!(none, nan);
+    assert_eq!(none, run(Some(pose(0.0, f64::INFINITY, f64::NAN))));
     let tracked_after = nan[9..].iter().filter(|(_, tracked_right)| *tracked_right).count();
     assert!(tracked_after >= 4, "tracked {tracked_after} of the 7 scans after the glitch");
 }
