@@ -173,18 +173,15 @@ fn selected_items(
     a: &LocateArgs,
     scans: Box<dyn Iterator<Item = Result<acquire::LogScan, SourceError>>>,
 ) -> impl Iterator<Item = (usize, Result<acquire::LogScan, SourceError>)> {
-    let (every, offset, no_truth) = (a.scans.every, a.scans.offset, a.no_truth);
-    scans
-        .enumerate()
-        .filter(move |(index, item)| {
-            matches!(item, Err(SourceError::Stop(_))) || super::selected(*index, every, offset)
-        })
-        .map(move |(index, mut item)| {
+    let (taken, no_truth) = (a.scans.clone(), a.no_truth);
+    scans.enumerate().filter(move |(index, item)| matches!(item, Err(SourceError::Stop(_))) || taken.takes(*index)).map(
+        move |(index, mut item)| {
             if let (Ok(item), true) = (item.as_mut(), no_truth) {
                 item.scan.truth = None;
             }
             (index, item)
-        })
+        },
+    )
 }
 
 /// `--out`: the CSV of docs/design.md with the `micros` column, one row per selected laser line.
@@ -280,7 +277,7 @@ impl Run {
         if located == 0 {
             // an empty result is no answer: a script must not take it for one
             anyhow::bail!(
-                "{}: no laser scan located (no ROBOTLASER1 or FLASER line, or none that --every {} --offset {} selects)",
+                "{}: no laser scan located (no ROBOTLASER1, FLASER or RAWLASER1 line, or none that --every {} --offset {} selects)",
                 self.path.display(),
                 a.scans.every,
                 a.scans.offset
