@@ -118,7 +118,12 @@ impl SeqRun {
         let answer = self.sequential.locate(&view, seg, odometry);
         let micros = start.elapsed().as_secs_f64() * 1e6;
         let pose = answer.pose.filter(|_| answer.status != Status::Failed);
-        let outcome = Outcome::of(answer.status, pose, scan.truth, micros);
+        let outcome = Outcome::of(answer.status, pose, scan.truth, micros).weigh_truth(
+            &mut self.sequential.localizer,
+            &view,
+            pose.as_ref(),
+            scan.truth.as_ref(),
+        );
         let o = SeqOutcome { outcome, in_start, answer };
         self.outcomes.push(o);
         o
@@ -137,6 +142,8 @@ pub struct SeqSummary {
     /// Per start: the located scans to its first right `ok` (none within the start: `None`).
     pub to_first_fix: Vec<Option<usize>>,
     pub wrong_ok: usize,
+    /// Of `wrong_ok`, those at a truth the scan disputes ([`Outcome::disputed`]).
+    pub disputed: usize,
     pub ok: usize,
     /// Scans after a start's first right `ok`, and those of them whose pose is right.
     pub after_fix: usize,
@@ -162,6 +169,7 @@ impl SeqSummary {
             s.has_truth |= o.outcome.has_truth;
             s.ok += usize::from(ok);
             s.wrong_ok += usize::from(ok && o.outcome.has_truth && !right);
+            s.disputed += usize::from(o.outcome.disputed);
             if fixed {
                 s.after_fix += 1;
                 s.right_after_fix += usize::from(right);
@@ -210,6 +218,16 @@ impl SeqSummary {
         self.wrong_ok as f64 / self.scans.max(1) as f64
     }
 
+    /// The wrong `ok` count as the table and the summary say it: "2 (0.99 % of scans)", and how many
+    /// of them are at a disputed truth when any is wrong.
+    pub fn wrong_ok_cell(&self) -> String {
+        let mut cell = format!("{} ({:.2} % of scans", self.wrong_ok, 100.0 * self.wrong_ok_share());
+        if self.wrong_ok > 0 {
+            cell += &format!("; {}", crate::report::disputed_phrase(self.disputed));
+        }
+        cell + ")"
+    }
+
     pub fn right_after_fix_share(&self) -> Option<f64> {
         (self.after_fix > 0).then(|| self.right_after_fix as f64 / self.after_fix as f64)
     }
@@ -242,10 +260,9 @@ impl SeqSummary {
             let median = self.median_to_fix();
             let after = self.right_after_fix_share().map_or("- (no fix)".into(), |p| format!("{:.2} %", 100.0 * p));
             s += &format!(
-                "first right ok after a median of {median} located scans; within 3 on {:.1} % of starts; wrong ok {} ({:.2} % of scans); right after the first fix {after} (within {SUCCESS_POSITION} m and {SUCCESS_HEADING_DEG} deg)\n",
+                "first right ok after a median of {median} located scans; within 3 on {:.1} % of starts; wrong ok {}; right after the first fix {after} (within {SUCCESS_POSITION} m and {SUCCESS_HEADING_DEG} deg)\n",
                 100.0 * self.fixed_within(3),
-                self.wrong_ok,
-                100.0 * self.wrong_ok_share(),
+                self.wrong_ok_cell(),
             );
         }
         s

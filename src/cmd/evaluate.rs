@@ -68,6 +68,8 @@ struct Row {
     successes: usize,
     ok: usize,
     wrong_ok: usize,
+    /// Of `wrong_ok`, those at a truth the scan disputes.
+    disputed: usize,
     ambiguous: usize,
     failed: usize,
     median_us: f64,
@@ -89,6 +91,7 @@ impl Row {
             successes: summary.successes(),
             ok: summary.count(Status::Ok),
             wrong_ok: summary.wrong_ok(),
+            disputed: summary.disputed(),
             ambiguous: summary.count(Status::Ambiguous),
             failed: summary.count(Status::Failed),
             median_us,
@@ -118,7 +121,10 @@ impl Row {
             self.scans.to_string(),
             format!("{:.1} %", self.success()),
             self.ok.to_string(),
-            self.wrong_ok.to_string(),
+            match self.wrong_ok {
+                0 => "0".to_owned(),
+                n => format!("{n} ({} disputed)", self.disputed),
+            },
             self.ok_precision().map_or("-".to_owned(), |p| format!("{p:.1} %")),
             self.ambiguous.to_string(),
             self.failed.to_string(),
@@ -196,11 +202,12 @@ fn total_line(rows: &[Row]) -> String {
     let sum = |f: fn(&Row) -> usize| rows.iter().map(f).sum::<usize>();
     let (scans, successes) = (sum(|r| r.scans), sum(|r| r.successes));
     format!(
-        "total: {} logs, {scans} scans, {successes} successes ({:.1} %), ok {}, wrong ok {}, mean of the medians {:.0} us",
+        "total: {} logs, {scans} scans, {successes} successes ({:.1} %), ok {}, wrong ok {} ({}), mean of the medians {:.0} us",
         rows.len(),
         100.0 * successes as f64 / scans.max(1) as f64,
         sum(|r| r.ok),
         sum(|r| r.wrong_ok),
+        crate::report::disputed_phrase(sum(|r| r.disputed)),
         rows.iter().map(|r| r.median_us).sum::<f64>() / rows.len().max(1) as f64
     )
 }
@@ -269,6 +276,7 @@ pub fn run(a: EvaluateArgs) -> Result<()> {
         println!("{}", total_line(&rows));
         page += &markdown_table(&title, &rows);
     }
+    page += &format!("{}\n", crate::report::disputed_meaning());
     if let Some(path) = &a.markdown {
         let command: Vec<String> = std::env::args().skip(1).filter(|s| !s.is_empty()).collect();
         crate::results::write_section(path, "evaluate", &format!("gema2 {}", command.join(" ")), &page)?;
@@ -430,7 +438,7 @@ fn sequential_suite(a: &EvaluateArgs, dir: &Path, config: &Gema2Config) -> Resul
             s.starts.to_string(),
             s.median_to_fix(),
             pct(Some(s.fixed_within(3))),
-            format!("{} ({:.2} %)", s.wrong_ok, 100.0 * s.wrong_ok_share()),
+            s.wrong_ok_cell(),
             pct(s.right_after_fix_share()),
             t50,
             t99,
@@ -440,6 +448,7 @@ fn sequential_suite(a: &EvaluateArgs, dir: &Path, config: &Gema2Config) -> Resul
         println!("{}", cells.join(" | "));
         table += &format!("| {} |\n", cells.join(" | "));
     }
+    table += &format!("\n{}\n", crate::report::disputed_meaning());
     if let Some(path) = &a.markdown {
         let command: Vec<String> = std::env::args().skip(1).filter(|s| !s.is_empty()).collect();
         crate::results::write_section(path, "evaluate-sequential", &format!("gema2 {}", command.join(" ")), &table)?;

@@ -150,8 +150,13 @@ pub fn run(a: LocateArgs) -> Result<()> {
         if let Some(w) = csv.as_mut() {
             w.row(index, loc, best, micros)?;
         }
-        let outcome =
-            Outcome::of(loc.status, best.map(|h| h.pose), scan.truth, micros).with_steps(&seg.times, &loc.times);
+        let pose = best.map(|h| h.pose);
+        let outcome = Outcome::of(loc.status, pose, scan.truth, micros).with_steps(&seg.times, &loc.times).weigh_truth(
+            &mut gema2.localizer,
+            &scan.view(),
+            pose.as_ref(),
+            scan.truth.as_ref(),
+        );
         progress.add(&outcome);
         run.summary.add(outcome);
         if let Some(truth) = judge.take() {
