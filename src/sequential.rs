@@ -278,6 +278,8 @@ pub struct Kidnap {
     pub last_old_ok: usize,
     /// The wrong `ok` answers after the cut, wherever they lie.
     pub wrong_ok: usize,
+    /// Of `wrong_ok`, those at a truth the scan disputes ([`Outcome::disputed`]).
+    pub disputed: usize,
     /// The first scan after the cut with a right `ok` on the new place.
     pub new_fix: Option<usize>,
 }
@@ -296,6 +298,7 @@ impl Kidnap {
                 k.last_old_ok = i + 1;
             }
             k.wrong_ok += usize::from(!right);
+            k.disputed += usize::from(o.outcome.disputed);
             if right && k.new_fix.is_none() {
                 k.new_fix = Some(i + 1);
             }

@@ -512,6 +512,11 @@ fn kidnap_all(
     }
     let worst = results.iter().map(|r| r.last_old_ok).max().unwrap_or(0);
     let wrong: usize = results.iter().map(|r| r.wrong_ok).sum();
+    let disputed: usize = results.iter().map(|r| r.disputed).sum();
+    let wrong = match wrong {
+        0 => "0".to_string(),
+        n => format!("{n} ({disputed} disputed)"),
+    };
     let found = results.iter().filter(|r| r.new_fix.is_some_and(|f| f <= 5)).count();
     Ok(format!("{worst} / {wrong} / {found} of {}", results.len()))
 }
