@@ -64,10 +64,11 @@ pub struct Outcome {
     /// Microseconds of each search of the cascade, by [`localize::Step::index`] (0 when it
     /// did not run).
     pub searches: [f64; localize::Step::COUNT],
-    /// A wrong `ok` that the scan itself disputes: on this map, eq. 7 rates the log's true
-    /// pose more than [`DISPUTE_MARGIN`] a beam worse than the answer. The log's pose may be
-    /// out of step with its scan (a fast turn), or the map wrong there; either way the scan
-    /// favours the answer. Said beside the wrong `ok` count, never taken from it.
+    /// A wrong answer (`ok` or `ambiguous`) that the scan itself disputes: on this map, eq. 7
+    /// rates the log's true pose more than [`DISPUTE_MARGIN`] a beam worse than the answer.
+    /// The log's pose may be out of step with its scan (a fast turn), or the map wrong there;
+    /// either way the scan favours the answer. Said beside the counts of wrong answers, never
+    /// taken from them.
     pub disputed: bool,
 }
 
@@ -92,8 +93,9 @@ impl Outcome {
         }
     }
 
-    /// Judges a wrong `ok` answer at `pose` against the `truth` by the scan ([`Self::disputed`]):
-    /// eq. 7 over every beam at each, by `localizer`, which last located `scan`.
+    /// Judges a wrong answer at `pose` against the `truth` by the scan ([`Self::disputed`]): eq.
+    /// 7 over every beam at each, by `localizer`, which last located `scan`. A right answer, or
+    /// one without a pose or a truth, is not judged.
     pub fn weigh_truth(
         mut self,
         localizer: &mut localize::Localizer,
@@ -101,7 +103,7 @@ impl Outcome {
         pose: Option<&Pose>,
         truth: Option<&Pose>,
     ) -> Self {
-        if let (Status::Ok, false, Some(pose), Some(truth)) = (self.status, self.success(), pose, truth) {
+        if let (false, Some(pose), Some(truth)) = (self.success(), pose, truth) {
             let beams = scan.len();
             let at_answer = localizer.final_cost_below(scan, pose, f64::INFINITY, beams).value;
             let at_truth = localizer.final_cost_below(scan, truth, f64::INFINITY, beams).value;
@@ -182,8 +184,8 @@ impl Summary {
     }
 
     /// Wrong `ok` answers the scan disputes the truth of ([`Outcome::disputed`]).
-    pub fn disputed(&self) -> usize {
-        self.outcomes.iter().filter(|o| o.disputed).count()
+    pub fn disputed_wrong_ok(&self) -> usize {
+        self.outcomes.iter().filter(|o| o.status == Status::Ok && o.disputed).count()
     }
 
     /// Median and p99 compute time per scan, microseconds (NaN without a scan).
@@ -259,7 +261,7 @@ impl Summary {
             let error = self.mean_error().map_or("- (no success)".into(), |e| format!("{:.2} cm", 100.0 * e));
             let mut precision = self.ok_precision().map_or("- (no scan ok)".into(), |p| format!("{:.1} %", 100.0 * p));
             if self.wrong_ok() > 0 {
-                precision += &format!(" ({} wrong ok, {})", self.wrong_ok(), disputed_phrase(self.disputed()));
+                precision += &format!(" ({} wrong ok, {})", self.wrong_ok(), disputed_phrase(self.disputed_wrong_ok()));
             }
             s += &format!(
                 "success {:.1} % (within {SUCCESS_POSITION} m and {SUCCESS_HEADING_DEG} deg of the log's poses, taken as ground truth)  mean error of successes {error}  ok precision {precision}\n",
@@ -278,8 +280,8 @@ pub fn disputed_phrase(n: usize) -> String {
 /// What a disputed truth is, said under a table that counts them.
 pub fn disputed_meaning() -> String {
     format!(
-        "disputed truth: a wrong `ok` where eq. 7 over every beam rates the log's own pose more than {DISPUTE_MARGIN:.1} a beam \
-         worse than the answer (the log's pose out of step with its scan, or the map wrong there); counted in wrong ok all the same."
+        "disputed truth: a wrong answer where eq. 7 over every beam rates the log's own pose more than {DISPUTE_MARGIN:.1} a beam \
+         worse than the answer (the log's pose out of step with its scan, or the map wrong there); counted as wrong all the same."
     )
 }
 
@@ -320,7 +322,7 @@ mod tests {
         assert!(text.contains("mean error of successes 2.00 cm  ok precision 100.0 %"), "{text}");
     }
 
-    /// A wrong `ok` is disputed when the scan fits the map clearly better at the answer than
+    /// A wrong answer is disputed when the scan fits the map clearly better at it than
     /// at the log's pose, and only then: a log's pose turned 20 degrees off its scan is
     /// disputed by the right answer, and the right pose is never disputed by a wrong answer.
     #[test]
@@ -344,16 +346,24 @@ mod tests {
             let answer_off = ok(&turned, &truth).weigh_truth(&mut gema2.localizer, &view, Some(&turned), Some(&truth));
             assert!(!answer_off.disputed, "a right log pose disputed by a turned answer");
             judged += usize::from(log_off.disputed);
-            // a right answer, ambiguous or failed answers: nothing to judge
+            // a right answer, or one without a pose: nothing to judge
             let right = ok(&truth, &truth).weigh_truth(&mut gema2.localizer, &view, Some(&truth), Some(&truth));
             assert!(!right.disputed);
+            let failed = Outcome::of(Status::Failed, None, Some(turned), 1.0).weigh_truth(
+                &mut gema2.localizer,
+                &view,
+                None,
+                Some(&turned),
+            );
+            assert!(!failed.disputed);
+            // an ambiguous answer is judged as an `ok` one
             let unsure = Outcome::of(Status::Ambiguous, Some(truth), Some(turned), 1.0).weigh_truth(
                 &mut gema2.localizer,
                 &view,
                 Some(&truth),
                 Some(&turned),
             );
-            assert!(!unsure.disputed);
+            assert_eq!(unsure.disputed, log_off.disputed);
         }
         assert!(judged >= 18, "only {judged} of 20 turned log poses disputed");
     }

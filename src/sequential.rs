@@ -145,9 +145,11 @@ pub struct SeqSummary {
     /// Of `wrong_ok`, those at a truth the scan disputes ([`Outcome::disputed`]).
     pub disputed: usize,
     pub ok: usize,
-    /// Scans after a start's first right `ok`, and those of them whose pose is right.
+    /// Scans after a start's first right `ok`, those of them whose pose is right, and those
+    /// whose pose is wrong at a truth the scan disputes.
     pub after_fix: usize,
     pub right_after_fix: usize,
+    pub disputed_after_fix: usize,
     /// Microseconds of the scans that tracked (no global search).
     pub tracking_micros: Vec<f64>,
     pub all_micros: Vec<f64>,
@@ -169,10 +171,11 @@ impl SeqSummary {
             s.has_truth |= o.outcome.has_truth;
             s.ok += usize::from(ok);
             s.wrong_ok += usize::from(ok && o.outcome.has_truth && !right);
-            s.disputed += usize::from(o.outcome.disputed);
+            s.disputed += usize::from(ok && o.outcome.disputed);
             if fixed {
                 s.after_fix += 1;
                 s.right_after_fix += usize::from(right);
+                s.disputed_after_fix += usize::from(o.outcome.disputed);
             } else if ok && right {
                 fixed = true;
                 if let Some(last) = s.to_first_fix.last_mut() {
@@ -232,6 +235,19 @@ impl SeqSummary {
         (self.after_fix > 0).then(|| self.right_after_fix as f64 / self.after_fix as f64)
     }
 
+    /// The share right after the first fix as the table and the summary say it: "97.38 %",
+    /// and how many of the wrong poses are at a disputed truth when any is wrong; `-` with no
+    /// fix.
+    pub fn right_after_fix_cell(&self, decimals: usize) -> String {
+        let Some(share) = self.right_after_fix_share() else { return "- (no fix)".into() };
+        let mut cell = format!("{:.decimals$} %", 100.0 * share);
+        let wrong = self.after_fix - self.right_after_fix;
+        if wrong > 0 {
+            cell += &format!(" ({} of {wrong} wrong at a disputed truth)", self.disputed_after_fix);
+        }
+        cell
+    }
+
     pub fn tracking(&self) -> Option<(f64, f64)> {
         let mut v = self.tracking_micros.clone();
         (!v.is_empty()).then(|| (quantile(&mut v, 0.5), quantile(&mut v, 0.99)))
@@ -258,9 +274,9 @@ impl SeqSummary {
         }
         if self.has_truth {
             let median = self.median_to_fix();
-            let after = self.right_after_fix_share().map_or("- (no fix)".into(), |p| format!("{:.2} %", 100.0 * p));
+            let after = self.right_after_fix_cell(2);
             s += &format!(
-                "first right ok after a median of {median} located scans; within 3 on {:.1} % of starts; wrong ok {}; right after the first fix {after} (within {SUCCESS_POSITION} m and {SUCCESS_HEADING_DEG} deg)\n",
+                "first right ok after a median of {median} located scans; within 3 on {:.1} % of starts; wrong ok {}; right after the first fix (within {SUCCESS_POSITION} m and {SUCCESS_HEADING_DEG} deg) {after}\n",
                 100.0 * self.fixed_within(3),
                 self.wrong_ok_cell(),
             );
@@ -298,7 +314,7 @@ impl Kidnap {
                 k.last_old_ok = i + 1;
             }
             k.wrong_ok += usize::from(!right);
-            k.disputed += usize::from(o.outcome.disputed);
+            k.disputed += usize::from(!right && o.outcome.disputed);
             if right && k.new_fix.is_none() {
                 k.new_fix = Some(i + 1);
             }

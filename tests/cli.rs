@@ -805,9 +805,10 @@ fn shared_carmen_log(test: &str, name: &str) -> Option<tempfile::TempDir> {
     Some(dir)
 }
 
-/// A table cell such as `97.8 %` as a number.
+/// A table cell such as `97.8 %`, or `97.8 % (...)`, as a number.
 fn percent(cell: &str, row: &[String]) -> f64 {
-    cell.trim_end_matches(" %").parse().unwrap_or_else(|_| panic!("{cell:?} in {row:?}"))
+    let number = cell.split(" %").next().unwrap_or(cell);
+    number.parse().unwrap_or_else(|_| panic!("{cell:?} in {row:?}"))
 }
 
 /// `gema2 evaluate --sequential`'s row for `log` in `dir`: odometry drawn as issue 48 draws it
