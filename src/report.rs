@@ -8,8 +8,8 @@ pub const SUCCESS_POSITION: f64 = 0.30;
 /// ...and heading within this, degrees.
 pub const SUCCESS_HEADING_DEG: f64 = 5.0;
 
-/// How much worse than a wrong `ok` answer, by eq. 7 per beam over every beam, the log's true
-/// pose must explain the scan for the scan to dispute the truth ([`Outcome::disputed`]). A right
+/// How much worse than a wrong answer, by eq. 7 per beam over every beam, the log's true pose
+/// must explain the scan for the scan to dispute the truth ([`Outcome::disputed`]). A right
 /// pose costs about 1-2 a beam on a map built from a log; a whole unit more is a clear
 /// difference, where twins along a corridor differ by tenths.
 pub const DISPUTE_MARGIN: f64 = 1.0;
@@ -272,7 +272,7 @@ impl Summary {
     }
 }
 
-/// "N at a disputed truth", said beside a count of wrong `ok` answers.
+/// "N at a disputed truth", said beside a count of wrong answers.
 pub fn disputed_phrase(n: usize) -> String {
     format!("{n} at a disputed truth")
 }
