@@ -277,6 +277,24 @@ pub fn disputed_phrase(n: usize) -> String {
     format!("{n} at a disputed truth")
 }
 
+/// The line naming the scans (by index in the log) whose wrong `ok` is at a disputed truth,
+/// the first 20 of them; empty with none.
+pub fn disputed_scans(scans: &[usize]) -> String {
+    const LISTED: usize = 20;
+    if scans.is_empty() {
+        return String::new();
+    }
+    let listed: Vec<String> = scans.iter().take(LISTED).map(|s| s.to_string()).collect();
+    let more = match scans.len().saturating_sub(LISTED) {
+        0 => String::new(),
+        n => format!(" and {n} more"),
+    };
+    format!(
+        "wrong ok at a disputed truth (the log's pose explains the scan more than {DISPUTE_MARGIN:.1} a beam worse): scans {}{more}\n",
+        listed.join(", ")
+    )
+}
+
 /// What a disputed truth is, said under a table that counts them.
 pub fn disputed_meaning() -> String {
     format!(
@@ -320,6 +338,14 @@ mod tests {
         s.add(Outcome::of(Status::Ok, Some(laser::pose(1.02, 2.0, 0.3)), Some(truth), 11.0));
         let text = s.render();
         assert!(text.contains("mean error of successes 2.00 cm  ok precision 100.0 %"), "{text}");
+    }
+
+    #[test]
+    fn the_disputed_scans_are_listed_up_to_twenty() {
+        assert_eq!(disputed_scans(&[]), "");
+        assert!(disputed_scans(&[397, 399]).ends_with("scans 397, 399\n"));
+        let many: Vec<usize> = (0..23).collect();
+        assert!(disputed_scans(&many).ends_with("18, 19 and 3 more\n"));
     }
 
     /// A wrong answer is disputed when the scan fits the map clearly better at it than

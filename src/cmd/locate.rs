@@ -103,6 +103,7 @@ pub fn run(a: LocateArgs) -> Result<()> {
         dumped: false,
         summary: Summary::default(),
         diagnosis: Default::default(),
+        disputed: Vec::new(),
         unreadable: None,
         malformed: Malformed::of(source.unit),
         path: source.path.clone(),
@@ -158,6 +159,9 @@ pub fn run(a: LocateArgs) -> Result<()> {
             scan.truth.as_ref(),
         );
         progress.add(&outcome);
+        if outcome.status == Status::Ok && outcome.disputed {
+            run.disputed.push(index);
+        }
         run.summary.add(outcome);
         if let Some(truth) = judge.take() {
             crate::diagnose::dump_judgement(&gema2.localizer.judge(&scan.view(), &truth), &truth);
@@ -256,6 +260,8 @@ struct Run {
     dumped: bool,
     summary: Summary,
     diagnosis: crate::diagnose::Diagnosis,
+    /// The scans whose wrong `ok` is at a truth the scan disputes.
+    disputed: Vec<usize>,
     unreadable: Option<anyhow::Error>,
     malformed: Malformed,
     /// The log or bag read.
@@ -271,6 +277,7 @@ impl Run {
         // with no scan there is nothing to sum up: the error below says why
         if located > 0 {
             print!("{}", self.summary.render());
+            print!("{}", crate::report::disputed_scans(&self.disputed));
         }
         if a.diagnose {
             print!("{}", self.diagnosis.render());
@@ -318,6 +325,7 @@ fn run_sequential(a: LocateArgs) -> Result<()> {
     let mut csv = a.out.as_deref().map(CsvOut::create).transpose()?;
     let mut malformed = Malformed::of(source.unit);
     let mut summary = Summary::default();
+    let mut disputed = Vec::new();
     let mut stopped = None;
     let mut progress = crate::progress::Progress::of_log("", &source.path, source.total);
     for (index, item) in selected_items(&a, source.scans) {
@@ -341,6 +349,9 @@ fn run_sequential(a: LocateArgs) -> Result<()> {
             w.sequential_row(index, &o)?;
         }
         progress.add(&o.outcome);
+        if o.answer.status == Status::Ok && o.outcome.disputed {
+            disputed.push(index);
+        }
         summary.add(o.outcome);
     }
     progress.finish();
@@ -350,6 +361,7 @@ fn run_sequential(a: LocateArgs) -> Result<()> {
     if !summary.outcomes.is_empty() {
         print!("{}", summary.render());
         print!("{}", run.summary().render());
+        print!("{}", crate::report::disputed_scans(&disputed));
     }
     if let Some(e) = stopped {
         anyhow::bail!("{e}; stopped there, after {} scans", summary.outcomes.len());
