@@ -143,6 +143,11 @@ impl Outcome {
     pub fn success(&self) -> bool {
         self.error.is_some_and(|(d, a)| d <= SUCCESS_POSITION && a <= SUCCESS_HEADING_DEG)
     }
+
+    /// A wrong `ok` at a truth the scan disputes ([`Self::disputed`]).
+    pub fn disputed_ok(&self) -> bool {
+        self.status == Status::Ok && self.disputed
+    }
 }
 
 #[derive(Default)]
@@ -185,7 +190,7 @@ impl Summary {
 
     /// Wrong `ok` answers the scan disputes the truth of ([`Outcome::disputed`]).
     pub fn disputed_wrong_ok(&self) -> usize {
-        self.outcomes.iter().filter(|o| o.status == Status::Ok && o.disputed).count()
+        self.outcomes.iter().filter(|o| o.disputed_ok()).count()
     }
 
     /// Median and p99 compute time per scan, microseconds (NaN without a scan).
@@ -275,6 +280,15 @@ impl Summary {
 /// "N at a disputed truth", said beside a count of wrong answers.
 pub fn disputed_phrase(n: usize) -> String {
     format!("{n} at a disputed truth")
+}
+
+/// A count of wrong answers as a table cell: "0", or "3 (2 disputed)" with how many of them
+/// are at a disputed truth.
+pub fn wrong_cell(wrong: usize, disputed: usize) -> String {
+    match wrong {
+        0 => "0".to_owned(),
+        n => format!("{n} ({disputed} disputed)"),
+    }
 }
 
 /// The line naming the scans (by index in the log) whose wrong `ok` is at a disputed truth,

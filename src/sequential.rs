@@ -171,7 +171,7 @@ impl SeqSummary {
             s.has_truth |= o.outcome.has_truth;
             s.ok += usize::from(ok);
             s.wrong_ok += usize::from(ok && o.outcome.has_truth && !right);
-            s.disputed += usize::from(ok && o.outcome.disputed);
+            s.disputed += usize::from(o.outcome.disputed_ok());
             if fixed {
                 s.after_fix += 1;
                 s.right_after_fix += usize::from(right);
@@ -314,7 +314,7 @@ impl Kidnap {
                 k.last_old_ok = i + 1;
             }
             k.wrong_ok += usize::from(!right);
-            k.disputed += usize::from(!right && o.outcome.disputed);
+            k.disputed += usize::from(o.outcome.disputed_ok());
             if right && k.new_fix.is_none() {
                 k.new_fix = Some(i + 1);
             }

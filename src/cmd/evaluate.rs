@@ -121,10 +121,7 @@ impl Row {
             self.scans.to_string(),
             format!("{:.1} %", self.success()),
             self.ok.to_string(),
-            match self.wrong_ok {
-                0 => "0".to_owned(),
-                n => format!("{n} ({} disputed)", self.disputed),
-            },
+            crate::report::wrong_cell(self.wrong_ok, self.disputed),
             self.ok_precision().map_or("-".to_owned(), |p| format!("{p:.1} %")),
             self.ambiguous.to_string(),
             self.failed.to_string(),
@@ -513,10 +510,7 @@ fn kidnap_all(
     let worst = results.iter().map(|r| r.last_old_ok).max().unwrap_or(0);
     let wrong: usize = results.iter().map(|r| r.wrong_ok).sum();
     let disputed: usize = results.iter().map(|r| r.disputed).sum();
-    let wrong = match wrong {
-        0 => "0".to_string(),
-        n => format!("{n} ({disputed} disputed)"),
-    };
+    let wrong = crate::report::wrong_cell(wrong, disputed);
     let found = results.iter().filter(|r| r.new_fix.is_some_and(|f| f <= 5)).count();
     Ok(format!("{worst} / {wrong} / {found} of {}", results.len()))
 }

@@ -159,7 +159,7 @@ pub fn run(a: LocateArgs) -> Result<()> {
             scan.truth.as_ref(),
         );
         progress.add(&outcome);
-        if outcome.status == Status::Ok && outcome.disputed {
+        if outcome.disputed_ok() {
             run.disputed.push(index);
         }
         run.summary.add(outcome);
@@ -349,7 +349,7 @@ fn run_sequential(a: LocateArgs) -> Result<()> {
             w.sequential_row(index, &o)?;
         }
         progress.add(&o.outcome);
-        if o.answer.status == Status::Ok && o.outcome.disputed {
+        if o.outcome.disputed_ok() {
             disputed.push(index);
         }
         summary.add(o.outcome);
