@@ -217,6 +217,13 @@ impl LocalizerConfig {
         ),
         setting!(
             LocalizerConfig,
+            "edge_step_deg",
+            Range::Degrees,
+            "beams at most this far apart passing a wall's end are not seen through it (0: off; drawn maps)",
+            cost.edge_step
+        ),
+        setting!(
+            LocalizerConfig,
             "clutter_min",
             Range::NonNegative,
             "less than this short of a wall is misalignment, not furniture, metres",

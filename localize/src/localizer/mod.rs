@@ -336,6 +336,7 @@ impl Localizer {
         if self.model.map.is_approximate() {
             c.front_cap = self.config.front_cap_approximate;
             c.clutter_share = self.config.clutter_share_approximate;
+            c.edge_step = 0.0;
         }
         c
     }
