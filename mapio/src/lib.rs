@@ -16,4 +16,4 @@ pub mod trace;
 
 pub use load::{load_map, LoadError};
 pub use occupancy::Occupancy;
-pub use ros::{GridError, OccupancyGrid, RosMapError, SurveyGrid};
+pub use ros::{roughness, GridError, OccupancyGrid, RosMapError, SurveyGrid, ROUGH_SHARE, ROUGH_WALL_CELLS};

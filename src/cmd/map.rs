@@ -162,6 +162,19 @@ fn import_ros(yaml: &Path, trace: mapio::trace::TraceConfig, sigma: Option<f64>,
         grid.height,
         grid.resolution
     );
+    let rough = grid.roughness(&trace);
+    eprintln!(
+        "  accuracy {} m; {:.0} % of the traced wall length in pieces under {} cells",
+        map.sigma,
+        100.0 * rough,
+        mapio::ROUGH_WALL_CELLS
+    );
+    if sigma.is_none() && rough > mapio::ROUGH_SHARE && !map.is_approximate() {
+        eprintln!(
+            "  a rough grid, as a SLAM map of a real building is (a plan drawn into a grid: under 3 %): \
+             --sigma 0.1 declares the map approximate, as a map built from scans is (docs/maps.md)"
+        );
+    }
     Ok(())
 }
 
