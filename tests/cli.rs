@@ -656,14 +656,37 @@ fn a_ros_map_of_a_plan_localizes_its_scans() {
     ];
     let out = gema2(&sim);
     assert!(out.status.success(), "{}", text(&out.stderr));
-    // --map takes the YAML file as it is
+    // --map takes the YAML file as it is: a plan drawn into a grid is not rough
     let out = gema2(&["locate", "--map", &p("grid.yaml"), "--log", &p("a.log")]);
     assert!(out.status.success(), "{}", text(&out.stderr));
+    assert!(!text(&out.stderr).contains("rough grid"), "{}", text(&out.stderr));
     let err = text(&out.stdout);
     assert!(number_after(&err, "success") >= 85.0, "{err}");
     // import-ros writes the same walls as a JSON map, with the free space the grid shows
     let out = gema2(&["map", "import-ros", &p("grid.yaml"), "--out", &p("grid.json")]);
     assert!(out.status.success(), "{}", text(&out.stderr));
+    let said = text(&out.stderr);
+    assert!(said.contains("pieces under 10 cells") && !said.contains("--sigma 0.1"), "{said}");
+    // the same grid cluttered with blobs of 3 x 3 cells, as a SLAM map's noise: rough, and
+    // both commands say what makes it approximate
+    let mut grid = mapio::OccupancyGrid::load(Path::new(&p("grid.yaml"))).unwrap();
+    let (w, h) = (grid.width, grid.height);
+    for r in (10..h.saturating_sub(10)).step_by(15) {
+        for c in (10..w.saturating_sub(10)).step_by(15) {
+            for k in 0..9 {
+                grid.cells[(r + k / 3) * w + c + k % 3] = mapio::ros::Cell::Occupied;
+            }
+        }
+    }
+    grid.save(Path::new(&p("rough.yaml"))).unwrap();
+    let out = gema2(&["map", "import-ros", &p("rough.yaml"), "--out", &p("rough.json")]);
+    assert!(out.status.success() && text(&out.stderr).contains("--sigma 0.1"), "{}", text(&out.stderr));
+    let out = gema2(&["locate", "--map", &p("rough.yaml"), "--log", &p("a.log"), "--every", "10"]);
+    assert!(out.status.success() && text(&out.stderr).contains("is a rough grid"), "{}", text(&out.stderr));
+    let out = gema2(&["map", "import-ros", &p("rough.yaml"), "--sigma", "0.1", "--out", &p("rough.json")]);
+    assert!(out.status.success() && !text(&out.stderr).contains("--sigma 0.1"), "{}", text(&out.stderr));
+    let out = gema2(&["locate", "--map", &p("rough.json"), "--log", &p("a.log"), "--every", "10"]);
+    assert!(out.status.success() && !text(&out.stderr).contains("rough grid"), "{}", text(&out.stderr));
     let out = gema2(&["map", "info", &p("grid.json")]);
     let info = text(&out.stdout);
     assert!(info.contains("accuracy (sigma) 0.025 m") && info.contains("free space seen"), "{info}");

@@ -45,6 +45,17 @@ pub fn load_map(spec: &str) -> Result<WallMap, LoadError> {
     Ok(WallMap::load(path)?)
 }
 
+/// How rough `spec`'s grid is ([`crate::roughness`]), when `spec` names a ROS map_server map
+/// that reads; `None` for any other map.
+pub fn grid_roughness(spec: &str) -> Option<f64> {
+    let path = Path::new(spec);
+    if !(is_ros_map(path) && path.exists()) {
+        return None;
+    }
+    let grid = OccupancyGrid::load(path).ok()?;
+    Some(grid.roughness(&TraceConfig::default()))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

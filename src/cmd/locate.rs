@@ -92,6 +92,7 @@ pub fn run(a: LocateArgs) -> Result<()> {
         return run_sequential(a);
     }
     let map = mapio::load_map(&a.map)?;
+    super::map::note_rough_grid(&a.map, &map);
     let config = configs(&a)?;
     let loc_cfg = config.localizer;
     let model = Arc::new(MapModel::new(map, &config.map_corners));
@@ -317,6 +318,7 @@ fn run_sequential(a: LocateArgs) -> Result<()> {
         anyhow::bail!("--diagnose and --dump-scan locate single scans: leave out --sequential");
     }
     let map = mapio::load_map(&a.map)?;
+    super::map::note_rough_grid(&a.map, &map);
     let config = configs(&a)?;
     let model = Arc::new(MapModel::new(map, &config.map_corners));
     let mut run = SeqRun::new(model, &config, a.seq.restart_every);

@@ -178,6 +178,24 @@ fn import_ros(yaml: &Path, trace: mapio::trace::TraceConfig, sigma: Option<f64>,
     Ok(())
 }
 
+/// Says so on stderr when `spec`, read as `map`, is a rough ROS grid ([`mapio::roughness`])
+/// taken at the accuracy of a drawn one: a SLAM map of a real building often locates better
+/// approximate, which `map import-ros --sigma` makes it.
+pub(crate) fn note_rough_grid(spec: &str, map: &map::WallMap) {
+    if map.is_approximate() {
+        return;
+    }
+    if let Some(rough) = mapio::grid_roughness(spec).filter(|&r| r > mapio::ROUGH_SHARE) {
+        eprintln!(
+            "note: {spec} is a rough grid ({:.0} % of its traced wall length in pieces under {} cells), as a SLAM \
+             map of a real building is, read as exact to half a cell; `gema2 map import-ros {spec} --sigma 0.1 \
+             --out map.json` and `--map map.json` make it approximate, as a built map (docs/maps.md)",
+            100.0 * rough,
+            mapio::ROUGH_WALL_CELLS
+        );
+    }
+}
+
 /// `map export-ros`: the walls drawn as a map_server grid.
 fn export_ros(map: &str, resolution: f64, thickness: f64, out: &Path) -> Result<()> {
     let m = mapio::load_map(map)?;
