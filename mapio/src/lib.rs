@@ -14,6 +14,6 @@ pub mod occupancy;
 pub mod ros;
 pub mod trace;
 
-pub use load::{grid_roughness, load_map, LoadError};
+pub use load::{load_map, load_map_with_roughness, LoadError};
 pub use occupancy::Occupancy;
 pub use ros::{roughness, GridError, OccupancyGrid, RosMapError, SurveyGrid, ROUGH_SHARE, ROUGH_WALL_CELLS};

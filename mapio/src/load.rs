@@ -24,9 +24,15 @@ pub enum LoadError {
 /// `.yaml` file naming a PGM image), traced into walls with the defaults of
 /// [`OccupancyGrid::to_wall_map`].
 pub fn load_map(spec: &str) -> Result<WallMap, LoadError> {
+    load_map_with_roughness(spec).map(|(map, _)| map)
+}
+
+/// [`load_map`], and for a ROS map_server map how rough its grid is ([`crate::roughness`]),
+/// from the one tracing that made its walls; `None` for any other map.
+pub fn load_map_with_roughness(spec: &str) -> Result<(WallMap, Option<f64>), LoadError> {
     if !Path::new(spec).exists() {
         if let Some(m) = bundled(spec) {
-            return Ok(m?);
+            return Ok((m?, None));
         }
     }
     let path = Path::new(spec);
@@ -38,22 +44,12 @@ pub fn load_map(spec: &str) -> Result<WallMap, LoadError> {
     }
     if is_ros_map(path) {
         let grid = OccupancyGrid::load(path)?;
-        return grid
-            .to_wall_map(&TraceConfig::default(), None)
-            .map_err(|problem| LoadError::Trace { path: path.to_owned(), problem });
+        let (map, rough) = grid
+            .to_wall_map_with_roughness(&TraceConfig::default(), None)
+            .map_err(|problem| LoadError::Trace { path: path.to_owned(), problem })?;
+        return Ok((map, Some(rough)));
     }
-    Ok(WallMap::load(path)?)
-}
-
-/// How rough `spec`'s grid is ([`crate::roughness`]), when `spec` names a ROS map_server map
-/// that reads; `None` for any other map.
-pub fn grid_roughness(spec: &str) -> Option<f64> {
-    let path = Path::new(spec);
-    if !(is_ros_map(path) && path.exists()) {
-        return None;
-    }
-    let grid = OccupancyGrid::load(path).ok()?;
-    Some(grid.roughness(&TraceConfig::default()))
+    Ok((WallMap::load(path)?, None))
 }
 
 #[cfg(test)]

@@ -35,7 +35,8 @@ pub const ROUGH_SHARE: f64 = 0.15;
 
 /// The share of the traced walls' length (`[x1, y1, x2, y2]` in cells) in walls shorter than
 /// [`ROUGH_WALL_CELLS`]: near 0 where the grid draws long straight surfaces, a fifth or more
-/// where a SLAM map's walls come out jagged, speckled and broken ([`OccupancyGrid::roughness`]).
+/// where a SLAM map's walls come out jagged, speckled and broken
+/// ([`OccupancyGrid::to_wall_map_with_roughness`]).
 /// 0 with no walls.
 pub fn roughness(traced: &[[f64; 4]]) -> f64 {
     let lengths = traced.iter().map(|w| (w[2] - w[0]).hypot(w[3] - w[1]));
@@ -448,11 +449,6 @@ impl OccupancyGrid {
         Some(OccupancyGrid { resolution, origin, width, height, cells })
     }
 
-    /// How rough the grid's surfaces are ([`roughness`] of its walls traced with `trace`).
-    pub fn roughness(&self, trace: &TraceConfig) -> f64 {
-        roughness(&crate::trace::walls(&Raster { width: self.width, height: self.height, cells: &self.cells }, trace))
-    }
-
     /// Where lattice point (i, j) (a cell corner, in cells) lies in the map frame.
     fn corner(&self, i: f64, j: f64) -> Point2<f64> {
         let (s, c) = self.origin[2].sin_cos();
@@ -466,8 +462,20 @@ impl OccupancyGrid {
     /// `None`: how far a surface may lie from where its face is drawn; a SLAM map's walls are
     /// often worse, and should say so: [`roughness`] tells such a grid).
     pub fn to_wall_map(&self, trace: &TraceConfig, sigma: Option<f64>) -> Result<WallMap, GridError> {
+        self.to_wall_map_with_roughness(trace, sigma).map(|(map, _)| map)
+    }
+
+    /// [`to_wall_map`](Self::to_wall_map), and how rough the grid's surfaces are
+    /// ([`roughness`] of the walls traced), from one tracing.
+    pub fn to_wall_map_with_roughness(
+        &self,
+        trace: &TraceConfig,
+        sigma: Option<f64>,
+    ) -> Result<(WallMap, f64), GridError> {
         let raster = Raster { width: self.width, height: self.height, cells: &self.cells };
-        let walls: Vec<Wall> = crate::trace::walls(&raster, trace)
+        let traced = crate::trace::walls(&raster, trace);
+        let rough = roughness(&traced);
+        let walls: Vec<Wall> = traced
             .into_iter()
             .map(|w| {
                 let (a, b) = (self.corner(w[0], w[1]), self.corner(w[2], w[3]));
@@ -500,7 +508,7 @@ impl OccupancyGrid {
             }
             seen
         });
-        Ok(WallMap { walls: walls.into(), sigma: sigma.unwrap_or(self.resolution / 2.0), seen_free })
+        Ok((WallMap { walls: walls.into(), sigma: sigma.unwrap_or(self.resolution / 2.0), seen_free }, rough))
     }
 
     /// A grid of `resolution` metres drawing `map`: a cell is occupied when a wall passes
@@ -844,8 +852,8 @@ mod tests {
     fn a_grid_drawn_straight_is_smooth_and_a_cluttered_one_rough() {
         let room = WallMap::new(Wall::rectangle(0.0, 0.0, 12.0, 8.0).to_vec());
         let straight = OccupancyGrid::from_walls(&room, 0.05, 0.1).unwrap();
-        let trace = TraceConfig::default();
-        assert!(straight.roughness(&trace) < 0.05, "{}", straight.roughness(&trace));
+        let rough_of = |g: &OccupancyGrid| g.to_wall_map_with_roughness(&TraceConfig::default(), None).unwrap().1;
+        assert!(rough_of(&straight) < 0.05, "{}", rough_of(&straight));
         // blobs of 3 x 3 cells (smaller ones are traced as noise)
         let mut rough = straight.clone();
         let w = rough.width;
@@ -856,7 +864,7 @@ mod tests {
                 }
             }
         }
-        assert!(rough.roughness(&trace) > ROUGH_SHARE, "{}", rough.roughness(&trace));
+        assert!(rough_of(&rough) > ROUGH_SHARE, "{}", rough_of(&rough));
         assert_eq!(roughness(&[]), 0.0);
     }
 

@@ -91,8 +91,8 @@ pub fn run(a: LocateArgs) -> Result<()> {
     if a.seq.sequential {
         return run_sequential(a);
     }
-    let map = mapio::load_map(&a.map)?;
-    super::map::note_rough_grid(&a.map, &map);
+    let (map, rough) = mapio::load_map_with_roughness(&a.map)?;
+    super::map::note_rough_grid(&a.map, &map, rough);
     let config = configs(&a)?;
     let loc_cfg = config.localizer;
     let model = Arc::new(MapModel::new(map, &config.map_corners));
@@ -317,8 +317,8 @@ fn run_sequential(a: LocateArgs) -> Result<()> {
     if a.diagnose || !a.dump_scan.is_empty() {
         anyhow::bail!("--diagnose and --dump-scan locate single scans: leave out --sequential");
     }
-    let map = mapio::load_map(&a.map)?;
-    super::map::note_rough_grid(&a.map, &map);
+    let (map, rough) = mapio::load_map_with_roughness(&a.map)?;
+    super::map::note_rough_grid(&a.map, &map, rough);
     let config = configs(&a)?;
     let model = Arc::new(MapModel::new(map, &config.map_corners));
     let mut run = SeqRun::new(model, &config, a.seq.restart_every);

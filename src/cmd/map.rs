@@ -151,7 +151,8 @@ fn import_ros(yaml: &Path, trace: mapio::trace::TraceConfig, sigma: Option<f64>,
         bail!("--sigma {s}: a map's accuracy is a non-negative number of metres");
     }
     let grid = mapio::OccupancyGrid::load(yaml)?;
-    let map = grid.to_wall_map(&trace, sigma).map_err(|e| anyhow::anyhow!("{}: {e}", yaml.display()))?;
+    let (map, rough) =
+        grid.to_wall_map_with_roughness(&trace, sigma).map_err(|e| anyhow::anyhow!("{}: {e}", yaml.display()))?;
     let name = yaml.file_stem().map_or("map".into(), |s| s.to_string_lossy());
     std::fs::write(out, map.to_json(&name)).with_context(|| format!("writing {}", out.display()))?;
     eprintln!(
@@ -162,7 +163,6 @@ fn import_ros(yaml: &Path, trace: mapio::trace::TraceConfig, sigma: Option<f64>,
         grid.height,
         grid.resolution
     );
-    let rough = grid.roughness(&trace);
     eprintln!(
         "  accuracy {} m; {:.0} % of the traced wall length in pieces under {} cells",
         map.sigma,
@@ -178,14 +178,15 @@ fn import_ros(yaml: &Path, trace: mapio::trace::TraceConfig, sigma: Option<f64>,
     Ok(())
 }
 
-/// Says so on stderr when `spec`, read as `map`, is a rough ROS grid ([`mapio::roughness`])
-/// taken at the accuracy of a drawn one: a SLAM map of a real building often locates better
-/// approximate, which `map import-ros --sigma` makes it.
-pub(crate) fn note_rough_grid(spec: &str, map: &map::WallMap) {
+/// Says so on stderr when `spec`, read as `map`, is a ROS grid of roughness `rough`
+/// ([`mapio::roughness`]; `None`: no grid) above [`mapio::ROUGH_SHARE`], taken at the accuracy
+/// of a drawn one: a SLAM map of a real building often locates better approximate, which `map
+/// import-ros --sigma` makes it.
+pub(crate) fn note_rough_grid(spec: &str, map: &map::WallMap, rough: Option<f64>) {
     if map.is_approximate() {
         return;
     }
-    if let Some(rough) = mapio::grid_roughness(spec).filter(|&r| r > mapio::ROUGH_SHARE) {
+    if let Some(rough) = rough.filter(|&r| r > mapio::ROUGH_SHARE) {
         eprintln!(
             "note: {spec} is a rough grid ({:.0} % of its traced wall length in pieces under {} cells), as a SLAM \
              map of a real building is, read as exact to half a cell; `gema2 map import-ros {spec} --sigma 0.1 \
