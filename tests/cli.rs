@@ -611,6 +611,21 @@ fn evaluate_locates_each_half_of_a_real_log_against_a_map_of_the_other() {
     assert!(table.contains("total: 2 logs, 40 scans"), "{table}");
     // 20 scans of a room map well enough to find most of the other 20 in it
     assert!(number_after(&table, "successes (") >= 50.0, "{table}");
+    // the log itself in place of its folder: the same rows
+    let out = gema2(&["evaluate", "--no-sim", "--carmen", log.to_str().unwrap()]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    // the counts, not the times
+    let total =
+        |t: &str| t.lines().find(|l| l.starts_with("total:")).and_then(|l| l.split(", mean").next()).map(str::to_owned);
+    assert_eq!(total(&text(&out.stdout)), total(&table), "{}", text(&out.stdout));
+    let notes = dir.path().join("notes.txt");
+    std::fs::write(&notes, "not a log").unwrap();
+    for (path, said) in
+        [(notes, "neither a folder nor a CARMEN log"), (dir.path().join("gone.log"), "no such folder or log")]
+    {
+        let out = gema2(&["evaluate", "--no-sim", "--carmen", path.to_str().unwrap()]);
+        assert!(!out.status.success() && text(&out.stderr).contains(said), "{}", text(&out.stderr));
+    }
     // and through the grids of the same halves
     let out = gema2(&["evaluate", "--no-sim", "--grids", "--carmen", dir.path().to_str().unwrap()]);
     assert!(out.status.success(), "{}", text(&out.stderr));
@@ -872,6 +887,52 @@ fn a_track_whose_odometry_is_off_past_the_window_stays_right_on_a_real_log() {
     let row = sequential_row(dir.path(), "edmonton-corrected");
     assert!(row[5].starts_with("0 "), "a wrong ok: {row:?}");
     assert!(percent(&row[6], &row) >= 97.0, "fewer right poses after the first fix: {row:?}");
+}
+
+/// `evaluate --sequential --kidnaps N` splices stretches of a walked log from places 10 m
+/// apart, and names each splice that missed a bar (an `ok` on the old place after the second
+/// scan, or no right `ok` within 5) on a line of its own under the log's row: as many lines
+/// as the kidnap column's counts leave out.
+#[test]
+fn kidnaps_are_counted_and_each_missed_splice_is_named() {
+    let dir = tempfile::tempdir().unwrap();
+    let log = dir.path().join("walk.log");
+    let log_s = log.to_str().unwrap();
+    // furniture the map lacks: today 1 of 4 splices finds a right `ok` within 5 scans
+    let sim = [
+        "sim",
+        "--map",
+        "warehouse",
+        "--scenario",
+        "furniture",
+        "--seed",
+        "3",
+        "--trajectory",
+        "--step",
+        "0.5",
+        "--scans",
+        "160",
+    ];
+    let out = gema2(&sim.iter().copied().chain(["--out", log_s]).collect::<Vec<_>>());
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let out = gema2(&["evaluate", "--no-sim", "--carmen", log_s, "--sequential", "--kidnaps", "4"]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let table = text(&out.stdout);
+    let row = table.lines().find(|l| l.starts_with("walk |")).unwrap_or_else(|| panic!("no row: {table}"));
+    // "last ok on the old place / wrong ok after the cut / right ok within 5"
+    let cell = row.rsplit('|').next().unwrap_or_default().trim().to_string();
+    let words: Vec<&str> = cell.split_whitespace().collect();
+    assert!(words.len() >= 7 && words[1] == "/" && words[words.len() - 2] == "of", "{cell}");
+    let (found, tried): (usize, usize) =
+        (words[words.len() - 3].parse().unwrap(), words[words.len() - 1].parse().unwrap());
+    assert!(tried >= 1 && found <= tried, "{cell}");
+    let named: Vec<&str> = table.lines().filter(|l| l.starts_with("  kidnap ")).collect();
+    for line in &named {
+        assert!(line.contains("then of lines") && line.contains("first right ok"), "{line}");
+    }
+    // each splice without a right ok within 5 is named; a named one may also have missed the
+    // other bar
+    assert!(named.len() >= tried - found && named.len() <= tried, "{cell}\n{}", named.join("\n"));
 }
 
 /// `gema2 odometry` fits the alphas a walked log's odometry was drawn with, and prints the

@@ -31,8 +31,9 @@ const WORKER: &str = include_str!("../../scripts/amcl_worker.py");
 
 #[derive(Args)]
 pub struct AmclArgs {
-    /// A folder of SLAM-corrected CARMEN logs (e.g. ../shared/datasets/carmen): each log's odd
-    /// scans against a map built from its even ones, as `gema2 evaluate --carmen` locates them.
+    /// A folder of SLAM-corrected CARMEN logs (e.g. ../shared/datasets/carmen), or one such
+    /// log: each log's odd scans against a map built from its even ones, as `gema2 evaluate
+    /// --carmen` locates them.
     #[arg(long, conflicts_with_all = ["log", "map"])]
     pub carmen: Option<PathBuf>,
     /// One log (CARMEN text, e.g. `gema2 sim --trajectory`), every scan, against --map.

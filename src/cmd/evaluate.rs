@@ -34,7 +34,7 @@ pub struct EvaluateArgs {
     #[arg(long)]
     pub no_sim: bool,
     /// A folder of SLAM-corrected CARMEN logs (`*.log`, `*.log.gz`, e.g.
-    /// ../shared/datasets/carmen): each is located twice, its odd scans against a map built
+    /// ../shared/datasets/carmen), or one such log: each is located twice, its odd scans against a map built
     /// from its even ones (`gema2 map build` defaults) and the other way round.
     #[arg(long)]
     pub carmen: Option<PathBuf>,
@@ -329,17 +329,30 @@ fn locate_all(name: &str, map: &WallMap, config: &Gema2Config, scans: &[LaserSca
     summary
 }
 
-/// The CARMEN logs in `dir`, by name.
+/// Whether `path` is named as a CARMEN log: `*.log` or `*.log.gz`.
+fn is_carmen_log(path: &Path) -> bool {
+    let name = path.file_name().and_then(|n| n.to_str()).unwrap_or("");
+    name.ends_with(".log") || name.ends_with(".log.gz")
+}
+
+/// The CARMEN logs `--carmen` names: the logs in the folder `dir`, by name, or `dir` itself
+/// when it is one log.
 pub(crate) fn carmen_logs(dir: &Path) -> Result<Vec<PathBuf>> {
+    if !dir.is_dir() {
+        if !dir.exists() {
+            bail!("{}: no such folder or log", dir.display());
+        }
+        if !is_carmen_log(dir) {
+            bail!("{}: neither a folder nor a CARMEN log (*.log, *.log.gz)", dir.display());
+        }
+        return Ok(vec![dir.to_owned()]);
+    }
     let mut logs: Vec<PathBuf> = std::fs::read_dir(dir)
         .with_context(|| format!("reading {}", dir.display()))?
         .map(|e| e.map(|e| e.path()))
         .collect::<Result<_, _>>()
         .with_context(|| format!("reading {}", dir.display()))?;
-    logs.retain(|p| {
-        let name = p.file_name().and_then(|n| n.to_str()).unwrap_or("");
-        name.ends_with(".log") || name.ends_with(".log.gz")
-    });
+    logs.retain(|p| is_carmen_log(p));
     logs.sort();
     if logs.is_empty() {
         bail!("{}: no CARMEN log (*.log, *.log.gz)", dir.display());
@@ -424,7 +437,7 @@ fn sequential_suite(a: &EvaluateArgs, dir: &Path, config: &Gema2Config) -> Resul
             progress.add(&o.outcome);
         }
         progress.finish();
-        let kidnaps = kidnap_all(&odd, a.kidnaps, &model, config, noise, a.seq.odom_seed)?;
+        let (kidnaps, missed) = kidnap_all(&odd, a.kidnaps, &model, config, noise, a.seq.odom_seed)?;
         let s = run.summary();
         let pct = |v: Option<f64>| v.map_or("-".to_string(), |v| format!("{:.1} %", 100.0 * v));
         let (t50, t99) =
@@ -443,6 +456,9 @@ fn sequential_suite(a: &EvaluateArgs, dir: &Path, config: &Gema2Config) -> Resul
             kidnaps,
         ];
         println!("{}", cells.join(" | "));
+        for m in missed {
+            println!("  {m}");
+        }
         table += &format!("| {} |\n", cells.join(" | "));
     }
     table += &format!("\n{}\n", crate::report::disputed_meaning());
@@ -456,7 +472,8 @@ fn sequential_suite(a: &EvaluateArgs, dir: &Path, config: &Gema2Config) -> Resul
 /// `--kidnaps N`: N splices of two stretches of the log's `odd` scans at least 10 m apart, each
 /// located by a fresh sequential localizer on `model` with no odometry across the cut.
 /// Says, over the splices, the latest scan after a cut with a wrong `ok` and how many found a
-/// right `ok` within 5 scans of it.
+/// right `ok` within 5 scans of it; and, a line each, the splices that missed either bar
+/// (an `ok` on the old place after the second scan, no right `ok` within 5), to look into.
 fn kidnap_all(
     odd: &[&acquire::LogScan],
     count: usize,
@@ -464,15 +481,15 @@ fn kidnap_all(
     config: &Gema2Config,
     noise: Option<laser::motion::OdometryNoise>,
     seed: u64,
-) -> Result<String> {
+) -> Result<(String, Vec<String>)> {
     use crate::sequential::{Kidnap, Odometry, SeqRun};
     const STRETCH: usize = 20;
     if count == 0 {
-        return Ok("-".into());
+        return Ok(("-".into(), Vec::new()));
     }
     let n = odd.len();
     let place = |k: usize| odd[k].scan.truth.map(|t| t.translation.vector);
-    let mut results = Vec::new();
+    let (mut results, mut missed) = (Vec::new(), Vec::new());
     for k in 0..count {
         let i = k * n / count;
         if i + STRETCH > n {
@@ -502,17 +519,29 @@ fn kidnap_all(
             }
         }
         let Some(old) = odd[i + STRETCH - 1].scan.truth else { continue };
-        results.push(Kidnap::judge(&after, &old));
+        let judged = Kidnap::judge(&after, &old);
+        if judged.last_old_ok > 2 || judged.new_fix.is_none_or(|f| f > 5) {
+            missed.push(format!(
+                "kidnap {k}: the scans of log lines {}-{}, then of lines {}-{}: last ok on the old place {}, first right ok {}",
+                odd[i].line,
+                odd[i + STRETCH - 1].line,
+                odd[j].line,
+                odd[j + STRETCH - 1].line,
+                judged.last_old_ok,
+                judged.new_fix.map_or("none".to_string(), |f| format!("{f} scans after the cut")),
+            ));
+        }
+        results.push(judged);
     }
     if results.is_empty() {
-        return Ok("- (no two stretches 10 m apart)".into());
+        return Ok(("- (no two stretches 10 m apart)".into(), missed));
     }
     let worst = results.iter().map(|r| r.last_old_ok).max().unwrap_or(0);
     let wrong: usize = results.iter().map(|r| r.wrong_ok).sum();
     let disputed: usize = results.iter().map(|r| r.disputed).sum();
     let wrong = crate::report::wrong_cell(wrong, disputed);
     let found = results.iter().filter(|r| r.new_fix.is_some_and(|f| f <= 5)).count();
-    Ok(format!("{worst} / {wrong} / {found} of {}", results.len()))
+    Ok((format!("{worst} / {wrong} / {found} of {}", results.len()), missed))
 }
 
 /// The log's odometry for the `m`-th scan after a cut from scan `a` to scan `b` of `odd`: where
