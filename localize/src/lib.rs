@@ -25,7 +25,7 @@ pub use gema2::{Gema2, Gema2Config};
 pub use grid::{GridConfig, FROM_GRID};
 pub use localizer::{
     same_pose, FirstLook, Hypothesis, Judgement, Localization, Localizer, LocalizerConfig, LocateTimes, Ran, Status,
-    Step, CASCADE,
+    Step, TwinLook, CASCADE,
 };
 pub use map::model::{self, MapModel};
 pub use matching::pose_from_corners;

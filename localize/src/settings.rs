@@ -162,6 +162,41 @@ impl LocalizerConfig {
             "first look: most beams through walls to confirm its pose",
             first_look.max_through
         ),
+        setting!(
+            LocalizerConfig,
+            "first_twin_corners",
+            Range::Count,
+            "first look: scan corners searched for a twin of a pose it is sure of (0: no twin look)",
+            first_look.twins.corners
+        ),
+        setting!(
+            LocalizerConfig,
+            "first_twin_bound",
+            Range::Positive,
+            "twin look: poses the screen rates at most this many times the sure pose are searched",
+            first_look.twins.bound
+        ),
+        setting!(
+            LocalizerConfig,
+            "first_twin_prescreened",
+            Range::Count,
+            "twin look: candidates kept by the first screening pass",
+            first_look.twins.prescreened
+        ),
+        setting!(
+            LocalizerConfig,
+            "first_twin_screened",
+            Range::Count,
+            "twin look: hypotheses kept by the screen",
+            first_look.twins.screened
+        ),
+        setting!(
+            LocalizerConfig,
+            "first_twin_refined",
+            Range::Count,
+            "twin look: hypotheses refined",
+            first_look.twins.refined
+        ),
         setting!(LocalizerConfig, "coarse_beams", Range::Count, "beams of the coarse cost", coarse_beams),
         setting!(
             LocalizerConfig,

@@ -34,7 +34,7 @@ impl Localizer {
         // poses, then every point for the `keep` best
         let screen = Screen::new(&model, &cfg);
         let mut offers = Offers {
-            pass: FirstPass::new(screen, self.screen_few.len(), keep, &mut self.best_sums),
+            pass: FirstPass::new(screen, self.screen_few.len(), keep, &mut self.best_sums).capped(self.twin_limit),
             few: &self.screen_few,
             order: &mut self.screen_order,
             candidates: &mut self.candidates,

@@ -28,7 +28,7 @@ mod ranking;
 mod screen;
 
 pub use cascade::{Ran, Step, StepSpec, When, CASCADE};
-pub use config::{FirstLook, LocalizerConfig};
+pub use config::{FirstLook, LocalizerConfig, TwinLook};
 pub use screen::same_pose;
 
 use crate::cost::{cost, cost_below, Cost, CostConfig};
@@ -199,6 +199,9 @@ pub struct Localizer {
     screen_order: Vec<ScreenPoint>,
     /// The first screening pass's best sums.
     best_sums: Lowest,
+    /// The highest sum the first screening pass lets through: finite only while the
+    /// [`TwinLook`] runs.
+    twin_limit: f64,
     /// The lowest coarse costs so far ([`Localizer::coarse_cost`]).
     coarse_lowest: Lowest,
     refine_pts: Vec<Point2<f64>>,
@@ -232,6 +235,7 @@ impl Localizer {
             screen_few: Vec::new(),
             screen_order: Vec::new(),
             best_sums: Lowest::default(),
+            twin_limit: f64::INFINITY,
             coarse_lowest: Lowest::default(),
             refine_pts: Vec::new(),
             polish_pts: Vec::new(),
@@ -533,6 +537,26 @@ impl Localizer {
         ran
     }
 
+    /// The [`TwinLook`] after a first look that confirmed an `ok` pose: the best few scan
+    /// corners' candidates the screen rates nearly as well as that pose, searched and ranked
+    /// with the first look's hypotheses. A twin it finds makes the scan `ambiguous` (or, were
+    /// it cheaper, the answer); with none the scan settles as before.
+    fn look_for_twins(&mut self, scan: &ScanView<'_>, seg: &Segmentation) {
+        let twins = self.config.first_look.twins;
+        if twins.corners == 0 {
+            return;
+        }
+        let Some(best) = self.out.hypotheses.first().map(|h| h.pose) else { return };
+        let model = Arc::clone(&self.model);
+        let Some(sum) = Screen::new(&model, &self.config).sum(&best, &self.screen_few, f64::INFINITY) else {
+            return;
+        };
+        self.twin_limit = twins.bound * sum;
+        self.search(scan, seg, Source::Corners(twins.corners), twins.prescreened, twins.screened, twins.refined);
+        self.twin_limit = f64::INFINITY;
+        self.rank();
+    }
+
     /// One step of the cascade with its budgets, then [`rank`](Self::rank); false when it
     /// found nothing to search (the loose slide with no loose line).
     fn run_step(&mut self, step: Step, scan: &ScanView<'_>, seg: &Segmentation) -> bool {
@@ -549,6 +573,9 @@ impl Localizer {
                     first.refined,
                 );
                 self.rank();
+                if self.out.status == Status::Ok && first.confirms(self.out.status, self.out.hypotheses.first()) {
+                    self.look_for_twins(scan, seg);
+                }
             }
             Step::FullSearch => {
                 self.search(scan, seg, Source::Corners(cfg.corners_tried), cfg.prescreened, cfg.screened, cfg.refined);

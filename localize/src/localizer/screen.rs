@@ -35,6 +35,12 @@ impl<'a> FirstPass<'a> {
         FirstPass { screen, points, keep, limit, best }
     }
 
+    /// The pass letting through no pose whose sum over its points exceeds `limit`.
+    pub(super) fn capped(mut self, limit: f64) -> Self {
+        self.limit = self.limit.min(limit);
+        self
+    }
+
     /// The pose's mean screen cost over `points` (the pass's points, in any order), or `None`
     /// when it cannot be among the `keep` best. The kept set does not depend on the order;
     /// the time does: the sooner a wrong pose's large misses come, the sooner it is dropped.
