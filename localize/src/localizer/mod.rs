@@ -130,11 +130,13 @@ pub struct Localization {
     /// Ranked hypotheses, best first.
     pub hypotheses: Vec<Hypothesis>,
     pub status: Status,
-    /// Poses produced by corner matching (after the arm test, before screening).
+    /// Poses produced by corner matching (after the arm test, before screening), in the last
+    /// search; after the first look, in its own (not its twin look's).
     pub candidates: usize,
     pub times: LocateTimes,
-    /// With `record_candidates`: every candidate (pose, screening score, scan corner index),
-    /// in screening order.
+    /// With `record_candidates`: every candidate (pose, screening score, scan corner index) of
+    /// the last search, in screening order; after the first look, its own, then its twin
+    /// look's.
     pub all_candidates: Vec<(Pose, f64, u16)>,
     /// The distance between poses along a wall that the slide search used, when it ran.
     pub slide_step: Option<f64>,
@@ -551,9 +553,14 @@ impl Localizer {
         let Some(sum) = Screen::new(&model, &self.config).sum(&best, &self.screen_few, f64::INFINITY) else {
             return;
         };
+        // the scan's candidates stay the first look's, those recorded gain the twin look's
+        let (candidates, mut recorded) = (self.out.candidates, std::mem::take(&mut self.out.all_candidates));
         self.twin_limit = twins.bound * sum;
         self.search(scan, seg, Source::Corners(twins.corners), twins.prescreened, twins.screened, twins.refined);
         self.twin_limit = f64::INFINITY;
+        self.out.candidates = candidates;
+        recorded.append(&mut self.out.all_candidates);
+        self.out.all_candidates = recorded;
         self.rank();
     }
 
