@@ -553,6 +553,8 @@ impl Localizer {
         let Some(sum) = Screen::new(&model, &self.config).sum(&best, &self.screen_few, f64::INFINITY) else {
             return;
         };
+        // a pose that fits to the last bit would bar its own twin, which fits as well, not better
+        let sum = sum.max(TWIN_SUM_FLOOR * self.screen_few.len() as f64);
         // the scan's candidates stay the first look's, those recorded gain the twin look's
         let (candidates, mut recorded) = (self.out.candidates, std::mem::take(&mut self.out.all_candidates));
         self.twin_limit = twins.bound * sum;
@@ -782,6 +784,11 @@ impl Localizer {
         }
     }
 }
+
+/// The least screen sum a point of the [`TwinLook`]'s bound counts, square metres: (5 mm)²,
+/// below any sensor's noise, so that a confirmed pose that fits exactly still lets through a
+/// twin that fits as well.
+const TWIN_SUM_FLOOR: f64 = 2.5e-5;
 
 /// Where a search's candidate poses come from.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
