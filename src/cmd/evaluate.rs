@@ -34,8 +34,9 @@ pub struct EvaluateArgs {
     #[arg(long)]
     pub no_sim: bool,
     /// A folder of SLAM-corrected CARMEN logs (`*.log`, `*.log.gz`, e.g.
-    /// ../shared/datasets/carmen), or one such log: each is located twice, its odd scans against a map built
-    /// from its even ones (`gema2 map build` defaults) and the other way round.
+    /// ../shared/datasets/carmen), or one such log: each is located twice, its odd scans
+    /// against a map built from its even ones (`gema2 map build` defaults) and the other way
+    /// round.
     #[arg(long)]
     pub carmen: Option<PathBuf>,
     /// With --carmen: also locate each half through the occupancy grid of the other half

@@ -33,8 +33,12 @@ impl Localizer {
         // screening in two passes: one in `prescreen_step` points (`screen_few`) for all
         // poses, then every point for the `keep` best
         let screen = Screen::new(&model, &cfg);
+        let below = match source {
+            Source::Twins { below, .. } => below,
+            _ => f64::INFINITY,
+        };
         let mut offers = Offers {
-            pass: FirstPass::new(screen, self.screen_few.len(), keep, &mut self.best_sums).capped(self.twin_limit),
+            pass: FirstPass::new(screen, self.screen_few.len(), keep, &mut self.best_sums).capped(below),
             few: &self.screen_few,
             order: &mut self.screen_order,
             candidates: &mut self.candidates,
@@ -44,7 +48,9 @@ impl Localizer {
         // tracking: the robot is within r of its last pose
         let prior = self.prior.zip(cfg.track_radius);
         match source {
-            Source::Corners(corners) => corner_candidates(&mut offers, seg, &model, &cfg, prior, corners),
+            Source::Corners(corners) | Source::Twins { corners, .. } => {
+                corner_candidates(&mut offers, seg, &model, &cfg, prior, corners)
+            }
             Source::Slides => {
                 slide_lines(&self.lines, &cfg.slide, &mut self.slide_lines);
                 let step = slide_candidates(&mut offers, &self.lines, &self.slide_lines, &model, &cfg, prior);

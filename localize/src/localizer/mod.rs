@@ -201,9 +201,6 @@ pub struct Localizer {
     screen_order: Vec<ScreenPoint>,
     /// The first screening pass's best sums.
     best_sums: Lowest,
-    /// The highest sum the first screening pass lets through: finite only while the
-    /// [`TwinLook`] runs.
-    twin_limit: f64,
     /// The lowest coarse costs so far ([`Localizer::coarse_cost`]).
     coarse_lowest: Lowest,
     refine_pts: Vec<Point2<f64>>,
@@ -237,7 +234,6 @@ impl Localizer {
             screen_few: Vec::new(),
             screen_order: Vec::new(),
             best_sums: Lowest::default(),
-            twin_limit: f64::INFINITY,
             coarse_lowest: Lowest::default(),
             refine_pts: Vec::new(),
             polish_pts: Vec::new(),
@@ -557,9 +553,8 @@ impl Localizer {
         let sum = sum.max(TWIN_SUM_FLOOR * self.screen_few.len() as f64);
         // the scan's candidates stay the first look's, those recorded gain the twin look's
         let (candidates, mut recorded) = (self.out.candidates, std::mem::take(&mut self.out.all_candidates));
-        self.twin_limit = twins.bound * sum;
-        self.search(scan, seg, Source::Corners(twins.corners), twins.prescreened, twins.screened, twins.refined);
-        self.twin_limit = f64::INFINITY;
+        let source = Source::Twins { corners: twins.corners, below: twins.bound * sum };
+        self.search(scan, seg, source, twins.prescreened, twins.screened, twins.refined);
         self.out.candidates = candidates;
         recorded.append(&mut self.out.all_candidates);
         self.out.all_candidates = recorded;
@@ -791,10 +786,13 @@ impl Localizer {
 const TWIN_SUM_FLOOR: f64 = 2.5e-5;
 
 /// Where a search's candidate poses come from.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 enum Source {
     /// The given number of best scan corners, matched against similar map corners (eqs. 5-6).
     Corners(usize),
+    /// As `Corners`, keeping only the poses whose first-pass screen sum is at most `below`:
+    /// the [`TwinLook`]'s rivals of a pose the first look is sure of.
+    Twins { corners: usize, below: f64 },
     /// The longest scan lines laid along every map wall ([`crate::slide`]).
     Slides,
     /// The lines `Slides` passed over for their uncertain direction
