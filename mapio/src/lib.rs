@@ -2,18 +2,21 @@
 //! [`map::WallMap`], and a wall map back into what other tools read.
 //!
 //! One job: map formats and map making. ROS map_server grids read and written ([`ros`]), a
-//! grid's occupied faces traced into walls ([`trace`]), the evidence a survey's beams leave per
-//! cell for building a map from scans ([`occupancy`]), and [`load_map`], which takes whatever a
-//! user names on a command line.
+//! grid's occupied faces traced into walls ([`trace`]), a wall map built from scans at known
+//! poses ([`build`], over the evidence per cell of [`occupancy`]), and [`load_map`], which
+//! takes whatever a user names on a command line.
 //!
-//! Depends on `map` (the model it produces) and `laser`; nothing of the pipeline. Inside the
-//! crate: `trace` <- `ros` <- `load`; `occupancy` stands alone.
+//! Depends on `map` (the model it produces), `laser`, and `segment` (the scans' lines a map is
+//! built from); nothing of the pipeline. Inside the crate: `trace` <- `ros` <- `load`;
+//! `occupancy` <- `build`.
 
+pub mod build;
 pub mod load;
 pub mod occupancy;
 pub mod ros;
 pub mod trace;
 
+pub use build::{build, BuildConfig, BuildError, Built, Survey};
 pub use load::{load_map, load_map_with_roughness, LoadError};
 pub use occupancy::Occupancy;
 pub use ros::{roughness, GridError, OccupancyGrid, RosMapError, SurveyGrid, ROUGH_SHARE, ROUGH_WALL_CELLS};

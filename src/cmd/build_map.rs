@@ -1,22 +1,14 @@
 //! `gema2 map build`: a wall map from the scans of a log whose poses are true (a
-//! SLAM-corrected log). Every scan's lines are placed in the world; lines on the same wall are
-//! clustered (direction, then offset) and their extents merged into candidate walls. A second
-//! pass over the scans counts, per cell, the scans that hit it and the scans that saw through
-//! it ([`Occupancy`]); of each candidate, the best seen first, the map keeps the parts where
-//! something stayed and that no wall kept before covers. People and doors that moved are
-//! seen through and go; a door frame seen by one scan stays. Evaluate on scans the map was not
-//! built from (`--every 2` here, `locate --every 2 --offset 1` there).
+//! SLAM-corrected log), as [`mapio::build`] makes it. Evaluate on scans the map was not built
+//! from (`--every 2` here, `locate --every 2 --offset 1` there).
 
 use super::scans::{Source, SourceError};
 use super::Malformed;
 use anyhow::{bail, Context, Result};
 use clap::Args;
 use laser::{LaserScan, Pose, Reading};
-use map::{SeenFree, Wall, WallMap};
-use mapio::Occupancy;
+use mapio::{BuildConfig, BuildError, Built};
 use nalgebra::{Point2, Vector2};
-use segment::{LineVisibilitySegmenter, Segmenter, SegmenterConfig};
-use std::f64::consts::PI;
 use std::path::{Path, PathBuf};
 
 #[derive(Args)]
@@ -61,26 +53,12 @@ pub struct BuildArgs {
     /// Also write the survey as a ROS map_server occupancy grid (this YAML and a PGM beside
     /// it): each beam's end adds evidence of a wall, the cells it crossed evidence of free
     /// space, in log odds, as a grid-mapping SLAM does at these poses. For AMCL, or to compare
-    /// a grid traced into walls (`--map GRID.yaml`) with the map built here.
+    /// a grid made into walls (`--map GRID.yaml`) with the map built here.
     #[arg(long)]
     pub grid: Option<PathBuf>,
     /// Cell of `--grid`, metres.
     #[arg(long, default_value_t = 0.05)]
     pub grid_cell: f64,
-}
-
-/// A scan's line in the world, with its direction either way along it.
-#[derive(Clone, Copy)]
-struct Observed {
-    a: Point2<f64>,
-    b: Point2<f64>,
-    angle: f64,
-}
-
-impl Observed {
-    fn new(a: Point2<f64>, b: Point2<f64>) -> Self {
-        Observed { a, b, angle: Wall { a, b }.direction() }
-    }
 }
 
 /// Refuses a length flag that is not a non-negative number of metres.
@@ -111,6 +89,18 @@ impl BuildArgs {
         let parsed = <Command as clap::Parser>::try_parse_from(argv.iter().map(std::ffi::OsStr::new).chain([log]))?;
         Ok(parsed.args)
     }
+
+    /// How the map is built.
+    fn config(&self) -> BuildConfig {
+        BuildConfig {
+            max_range: self.max_range,
+            min_length: self.min_length,
+            occupancy_cell: self.occupancy_cell,
+            min_support: self.min_support,
+            sigma: self.sigma,
+            seen_cell: self.seen_cell,
+        }
+    }
 }
 
 pub fn run(a: BuildArgs) -> Result<()> {
@@ -121,7 +111,7 @@ pub fn run(a: BuildArgs) -> Result<()> {
         eprintln!("{}: a {} x {} grid of {} m", path.display(), grid.width, grid.height, grid.resolution);
     }
     let mut malformed = Malformed::default();
-    let Built { map, scans, lines } = build(&a, &mut malformed)?;
+    let Built { map, scans, lines, .. } = build(&a, &mut malformed)?;
     std::fs::write(&a.out, map.to_json("built")).with_context(|| format!("writing {}", a.out.display()))?;
     eprintln!("{}: {} walls from {lines} lines of {scans} scans", a.out.display(), map.walls.len());
     // nothing in a CARMEN log tells corrected poses from raw odometry (corrected logs overwrite
@@ -143,50 +133,58 @@ pub fn run(a: BuildArgs) -> Result<()> {
     Ok(())
 }
 
-/// The map of `a`'s scans, with how many scans and scan lines it was built from. Malformed
-/// laser lines are left out, added to `malformed`.
+/// The map of `a`'s scans ([`mapio::build`]). Malformed laser lines are left out, added to
+/// `malformed`.
 pub fn build(a: &BuildArgs, malformed: &mut Malformed) -> Result<Built> {
     // before the first pass over the log, which may be long
     check_metres("--min-length", a.min_length)?;
     check_metres("--seen-cell", a.seen_cell)?;
     check_metres("--occupancy-cell", a.occupancy_cell)?;
-    let mut seg = LineVisibilitySegmenter::new(SegmenterConfig::default());
-    let mut seen = Vec::new();
-    let mut scans = 0;
-    let progress = crate::progress::Progress::of_log("surveying ", a.source_path(), None);
-    for item in survey(a)? {
-        progress.set(scans as u64, 0, 0);
-        let (scan, truth) = match item? {
-            Surveyed::Scan(item, truth) => (item.scan, truth),
-            Surveyed::Malformed(e) => {
-                malformed.add(e);
-                continue;
-            }
-        };
-        scans += 1;
-        for l in &seg.segment(&scan.view()).lines {
-            if l.start.coords.norm().max(l.end.coords.norm()) > a.max_range || l.length() < a.min_length {
-                continue;
-            }
-            seen.push(Observed::new(truth * l.start, truth * l.end));
-        }
+    let mut log = LogSurvey { a, malformed, walks: 0 };
+    let built = mapio::build(&mut log, &a.config()).map_err(|e| match e {
+        BuildError::Survey(e) => e,
+        e => anyhow::anyhow!("{}: {e}", a.source_path().display()),
+    })?;
+    if let Some(cell) = built.coarser_cell {
+        eprintln!("  occupancy cells of {cell:.3} m instead of {} m: the survey spans too much", a.occupancy_cell);
     }
-    progress.finish();
-    let candidates = merge(&mut seen);
-    let (walls, seen_free) = second_pass(a, &candidates)?;
-    if walls.is_empty() {
-        bail!("{}: no wall was seen (seen twice, with --occupancy-cell 0)", a.source_path().display());
-    }
-    // a map from scans is good to about a decimetre (pose corrections, merging)
-    Ok(Built { map: WallMap { walls: walls.into(), sigma: a.sigma, seen_free }, scans, lines: seen.len() })
+    Ok(built)
 }
 
-/// A map built from a survey, with what it was built from.
-pub struct Built {
-    pub map: WallMap,
-    /// Scans and scan lines used.
-    pub scans: usize,
-    pub lines: usize,
+/// The log's scans (every `every`-th from `offset`) with their true poses, walked once for
+/// each pass of the build: the first counts the malformed lines and shows progress.
+struct LogSurvey<'a> {
+    a: &'a BuildArgs,
+    malformed: &'a mut Malformed,
+    walks: usize,
+}
+
+impl mapio::Survey for LogSurvey<'_> {
+    type Error = anyhow::Error;
+
+    fn walk(&mut self, each: &mut dyn FnMut(&LaserScan, &Pose)) -> Result<()> {
+        let first = self.walks == 0;
+        self.walks += 1;
+        let progress = first.then(|| crate::progress::Progress::of_log("surveying ", self.a.source_path(), None));
+        let mut scans = 0;
+        for item in survey(self.a)? {
+            match item? {
+                Surveyed::Scan(item, truth) => {
+                    each(&item.scan, &truth);
+                    scans += 1;
+                    if let Some(p) = progress.as_ref() {
+                        p.set(scans as u64, 0, 0);
+                    }
+                }
+                Surveyed::Malformed(e) if first => self.malformed.add(e),
+                Surveyed::Malformed(_) => {}
+            }
+        }
+        if let Some(p) = progress {
+            p.finish();
+        }
+        Ok(())
+    }
 }
 
 /// The occupancy grid of the survey's beams ([`mapio::SurveyGrid`]): returns up to
@@ -266,202 +264,4 @@ fn scan_of(item: Result<Surveyed>) -> Result<Option<(LaserScan, Pose)>> {
         Surveyed::Scan(item, truth) => Some((item.scan, truth)),
         Surveyed::Malformed(_) => None,
     })
-}
-
-/// Gaps along a wall up to this long (metres) are bridged, between sightings and along the
-/// occupancy grid: a doorway is wider.
-const BRIDGE: f64 = 0.3;
-
-/// Shorter walls are left out of the map (metres): a few beams' worth, too short to give a
-/// corner a direction.
-const SHORTEST_WALL: f64 = 0.2;
-
-/// A wall merged from sightings, with how many scan lines saw it.
-struct Candidate {
-    wall: Wall,
-    support: usize,
-}
-
-/// The second pass over the survey (so no beam is kept in memory). It gives the walls kept of
-/// `candidates` and the cells the valid beams crossed, from the sensor to a little short of
-/// what each hit, on a raster over the candidates' bounds and a metre around them (`None`
-/// when that raster would be too large).
-///
-/// Of each candidate, the parts where something stayed are kept ([`Occupancy`]); without an
-/// occupancy grid, a candidate is kept whole when enough lines saw it and it is long enough
-/// not to be a fragment.
-fn second_pass(a: &BuildArgs, candidates: &[Candidate]) -> Result<(Vec<Wall>, Option<SeenFree>)> {
-    let all: Vec<Wall> = candidates.iter().map(|c| c.wall).collect();
-    if all.is_empty() {
-        return Ok((all, None));
-    }
-    let (lo, hi) = map::map::bounds_of(&all);
-    let (lo, hi) = (lo - Vector2::new(1.0, 1.0), hi + Vector2::new(1.0, 1.0));
-    let mut seen = if a.seen_cell > 0.0 { SeenFree::covering(lo, hi, a.seen_cell) } else { None };
-    let mut occupancy = if a.occupancy_cell > 0.0 { Occupancy::covering(lo, hi, a.occupancy_cell) } else { None };
-    if let Some(o) = occupancy.as_ref().filter(|o| o.cell() > a.occupancy_cell) {
-        eprintln!(
-            "  occupancy cells of {:.3} m instead of {} m: the survey spans too much",
-            o.cell(),
-            a.occupancy_cell
-        );
-    }
-    let short = 2.0 * a.sigma.max(0.05);
-    if seen.is_some() || occupancy.is_some() {
-        for item in survey(a)? {
-            let Some((scan, truth)) = scan_of(item)? else { continue };
-            let view = scan.view();
-            let sensor = truth * Point2::origin();
-            if let Some(o) = occupancy.as_mut() {
-                o.next_scan();
-            }
-            for i in 0..view.len() {
-                let Reading::Valid(d) = view.reading(i) else { continue };
-                let angle = view.geometry.angle(i);
-                let along = |t: f64| truth * (Point2::new(angle.cos(), angle.sin()) * t);
-                if let Some(s) = seen.as_mut() {
-                    if d > short {
-                        s.mark_ray(sensor, along(d - short));
-                    }
-                }
-                if let Some(o) = occupancy.as_mut() {
-                    // far hits are too sparse and too blurred to count; the beam still saw
-                    // through everything before them
-                    if d <= a.max_range {
-                        o.add_beam(sensor, along(d), a.sigma);
-                    } else {
-                        o.pass_through(sensor, along(d - a.sigma));
-                    }
-                }
-            }
-        }
-    }
-    let walls = match occupancy.as_mut() {
-        Some(o) => {
-            // the best seen first: each wall then adds only what those before it left out
-            let mut order: Vec<&Candidate> = candidates.iter().collect();
-            order.sort_by(|p, q| q.support.cmp(&p.support).then(q.wall.length().total_cmp(&p.wall.length())));
-            let mut walls = Vec::new();
-            for c in order {
-                for part in o.static_parts(&c.wall, BRIDGE) {
-                    if part.length() >= SHORTEST_WALL {
-                        o.draw(&part);
-                        walls.push(part);
-                    }
-                }
-            }
-            walls
-        }
-        None => candidates
-            .iter()
-            .filter(|c| c.support >= a.min_support && c.wall.length() >= SHORTEST_WALL.max(0.3))
-            .map(|c| c.wall)
-            .collect(),
-    };
-    Ok((walls, seen))
-}
-
-/// Clusters lines by direction (within 2 degrees) and then offset (within 6 cm), and merges
-/// each cluster's extents along the line, bridging gaps up to [`BRIDGE`].
-fn merge(seen: &mut [Observed]) -> Vec<Candidate> {
-    // directions live on a circle of circumference pi: cut it at the widest empty gap, so a wall
-    // seen at 0.1 and 179.9 degrees stays one cluster
-    seen.sort_by(|p, q| p.angle.total_cmp(&q.angle));
-    if seen.len() > 1 {
-        let n = seen.len();
-        let gap =
-            |k: usize| if k == 0 { seen[0].angle + PI - seen[n - 1].angle } else { seen[k].angle - seen[k - 1].angle };
-        let cut = (0..n).max_by(|&a, &b| gap(a).total_cmp(&gap(b))).unwrap_or(0);
-        seen.rotate_left(cut);
-        for o in seen[n - cut..].iter_mut() {
-            o.angle += PI;
-        }
-    }
-    let mut walls = Vec::new();
-    let mut start = 0;
-    while start < seen.len() {
-        let mut end = start + 1;
-        // no chaining: a direction cluster spans at most 3 degrees
-        while end < seen.len() && seen[end].angle - seen[start].angle < 3f64.to_radians() {
-            end += 1;
-        }
-        let group = &seen[start..end];
-        let mean = group.iter().map(|o| o.angle).sum::<f64>() / group.len() as f64;
-        let dir = Vector2::new(mean.cos(), mean.sin());
-        let normal = Vector2::new(-dir.y, dir.x);
-        let mut by_offset: Vec<(f64, usize)> =
-            group.iter().enumerate().map(|(i, o)| (normal.dot(&((o.a.coords + o.b.coords) / 2.0)), i)).collect();
-        by_offset.sort_by(|p, q| p.0.total_cmp(&q.0));
-        let mut k = 0;
-        while k < by_offset.len() {
-            let mut m = k + 1;
-            while m < by_offset.len() && by_offset[m].0 - by_offset[m - 1].0 < 0.06 {
-                m += 1;
-            }
-            // the wall's line: a total least squares fit of its members' endpoints
-            let mut moments = segment::fit::Moments::default();
-            for &(_, i) in &by_offset[k..m] {
-                moments.add(group[i].a);
-                moments.add(group[i].b);
-            }
-            let Some(fit) = moments.fit() else {
-                k = m;
-                continue;
-            };
-            let (d, c) = (fit.direction, fit.centroid);
-            let mut spans: Vec<(f64, f64)> = by_offset[k..m]
-                .iter()
-                .map(|&(_, i)| {
-                    let (s0, s1) = ((group[i].a - c).dot(&d), (group[i].b - c).dot(&d));
-                    (s0.min(s1), s0.max(s1))
-                })
-                .collect();
-            spans.sort_by(|p, q| p.0.total_cmp(&q.0));
-            let (mut lo, mut hi, mut support) = (spans[0].0, spans[0].1, 1);
-            let flush = |lo: f64, hi: f64, support: usize, walls: &mut Vec<Candidate>| {
-                let (p, q) = (c + d * lo, c + d * hi);
-                walls.push(Candidate { wall: Wall::new(p.x, p.y, q.x, q.y), support });
-            };
-            for &(s0, s1) in spans.iter().skip(1) {
-                if s0 <= hi + BRIDGE {
-                    hi = hi.max(s1);
-                    support += 1;
-                } else {
-                    flush(lo, hi, support, &mut walls);
-                    (lo, hi, support) = (s0, s1, 1);
-                }
-            }
-            flush(lo, hi, support, &mut walls);
-            k = m;
-        }
-        start = end;
-    }
-    walls
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    fn obs(x1: f64, y1: f64, x2: f64, y2: f64) -> Observed {
-        Observed::new(Point2::new(x1, y1), Point2::new(x2, y2))
-    }
-
-    #[test]
-    fn overlapping_sightings_of_a_wall_merge_and_lone_ones_go() {
-        let mut seen = vec![
-            obs(0.0, 1.0, 2.0, 1.01),
-            obs(1.8, 1.0, 4.0, 0.99),
-            obs(4.2, 1.0, 5.0, 1.0),
-            // a parallel wall 0.5 m away, seen once: clutter
-            obs(0.0, 1.5, 3.0, 1.5),
-            // a perpendicular wall seen twice
-            obs(5.0, 1.0, 5.0, 3.0),
-            obs(5.01, 2.5, 5.0, 4.0),
-        ];
-        let walls: Vec<Wall> = merge(&mut seen).into_iter().filter(|c| c.support >= 2).map(|c| c.wall).collect();
-        assert_eq!(walls.len(), 2, "{walls:?}");
-        let long = walls.iter().map(|w| w.length()).fold(0.0, f64::max);
-        assert!((long - 5.0).abs() < 0.05, "{long}");
-    }
 }
