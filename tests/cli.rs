@@ -694,14 +694,28 @@ fn a_ros_map_of_a_plan_localizes_its_scans() {
         }
     }
     grid.save(Path::new(&p("rough.yaml"))).unwrap();
+    // a rough grid's walls are built from a virtual laser's scans, approximate as a built
+    // map's; both commands say so
     let out = gema2(&["map", "import-ros", &p("rough.yaml"), "--out", &p("rough.json")]);
-    assert!(out.status.success() && text(&out.stderr).contains("--sigma 0.1"), "{}", text(&out.stderr));
+    let said = text(&out.stderr);
+    assert!(
+        out.status.success() && said.contains("scans of a virtual laser") && said.contains("accuracy 0.1 m"),
+        "{said}"
+    );
     let out = gema2(&["locate", "--map", &p("rough.yaml"), "--log", &p("a.log"), "--every", "10"]);
-    assert!(out.status.success() && text(&out.stderr).contains("is a rough grid"), "{}", text(&out.stderr));
-    let out = gema2(&["map", "import-ros", &p("rough.yaml"), "--sigma", "0.1", "--out", &p("rough.json")]);
+    let said = text(&out.stderr);
+    assert!(out.status.success() && said.contains("is a rough grid") && said.contains("virtual laser"), "{said}");
+    // traced instead, it is taken as exact, and --sigma is suggested
+    let out = gema2(&["map", "import-ros", &p("rough.yaml"), "--trace", "--out", &p("rough.json")]);
+    assert!(out.status.success() && text(&out.stderr).contains("--sigma 0.1"), "{}", text(&out.stderr));
+    let trace = ["map", "import-ros", &p("rough.yaml"), "--trace", "--sigma", "0.1", "--out", &p("rough.json")];
+    let out = gema2(&trace);
     assert!(out.status.success() && !text(&out.stderr).contains("--sigma 0.1"), "{}", text(&out.stderr));
     let out = gema2(&["locate", "--map", &p("rough.json"), "--log", &p("a.log"), "--every", "10"]);
     assert!(out.status.success() && !text(&out.stderr).contains("rough grid"), "{}", text(&out.stderr));
+    // --trace and --survey are either-or
+    let both = ["map", "import-ros", &p("rough.yaml"), "--trace", "--survey", "--out", &p("x.json")];
+    assert!(!gema2(&both).status.success());
     let out = gema2(&["map", "info", &p("grid.json")]);
     let info = text(&out.stdout);
     assert!(info.contains("accuracy (sigma) 0.025 m") && info.contains("free space seen"), "{info}");

@@ -248,10 +248,16 @@ fn ros_maps_never_panic_the_parser_or_the_tracer() {
         let meta = MapMeta::parse(&String::from_utf8_lossy(text), Path::new("fuzz.yaml"));
         let pgm = Pgm::parse(image, Path::new("fuzz.pgm"));
         if let (Ok(meta), Ok(pgm)) = (meta, pgm) {
-            // traced only while small, as a fuzz input must stay cheap to run
-            if pgm.width * pgm.height <= 4096 {
+            // traced only while small, and surveyed (a rough grid's walls) while smaller, as a
+            // fuzz input must stay cheap to run
+            let cells = pgm.width * pgm.height;
+            if cells <= 4096 {
                 if let Some(grid) = OccupancyGrid::from_image(&meta, &pgm) {
-                    let _ = grid.to_wall_map(&trace, None);
+                    if cells <= 1024 {
+                        let _ = mapio::grid_walls(&grid);
+                    } else {
+                        let _ = grid.to_wall_map(&trace, None);
+                    }
                 }
             }
         }

@@ -1,8 +1,8 @@
 //! A map as a user names it on a command line: a bundled map's name, a JSON wall map, or a ROS
-//! map_server map (a `.yaml` naming a PGM image), traced into walls.
+//! map_server map (a `.yaml` naming a PGM image), made into walls ([`grid_walls`]).
 
+use crate::resurvey::{grid_walls, GridWalls};
 use crate::ros::{is_ros_map, OccupancyGrid, RosMapError};
-use crate::trace::TraceConfig;
 use map::{bundled, MapError, WallMap, BUNDLED};
 use std::path::{Path, PathBuf};
 use thiserror::Error;
@@ -21,15 +21,14 @@ pub enum LoadError {
 }
 
 /// Loads `spec`: a bundled map's name, a path to a JSON map, or a ROS map_server map (a
-/// `.yaml` file naming a PGM image), traced into walls with the defaults of
-/// [`OccupancyGrid::to_wall_map`].
+/// `.yaml` file naming a PGM image), made into walls by [`grid_walls`].
 pub fn load_map(spec: &str) -> Result<WallMap, LoadError> {
-    load_map_with_roughness(spec).map(|(map, _)| map)
+    load_map_with_grid(spec).map(|(map, _)| map)
 }
 
-/// [`load_map`], and for a ROS map_server map how rough its grid is ([`crate::roughness`]),
-/// from the one tracing that made its walls; `None` for any other map.
-pub fn load_map_with_roughness(spec: &str) -> Result<(WallMap, Option<f64>), LoadError> {
+/// [`load_map`], and for a ROS map_server map how its walls were made; `None` for any other
+/// map.
+pub fn load_map_with_grid(spec: &str) -> Result<(WallMap, Option<GridWalls>), LoadError> {
     if !Path::new(spec).exists() {
         if let Some(m) = bundled(spec) {
             return Ok((m?, None));
@@ -44,10 +43,8 @@ pub fn load_map_with_roughness(spec: &str) -> Result<(WallMap, Option<f64>), Loa
     }
     if is_ros_map(path) {
         let grid = OccupancyGrid::load(path)?;
-        let (map, rough) = grid
-            .to_wall_map_with_roughness(&TraceConfig::default(), None)
-            .map_err(|problem| LoadError::Trace { path: path.to_owned(), problem })?;
-        return Ok((map, Some(rough)));
+        let (map, how) = grid_walls(&grid).map_err(|problem| LoadError::Trace { path: path.to_owned(), problem })?;
+        return Ok((map, Some(how)));
     }
     Ok((WallMap::load(path)?, None))
 }

@@ -487,6 +487,13 @@ impl OccupancyGrid {
         if walls.is_empty() {
             return Err(GridError::NoWalls);
         }
+        let seen_free = self.free_space();
+        Ok((WallMap { walls: walls.into(), sigma: sigma.unwrap_or(self.resolution / 2.0), seen_free }, rough))
+    }
+
+    /// The grid's free cells as the free space seen, on a raster of its own cells (coarser when
+    /// that would be too large); `None` when even the coarsest would be.
+    pub fn free_space(&self) -> Option<SeenFree> {
         let corners =
             [(0.0, 0.0), (self.width as f64, 0.0), (0.0, self.height as f64), (self.width as f64, self.height as f64)]
                 .map(|(i, j)| self.corner(i, j));
@@ -501,14 +508,13 @@ impl OccupancyGrid {
                 None => break None,
             }
         };
-        let seen_free = seen_free.map(|mut seen| {
+        seen_free.map(|mut seen| {
             for (k, _) in self.cells.iter().enumerate().filter(|(_, &c)| c == Cell::Free) {
                 let q = self.corner((k % self.width) as f64 + 0.5, (k / self.width) as f64 + 0.5);
                 seen.mark_ray(q, q);
             }
             seen
-        });
-        Ok((WallMap { walls: walls.into(), sigma: sigma.unwrap_or(self.resolution / 2.0), seen_free }, rough))
+        })
     }
 
     /// A grid of `resolution` metres drawing `map`: a cell is occupied when a wall passes

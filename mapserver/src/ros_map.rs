@@ -1,12 +1,12 @@
 //! A map taken from a ROS 2 map_server over DDS (`--map ros2:/map`): the
 //! `nav_msgs/OccupancyGrid` it publishes (reliable, transient local: the latest one reaches a
-//! late subscriber) is traced into walls as a map_server YAML map is, and each grid becomes a
-//! map version. A grid that cannot be traced is reported and the server keeps what it serves.
+//! late subscriber) is made into walls as a map_server YAML map is ([`mapio::grid_walls`]), and
+//! each grid becomes a map version. A grid that cannot be is reported and the server keeps what
+//! it serves.
 
 use anyhow::{anyhow, Result};
 use map::WallMap;
 use mapio::ros::OccupancyGrid;
-use mapio::trace::TraceConfig;
 use ros::msg;
 use ros2_client::dds::rustdds::mio1::{Events, Interest, Poll, Token};
 use ros2_client::dds::{Context, ContextOptions, Subscription};
@@ -40,7 +40,7 @@ pub fn wall_map(m: &msg::OccupancyGrid) -> Result<WallMap> {
                 m.data.len()
             )
         })?;
-    grid.to_wall_map(&TraceConfig::default(), None).map_err(|e| anyhow!("tracing the grid: {e}"))
+    mapio::grid_walls(&grid).map(|(map, _)| map).map_err(|e| anyhow!("making the grid into walls: {e}"))
 }
 
 /// Starts the thread that takes grids from `topic` (DDS domain `domain`) and sends each one's

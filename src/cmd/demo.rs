@@ -13,7 +13,7 @@ use std::sync::Arc;
 #[derive(Args)]
 pub struct DemoArgs {
     /// The map: a bundled one's name (office, apartment, warehouse, radial), a JSON wall map, or a
-    /// ROS map_server map's .yaml (the PGM beside it is read and traced into walls).
+    /// ROS map_server map's .yaml (the PGM beside it is read and made into walls: docs/maps.md).
     #[arg(long, default_value = "office")]
     pub map: String,
     /// Scans per scenario.

@@ -40,7 +40,7 @@ pub struct EvaluateArgs {
     #[arg(long)]
     pub carmen: Option<PathBuf>,
     /// With --carmen: also locate each half through the occupancy grid of the other half
-    /// (`gema2 map build --grid` defaults), traced into walls as `--map GRID.yaml` does.
+    /// (`gema2 map build --grid` defaults), made into walls as `--map GRID.yaml` does.
     #[arg(long)]
     pub grids: bool,
     /// Override a localizer or segmenter parameter, KEY=VALUE (repeatable), as `gema2 locate`.
@@ -367,10 +367,11 @@ pub(crate) fn log_stem(log: &Path) -> String {
 }
 
 /// The occupancy grid `gema2 map build --grid` draws of every other scan of `log` from
-/// `offset`, traced into walls as `--map GRID.yaml` traces it.
+/// `offset`, made into walls as `--map GRID.yaml` makes them ([`mapio::grid_walls`]).
 fn grid_map(log: &Path, offset: usize) -> Result<WallMap> {
     let grid = build_map::survey_grid(&BuildArgs::every_other(log, offset)?)?;
-    grid.to_wall_map(&mapio::trace::TraceConfig::default(), None)
+    mapio::grid_walls(&grid)
+        .map(|(map, _)| map)
         .map_err(|e| anyhow::anyhow!("{}: the grid of every other scan from {offset}: {e}", log.display()))
 }
 

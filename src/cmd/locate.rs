@@ -15,7 +15,7 @@ use std::time::Instant;
 #[derive(Args)]
 pub struct LocateArgs {
     /// The map: a bundled one's name (office, apartment, warehouse, radial), a JSON wall map, or a
-    /// ROS map_server map's .yaml (the PGM beside it is read and traced into walls).
+    /// ROS map_server map's .yaml (the PGM beside it is read and made into walls: docs/maps.md).
     #[arg(long, default_value = "office")]
     pub map: String,
     /// The scans located.
@@ -91,8 +91,8 @@ pub fn run(a: LocateArgs) -> Result<()> {
     if a.seq.sequential {
         return run_sequential(a);
     }
-    let (map, rough) = mapio::load_map_with_roughness(&a.map)?;
-    super::map::note_rough_grid(&a.map, &map, rough);
+    let (map, grid) = mapio::load_map_with_grid(&a.map)?;
+    super::map::note_rough_grid(&a.map, &map, grid);
     let config = configs(&a)?;
     let loc_cfg = config.localizer;
     let model = Arc::new(MapModel::new(map, &config.map_corners));
@@ -317,8 +317,8 @@ fn run_sequential(a: LocateArgs) -> Result<()> {
     if a.diagnose || !a.dump_scan.is_empty() {
         anyhow::bail!("--diagnose and --dump-scan locate single scans: leave out --sequential");
     }
-    let (map, rough) = mapio::load_map_with_roughness(&a.map)?;
-    super::map::note_rough_grid(&a.map, &map, rough);
+    let (map, grid) = mapio::load_map_with_grid(&a.map)?;
+    super::map::note_rough_grid(&a.map, &map, grid);
     let config = configs(&a)?;
     let model = Arc::new(MapModel::new(map, &config.map_corners));
     let mut run = SeqRun::new(model, &config, a.seq.restart_every);

@@ -29,8 +29,10 @@ pub enum MapCommand {
     },
     /// Build a wall map from a log whose poses are true (a SLAM-corrected log).
     Build(Box<super::build_map::BuildArgs>),
-    /// Trace a ROS map_server map (YAML naming a PGM occupancy grid) into a wall map: the
-    /// occupied cells' faces become walls, the free cells the free space. Every command's
+    /// Make a ROS map_server map (YAML naming a PGM occupancy grid) into a wall map: the
+    /// occupied cells' faces traced into walls, or, for a rough grid (a SLAM map of a real
+    /// building), the walls built from a virtual laser's scans of its free space, as `map
+    /// build` builds them from a log's. The free cells become the free space. Every command's
     /// --map also takes the .yaml directly, with these defaults.
     ImportRos {
         /// The map_server YAML file.
@@ -48,6 +50,12 @@ pub enum MapCommand {
         /// The map's accuracy, metres (default: half a cell).
         #[arg(long)]
         sigma: Option<f64>,
+        /// Trace the cells' faces even when the grid is rough.
+        #[arg(long, conflicts_with = "survey")]
+        trace: bool,
+        /// Build the walls from a virtual survey even when the grid is not rough.
+        #[arg(long)]
+        survey: bool,
         /// The JSON wall map to write (with the free space the grid shows).
         #[arg(long)]
         out: PathBuf,
@@ -88,9 +96,14 @@ pub fn run(c: MapCommand) -> Result<()> {
         MapCommand::Generate { kind, seed, out } => generate(&kind, seed, &out),
         MapCommand::Build(a) => super::build_map::run(*a),
         MapCommand::Thicken { map, thickness, out } => thicken(&map, thickness, &out),
-        MapCommand::ImportRos { yaml, tolerance, min_cells, face_depth, sigma, out } => {
-            let trace = mapio::trace::TraceConfig { tolerance, min_cells, face_depth };
-            import_ros(&yaml, trace, sigma, &out)
+        MapCommand::ImportRos { yaml, tolerance, min_cells, face_depth, sigma, trace, survey, out } => {
+            let config = mapio::trace::TraceConfig { tolerance, min_cells, face_depth };
+            let how = match (trace, survey) {
+                (true, _) => Walls::Traced,
+                (_, true) => Walls::Surveyed,
+                _ => Walls::AsRough,
+            };
+            import_ros(&yaml, config, how, sigma, &out)
         }
         MapCommand::ExportRos { map, resolution, thickness, out } => export_ros(&map, resolution, thickness, &out),
         MapCommand::Info { map } => info(&map),
@@ -137,8 +150,17 @@ fn thicken(map: &str, thickness: f64, out: &Path) -> Result<()> {
     Ok(())
 }
 
-/// `map import-ros`: a map_server grid traced into walls.
-fn import_ros(yaml: &Path, trace: mapio::trace::TraceConfig, sigma: Option<f64>, out: &Path) -> Result<()> {
+/// How `map import-ros` makes a grid's walls.
+#[derive(Clone, Copy, PartialEq)]
+enum Walls {
+    Traced,
+    Surveyed,
+    /// Surveyed when the grid is rough, else traced ([`mapio::grid_walls`]).
+    AsRough,
+}
+
+/// `map import-ros`: a map_server grid made into walls.
+fn import_ros(yaml: &Path, trace: mapio::trace::TraceConfig, how: Walls, sigma: Option<f64>, out: &Path) -> Result<()> {
     let mapio::trace::TraceConfig { tolerance, min_cells, face_depth } = trace;
     let cells = [min_cells, face_depth];
     if !(tolerance.is_finite() && tolerance > 0.0 && cells.iter().all(|v| v.is_finite() && *v >= 0.0)) {
@@ -150,18 +172,37 @@ fn import_ros(yaml: &Path, trace: mapio::trace::TraceConfig, sigma: Option<f64>,
     if let Some(s) = sigma.filter(|s| !(s.is_finite() && *s >= 0.0)) {
         bail!("--sigma {s}: a map's accuracy is a non-negative number of metres");
     }
+    let start = std::time::Instant::now();
     let grid = mapio::OccupancyGrid::load(yaml)?;
-    let (map, rough) =
+    let (traced, rough) =
         grid.to_wall_map_with_roughness(&trace, sigma).map_err(|e| anyhow::anyhow!("{}: {e}", yaml.display()))?;
+    let survey = how == Walls::Surveyed || how == Walls::AsRough && rough > mapio::ROUGH_SHARE;
+    let surveyed = if survey {
+        let build =
+            mapio::BuildConfig { sigma: sigma.unwrap_or(mapio::BuildConfig::default().sigma), ..Default::default() };
+        let built = mapio::resurvey::build_from_grid(&grid, &mapio::VirtualSurvey::default(), &build);
+        if built.is_none() {
+            eprintln!("  no free cell stands clear of the walls to survey from, or no wall was seen: traced instead");
+        }
+        built
+    } else {
+        None
+    };
     let name = yaml.file_stem().map_or("map".into(), |s| s.to_string_lossy());
+    let map = surveyed.as_ref().map_or(&traced, |(map, _)| map);
     std::fs::write(out, map.to_json(&name)).with_context(|| format!("writing {}", out.display()))?;
+    let made = match &surveyed {
+        Some((_, scans)) => format!("built from {scans} scans of a virtual laser in"),
+        None => "traced from".into(),
+    };
     eprintln!(
-        "{}: {} walls from a {} x {} grid of {} m",
+        "{}: {} walls {made} a {} x {} grid of {} m, in {:.1} s",
         out.display(),
         map.walls.len(),
         grid.width,
         grid.height,
-        grid.resolution
+        grid.resolution,
+        start.elapsed().as_secs_f64()
     );
     eprintln!(
         "  accuracy {} m; {:.0} % of the traced wall length in pieces under {} cells",
@@ -169,31 +210,37 @@ fn import_ros(yaml: &Path, trace: mapio::trace::TraceConfig, sigma: Option<f64>,
         100.0 * rough,
         mapio::ROUGH_WALL_CELLS
     );
-    if sigma.is_none() && rough > mapio::ROUGH_SHARE && !map.is_approximate() {
+    if sigma.is_none() && surveyed.is_none() && rough > mapio::ROUGH_SHARE && !map.is_approximate() {
         eprintln!(
-            "  a rough grid, as a SLAM map of a real building is (a plan drawn into a grid: under 3 %): \
+            "  a rough grid, as a SLAM map of a real building is (a plan drawn into a grid: under 3 %), traced: \
              --sigma 0.1 declares the map approximate, as a map built from scans is (docs/maps.md)"
         );
     }
     Ok(())
 }
 
-/// Says so on stderr when `spec`, read as `map`, is a ROS grid of roughness `rough`
-/// ([`mapio::roughness`]; `None`: no grid) above [`mapio::ROUGH_SHARE`], taken at the accuracy
-/// of a drawn one: a SLAM map of a real building often locates better approximate, which `map
-/// import-ros --sigma` makes it.
-pub(crate) fn note_rough_grid(spec: &str, map: &map::WallMap, rough: Option<f64>) {
-    if map.is_approximate() {
-        return;
-    }
-    if let Some(rough) = rough.filter(|&r| r > mapio::ROUGH_SHARE) {
-        eprintln!(
-            "note: {spec} is a rough grid ({:.0} % of its traced wall length in pieces under {} cells), as a SLAM \
-             map of a real building is, read as exact to half a cell; `gema2 map import-ros {spec} --sigma 0.1 \
-             --out map.json` and `--map map.json` make it approximate, as a built map (docs/maps.md)",
-            100.0 * rough,
-            mapio::ROUGH_WALL_CELLS
-        );
+/// Says on stderr how the walls of `spec`, a ROS grid read as `map`, were made when it is rough
+/// ([`mapio::grid_walls`]): built from a virtual survey, or (when none could be) traced and
+/// taken at the accuracy of a drawn plan, which `map import-ros --sigma` can change.
+pub(crate) fn note_rough_grid(spec: &str, map: &map::WallMap, grid: Option<mapio::GridWalls>) {
+    let Some(grid) = grid.filter(|g| g.rough() > mapio::ROUGH_SHARE) else { return };
+    let rough = format!(
+        "a rough grid ({:.0} % of its traced wall length in pieces under {} cells), as a SLAM map of a real \
+         building is",
+        100.0 * grid.rough(),
+        mapio::ROUGH_WALL_CELLS
+    );
+    match grid {
+        mapio::GridWalls::Surveyed { scans, .. } => eprintln!(
+            "note: {spec} is {rough}: its walls were built from {scans} scans of a virtual laser in its free \
+             space, as `map build` builds them from a log's; `gema2 map import-ros {spec} --out map.json` does \
+             it once (docs/maps.md)"
+        ),
+        mapio::GridWalls::Traced { .. } if !map.is_approximate() => eprintln!(
+            "note: {spec} is {rough}, traced and read as exact to half a cell; `gema2 map import-ros {spec} \
+             --sigma 0.1 --out map.json` and `--map map.json` make it approximate, as a built map (docs/maps.md)"
+        ),
+        mapio::GridWalls::Traced { .. } => {}
     }
 }
 

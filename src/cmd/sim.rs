@@ -10,7 +10,7 @@ use std::path::PathBuf;
 #[derive(Args)]
 pub struct SimArgs {
     /// The map: a bundled one's name (office, apartment, warehouse, radial), a JSON wall map, or a
-    /// ROS map_server map's .yaml (the PGM beside it is read and traced into walls).
+    /// ROS map_server map's .yaml (the PGM beside it is read and made into walls: docs/maps.md).
     #[arg(long, default_value = "office")]
     pub map: String,
     /// clean, people or furniture.
