@@ -1,15 +1,15 @@
 //! A survey of an occupancy grid by a virtual laser, so that a grid can be made into walls the
-//! way a log is ([`crate::occupancy`] and `gema2 map build`) rather than by tracing its cells'
-//! faces ([`crate::trace`]).
+//! way a log is ([`crate::build`], as `gema2 map build` does) rather than by tracing its
+//! cells' faces ([`crate::trace`]).
 //!
 //! A SLAM grid of a real building draws a wall as a jagged, broken band of cells one to three
 //! wide. Traced face by face, it becomes many short walls and spurious corners (21-88 % of the
 //! traced length of the CARMEN buildings' grids lies in pieces under 10 cells), which the
 //! corner matching of eqs. 5-6 and the slide along long walls cannot use. A laser standing in
 //! the grid's free space sees the same band as a line a scan segmenter fits through, as it
-//! fits one through a real wall's noisy readings. The poses stand on a lattice over the free
-//! cells, each clear of occupied ones; each casts a full circle of beams to the first occupied
-//! cell. A beam that crosses more than a short run of unknown cells or leaves the grid reads
+//! fits one through a real wall's noisy readings. A pose stands in each square of a lattice
+//! over the grid, at its clearest free cell amid known floor ([`VirtualSurvey::poses`]); each
+//! casts a full circle of beams to the first occupied cell. A beam that crosses more than a short run of unknown cells or leaves the grid reads
 //! nothing: no wall is made up where the grid does not know.
 
 use crate::build::BuildConfig;
@@ -137,9 +137,9 @@ impl VirtualSurvey {
 }
 
 /// The scans of a virtual survey, each with its pose ([`crate::build::Survey`]).
-struct Surveyed(Vec<LaserScan>);
+struct VirtualScans(Vec<LaserScan>);
 
-impl crate::build::Survey for Surveyed {
+impl crate::build::Survey for VirtualScans {
     type Error = std::convert::Infallible;
 
     fn walk(&mut self, each: &mut dyn FnMut(&LaserScan, &Pose)) -> Result<(), Self::Error> {
@@ -161,7 +161,7 @@ pub fn build_from_grid(grid: &OccupancyGrid, survey: &VirtualSurvey, build: &Bui
     if scans.is_empty() {
         return None;
     }
-    let mut surveyed = Surveyed(scans);
+    let mut surveyed = VirtualScans(scans);
     let built = crate::build::build(&mut surveyed, &BuildConfig { seen_cell: 0.0, ..*build }).ok()?;
     let mut map = built.map;
     if build.seen_cell > 0.0 {
