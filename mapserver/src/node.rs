@@ -11,7 +11,7 @@ use anyhow::{bail, Context, Result};
 use clap::Args;
 use map::model::MODEL_LAYOUT;
 use map::MapModel;
-use mapio::load_map;
+use mapio::load_map_with_grid;
 use messages::iceoryx2::port::update_connections::UpdateConnections;
 use messages::iceoryx2::service::port_factory::PortFactory as _;
 use messages::{
@@ -90,11 +90,21 @@ struct Version {
     model: MapModel,
     block_len: usize,
     built_in: Duration,
+    /// How a rough grid's walls were made, said beside the model.
+    walls_from: Option<String>,
 }
 
 /// The map version `spec` names, and its model as the block to publish once.
 fn load(spec: &str, config: &localize::Gema2Config) -> Result<(Version, map::flat::FlatWriter)> {
-    build(load_map(spec)?, spec, config)
+    let started = std::time::Instant::now();
+    let (map, grid) = load_map_with_grid(spec)?;
+    let (mut version, block) = build(map, spec, config)?;
+    if let Some(mapio::GridWalls::Surveyed { scans, .. }) = grid {
+        let took = started.elapsed().saturating_sub(version.built_in).as_secs_f64();
+        version.walls_from =
+            Some(format!("; walls built from {scans} scans of a virtual laser in the rough grid in {took:.1} s"));
+    }
+    Ok((version, block))
 }
 
 /// The version of `map` (named `spec` in errors), and its model as the block to publish once.
@@ -105,7 +115,7 @@ fn build(map: map::WallMap, spec: &str, config: &localize::Gema2Config) -> Resul
     let started = std::time::Instant::now();
     let model = MapModel::new(map, &config.map_corners);
     let block = model.to_block();
-    Ok((Version { model, block_len: block.len(), built_in: started.elapsed() }, block))
+    Ok((Version { model, block_len: block.len(), built_in: started.elapsed(), walls_from: None }, block))
 }
 
 /// A map from a ROS 2 map_server: the grids as they come.
@@ -247,12 +257,13 @@ pub fn run(a: MapServerArgs) -> Result<()> {
     messages::announce_ready(&node, &a.stage.prefix)?;
     let said = |v: &Version, what: &str, version: u32| {
         messages::say!(
-            "mapserver: {what} {} ({} walls, {} corners) as version {version}: model of {:.1} MB built in {:.2} s",
+            "mapserver: {what} {} ({} walls, {} corners) as version {version}: model of {:.1} MB built in {:.2} s{}",
             a.map,
             v.model.map.walls.len(),
             v.model.corners.corners().len(),
             v.block_len as f64 / 1e6,
-            v.built_in.as_secs_f64()
+            v.built_in.as_secs_f64(),
+            v.walls_from.as_deref().unwrap_or_default()
         )
     };
     said(&current, "serving", version);
