@@ -205,6 +205,10 @@ pub fn grid_walls(grid: &OccupancyGrid) -> Result<(WallMap, GridWalls), GridErro
     Ok((traced, GridWalls::Traced { rough }))
 }
 
+// The two rasters the poses are chosen on ([`room`], [`KnownFloor`]) take 4 bytes a cell of
+// the grid, which a file limits to `GRID_FILE_CELLS`: each stays within the raster budget.
+const _: () = assert!(map::limits::GRID_FILE_CELLS * 4 <= map::limits::RASTER_BUDGET);
+
 /// The share of a square of cells about a cell that a grid knows to be free, from a summed
 /// table of its free cells.
 struct KnownFloor {
