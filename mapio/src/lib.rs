@@ -21,5 +21,5 @@ pub mod trace;
 pub use build::{build, BuildConfig, BuildError, Built, Survey};
 pub use load::{load_map, load_map_with_grid, LoadError};
 pub use occupancy::Occupancy;
-pub use resurvey::{grid_walls, GridWalls, VirtualSurvey};
+pub use resurvey::{grid_walls, grid_walls_with, GridWalls, MakeWalls, VirtualSurvey};
 pub use ros::{roughness, GridError, OccupancyGrid, RosMapError, SurveyGrid, ROUGH_SHARE, ROUGH_WALL_CELLS};

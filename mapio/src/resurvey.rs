@@ -14,7 +14,7 @@
 
 use crate::build::BuildConfig;
 use crate::ros::{GridError, OccupancyGrid, ROUGH_SHARE};
-use crate::trace::{Cell, TraceConfig};
+use crate::trace::{Cell, Raster, TraceConfig};
 use laser::{LaserScan, Pose, ScanGeometry};
 use map::WallMap;
 use nalgebra::{Isometry2, Point2, Vector2};
@@ -67,13 +67,14 @@ impl VirtualSurvey {
         if !(self.is_usable() && res.is_finite() && res > 0.0) || grid.cells.len() != grid.width * grid.height {
             return Vec::new();
         }
+        let raster = grid.raster();
         let reach = (self.clearance / res).ceil() as i64;
         let clear = |c: i64, r: i64| {
             (-reach..=reach).all(|dr| {
                 (-reach..=reach).all(|dc| {
                     // the cells whose nearest point lies within the clearance
                     let (x, y) = ((dc.abs() - 1).max(0) as f64 * res, (dr.abs() - 1).max(0) as f64 * res);
-                    x.hypot(y) > self.clearance || grid_cell(grid, c + dc, r + dr) != Some(Cell::Occupied)
+                    x.hypot(y) > self.clearance || raster.at(c + dc, r + dr) != Some(Cell::Occupied)
                 })
             })
         };
@@ -83,7 +84,7 @@ impl VirtualSurvey {
         let known = KnownFloor::of(grid, reach);
         // a lattice of at most about `max_poses` free cells from the start, so that a grid of
         // millions of small cells needs a widening or two, not dozens
-        let free = grid.cells.iter().filter(|&&c| c == Cell::Free).count() as f64;
+        let free = f64::from(known.free_cells());
         let mut step = (self.spacing / res).max((free / self.max_poses as f64).sqrt()).max(1.0);
         loop {
             let edges = |n: usize| -> Vec<usize> {
@@ -104,7 +105,10 @@ impl VirtualSurvey {
                 }
             }
             if found.len() <= self.max_poses {
-                return found.into_iter().map(|p| Isometry2::new(to_map(grid, p).coords, grid.origin[2])).collect();
+                return found
+                    .into_iter()
+                    .map(|p| Isometry2::new(grid.corner(p.x, p.y).coords, grid.origin[2]))
+                    .collect();
             }
             step *= 1.25;
         }
@@ -120,12 +124,15 @@ impl VirtualSurvey {
         let geometry =
             ScanGeometry { angle_min: 0.0, angle_increment: increment, range_min: 0.0, range_max: self.range };
         let res = grid.resolution;
-        let from = to_grid(grid, pose.translation.vector.into());
+        let from = grid.in_cells(pose.translation.vector.into());
+        // a grid whose cells do not fill it reads nothing
+        let raster = (grid.cells.len() == grid.width * grid.height).then(|| grid.raster());
         let heading = pose.rotation.angle() - grid.origin[2];
         let ranges = (0..n)
             .map(|i| {
                 let a = heading + i as f64 * increment;
-                match first_occupied(grid, from, Vector2::new(a.cos(), a.sin()), (self.range / res, self.unknown / res))
+                let dir = Vector2::new(a.cos(), a.sin());
+                match raster.as_ref().and_then(|g| first_occupied(g, from, dir, (self.range / res, self.unknown / res)))
                 {
                     Some(t) => ((t + 0.5) * res).min(self.range) as f32,
                     None => self.range as f32,
@@ -189,6 +196,22 @@ impl GridWalls {
     }
 }
 
+/// How a grid's walls are to be made ([`grid_walls_with`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum MakeWalls {
+    /// Surveyed when the grid is rough, else traced.
+    AsRough,
+    Traced,
+    Surveyed,
+}
+
+impl MakeWalls {
+    /// Whether a grid of roughness `rough` ([`crate::roughness`]) is to be surveyed.
+    pub fn surveys(self, rough: f64) -> bool {
+        self == MakeWalls::Surveyed || self == MakeWalls::AsRough && rough > ROUGH_SHARE
+    }
+}
+
 /// A grid's walls as `--map GRID.yaml` makes them: its faces traced, unless the grid is rough
 /// (more than [`ROUGH_SHARE`] of the traced length in pieces under [`crate::ROUGH_WALL_CELLS`]
 /// cells, as a SLAM map of a real building is; a plan drawn into a grid has 0-2 %): then built
@@ -196,9 +219,22 @@ impl GridWalls {
 /// a decimetre, as a map built from a log is). A rough grid no pose of the survey stands clear
 /// in stays traced.
 pub fn grid_walls(grid: &OccupancyGrid) -> Result<(WallMap, GridWalls), GridError> {
-    let (traced, rough) = grid.to_wall_map_with_roughness(&TraceConfig::default(), None)?;
-    if rough > ROUGH_SHARE {
-        if let Some((map, scans)) = build_from_grid(grid, &VirtualSurvey::default(), &BuildConfig::default()) {
+    grid_walls_with(grid, &TraceConfig::default(), None, MakeWalls::AsRough)
+}
+
+/// [`grid_walls`] traced with `trace`, at accuracy `sigma` when given (else half a cell traced,
+/// [`BuildConfig`]'s surveyed), surveyed or traced as `how` says. A survey that finds no pose
+/// or no wall leaves the grid traced.
+pub fn grid_walls_with(
+    grid: &OccupancyGrid,
+    trace: &TraceConfig,
+    sigma: Option<f64>,
+    how: MakeWalls,
+) -> Result<(WallMap, GridWalls), GridError> {
+    let (traced, rough) = grid.to_wall_map_with_roughness(trace, sigma)?;
+    if how.surveys(rough) {
+        let build = BuildConfig { sigma: sigma.unwrap_or(BuildConfig::default().sigma), ..BuildConfig::default() };
+        if let Some((map, scans)) = build_from_grid(grid, &VirtualSurvey::default(), &build) {
             return Ok((map, GridWalls::Surveyed { rough, scans }));
         }
     }
@@ -232,6 +268,11 @@ impl KnownFloor {
             }
         }
         KnownFloor { sums, width: w, height: h, reach: reach.max(0) as usize }
+    }
+
+    /// The grid's free cells in all.
+    fn free_cells(&self) -> u32 {
+        self.sums.last().copied().unwrap_or(0)
     }
 
     /// Whether at least 90 % of the square about (c, r), as far as it lies in the grid, is
@@ -296,33 +337,11 @@ fn room(grid: &OccupancyGrid) -> Vec<f32> {
     d
 }
 
-/// The cell (c, r), `None` outside the grid.
-fn grid_cell(grid: &OccupancyGrid, c: i64, r: i64) -> Option<Cell> {
-    if c < 0 || r < 0 || c >= grid.width as i64 || r >= grid.height as i64 {
-        return None;
-    }
-    grid.cells.get(r as usize * grid.width + c as usize).copied()
-}
-
-/// A point of the grid frame (in cells from the origin) in the map frame.
-fn to_map(grid: &OccupancyGrid, p: Point2<f64>) -> Point2<f64> {
-    let (s, c) = grid.origin[2].sin_cos();
-    let (x, y) = (p.x * grid.resolution, p.y * grid.resolution);
-    Point2::new(grid.origin[0] + c * x - s * y, grid.origin[1] + s * x + c * y)
-}
-
-/// A point of the map frame in the grid frame (in cells from the origin).
-fn to_grid(grid: &OccupancyGrid, p: Point2<f64>) -> Point2<f64> {
-    let (s, c) = grid.origin[2].sin_cos();
-    let (x, y) = (p.x - grid.origin[0], p.y - grid.origin[1]);
-    Point2::new((c * x + s * y) / grid.resolution, (-s * x + c * y) / grid.resolution)
-}
-
 /// How far (in cells) along the unit direction `dir` from `from` (grid frame) the ray enters the
 /// first occupied cell; `None` when it meets an unknown cell, leaves the grid or goes `max_t`
 /// cells first. The cells are walked in the order the ray crosses them (Amanatides and Woo).
 fn first_occupied(
-    grid: &OccupancyGrid,
+    raster: &Raster<'_>,
     from: Point2<f64>,
     dir: Vector2<f64>,
     (max_t, max_unknown): (f64, f64),
@@ -346,7 +365,7 @@ fn first_occupied(
     // where the ray entered the run of unknown cells it is in
     let mut unknown_since = None;
     loop {
-        match grid_cell(grid, c, r)? {
+        match raster.at(c, r)? {
             Cell::Occupied => return Some(t),
             Cell::Unknown => {
                 let since = *unknown_since.get_or_insert(t);
@@ -423,12 +442,12 @@ mod tests {
         assert!(!poses.is_empty());
         for p in &poses {
             assert!((p.rotation.angle() - yaw).abs() < 1e-12);
-            let g = to_grid(&grid, p.translation.vector.into());
+            let g = grid.in_cells(p.translation.vector.into());
             assert!(g.x > 7.0 && g.x < 57.0 && g.y > 7.0 && g.y < 57.0, "{g:?}");
         }
         // along the pose's heading, the grid's x axis: to the east wall's cells
         let scan = survey.scan(&grid, &poses[0]);
-        let g = to_grid(&grid, poses[0].translation.vector.into());
+        let g = grid.in_cells(poses[0].translation.vector.into());
         let expected = (62.0 - g.x) * 0.05 + 0.025;
         assert!(matches!(scan.view().reading(0), Reading::Valid(d) if (d - expected).abs() < 1e-3));
     }

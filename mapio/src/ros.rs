@@ -450,10 +450,23 @@ impl OccupancyGrid {
     }
 
     /// Where lattice point (i, j) (a cell corner, in cells) lies in the map frame.
-    fn corner(&self, i: f64, j: f64) -> Point2<f64> {
+    pub(crate) fn corner(&self, i: f64, j: f64) -> Point2<f64> {
         let (s, c) = self.origin[2].sin_cos();
         let (x, y) = (i * self.resolution, j * self.resolution);
         Point2::new(self.origin[0] + c * x - s * y, self.origin[1] + s * x + c * y)
+    }
+
+    /// Where a point of the map frame lies on the grid, in cells from its origin: the inverse
+    /// of [`corner`](Self::corner).
+    pub(crate) fn in_cells(&self, p: Point2<f64>) -> Point2<f64> {
+        let (s, c) = self.origin[2].sin_cos();
+        let (x, y) = (p.x - self.origin[0], p.y - self.origin[1]);
+        Point2::new((c * x + s * y) / self.resolution, (-s * x + c * y) / self.resolution)
+    }
+
+    /// The grid's cells as a [`Raster`].
+    pub(crate) fn raster(&self) -> Raster<'_> {
+        Raster { width: self.width, height: self.height, cells: &self.cells }
     }
 
     /// The wall map of the grid: the occupied cells' faces as walls, simplified to within
@@ -472,8 +485,7 @@ impl OccupancyGrid {
         trace: &TraceConfig,
         sigma: Option<f64>,
     ) -> Result<(WallMap, f64), GridError> {
-        let raster = Raster { width: self.width, height: self.height, cells: &self.cells };
-        let traced = crate::trace::walls(&raster, trace);
+        let traced = crate::trace::walls(&self.raster(), trace);
         let rough = roughness(&traced);
         let walls: Vec<Wall> = traced
             .into_iter()

@@ -37,7 +37,7 @@ pub struct Raster<'a> {
 
 impl Raster<'_> {
     /// The cell at (c, r), `None` off the raster.
-    fn at(&self, c: i64, r: i64) -> Option<Cell> {
+    pub(crate) fn at(&self, c: i64, r: i64) -> Option<Cell> {
         let inside = c >= 0 && r >= 0 && (c as usize) < self.width && (r as usize) < self.height;
         inside.then(|| self.cells[r as usize * self.width + c as usize])
     }

@@ -99,9 +99,9 @@ pub fn run(c: MapCommand) -> Result<()> {
         MapCommand::ImportRos { yaml, tolerance, min_cells, face_depth, sigma, trace, survey, out } => {
             let config = mapio::trace::TraceConfig { tolerance, min_cells, face_depth };
             let how = match (trace, survey) {
-                (true, _) => Walls::Traced,
-                (_, true) => Walls::Surveyed,
-                _ => Walls::AsRough,
+                (true, _) => mapio::MakeWalls::Traced,
+                (_, true) => mapio::MakeWalls::Surveyed,
+                _ => mapio::MakeWalls::AsRough,
             };
             import_ros(&yaml, config, how, sigma, &out)
         }
@@ -150,17 +150,14 @@ fn thicken(map: &str, thickness: f64, out: &Path) -> Result<()> {
     Ok(())
 }
 
-/// How `map import-ros` makes a grid's walls.
-#[derive(Clone, Copy, PartialEq)]
-enum Walls {
-    Traced,
-    Surveyed,
-    /// Surveyed when the grid is rough, else traced ([`mapio::grid_walls`]).
-    AsRough,
-}
-
 /// `map import-ros`: a map_server grid made into walls.
-fn import_ros(yaml: &Path, trace: mapio::trace::TraceConfig, how: Walls, sigma: Option<f64>, out: &Path) -> Result<()> {
+fn import_ros(
+    yaml: &Path,
+    trace: mapio::trace::TraceConfig,
+    how: mapio::MakeWalls,
+    sigma: Option<f64>,
+    out: &Path,
+) -> Result<()> {
     let mapio::trace::TraceConfig { tolerance, min_cells, face_depth } = trace;
     let cells = [min_cells, face_depth];
     if !(tolerance.is_finite() && tolerance > 0.0 && cells.iter().all(|v| v.is_finite() && *v >= 0.0)) {
@@ -174,25 +171,19 @@ fn import_ros(yaml: &Path, trace: mapio::trace::TraceConfig, how: Walls, sigma: 
     }
     let start = std::time::Instant::now();
     let grid = mapio::OccupancyGrid::load(yaml)?;
-    let (traced, rough) =
-        grid.to_wall_map_with_roughness(&trace, sigma).map_err(|e| anyhow::anyhow!("{}: {e}", yaml.display()))?;
-    let survey = how == Walls::Surveyed || how == Walls::AsRough && rough > mapio::ROUGH_SHARE;
-    let surveyed = if survey {
-        let build =
-            mapio::BuildConfig { sigma: sigma.unwrap_or(mapio::BuildConfig::default().sigma), ..Default::default() };
-        let built = mapio::resurvey::build_from_grid(&grid, &mapio::VirtualSurvey::default(), &build);
-        if built.is_none() {
-            eprintln!("  no free cell stands clear of the walls to survey from, or no wall was seen: traced instead");
-        }
-        built
-    } else {
-        None
+    let (map, made) =
+        mapio::grid_walls_with(&grid, &trace, sigma, how).map_err(|e| anyhow::anyhow!("{}: {e}", yaml.display()))?;
+    let (rough, surveyed) = match made {
+        mapio::GridWalls::Surveyed { rough, scans } => (rough, Some(scans)),
+        mapio::GridWalls::Traced { rough } => (rough, None),
     };
+    if how.surveys(rough) && surveyed.is_none() {
+        eprintln!("  no free cell stands clear of the walls to survey from, or no wall was seen: traced instead");
+    }
     let name = yaml.file_stem().map_or("map".into(), |s| s.to_string_lossy());
-    let map = surveyed.as_ref().map_or(&traced, |(map, _)| map);
     std::fs::write(out, map.to_json(&name)).with_context(|| format!("writing {}", out.display()))?;
-    let made = match &surveyed {
-        Some((_, scans)) => format!("built from {scans} scans of a virtual laser in"),
+    let made = match surveyed {
+        Some(scans) => format!("built from {scans} scans of a virtual laser in"),
         None => "traced from".into(),
     };
     eprintln!(
