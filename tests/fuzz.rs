@@ -220,7 +220,8 @@ fn wall_maps_never_panic_the_parser() {
 
 #[test]
 fn ros_maps_never_panic_the_parser_or_the_tracer() {
-    use mapio::ros::{MapMeta, OccupancyGrid, Pgm};
+    use mapio::image::Channels;
+    use mapio::ros::{MapMeta, OccupancyGrid};
     let yaml = b"image: map.pgm\nresolution: 0.05\norigin: [-1.0, -2.0, 0.0]\nnegate: 0\noccupied_thresh: 0.65\n\
                  free_thresh: 0.196\nmode: trinary\n"
         .to_vec();
@@ -237,8 +238,18 @@ fn ros_maps_never_panic_the_parser_or_the_tracer() {
             .join("\n")
     )
     .into_bytes();
+    // and as a grey-with-alpha PNG
+    let mut png = Vec::new();
+    {
+        let mut e = png::Encoder::new(&mut png, w as u32, h as u32);
+        e.set_color(png::ColorType::GrayscaleAlpha);
+        let mut writer = e.write_header().unwrap();
+        let data: Vec<u8> = (0..h).flat_map(|y| (0..w).flat_map(move |x| [shade(x, y), 255])).collect();
+        writer.write_image_data(&data).unwrap();
+    }
     // one input holds both files: the YAML, a NUL, the image
-    let seeds: Vec<Vec<u8>> = [&p5, &p2].iter().map(|img| [yaml.as_slice(), b"\0", img.as_slice()].concat()).collect();
+    let seeds: Vec<Vec<u8>> =
+        [&p5, &p2, &png].iter().map(|img| [yaml.as_slice(), b"\0", img.as_slice()].concat()).collect();
     let trace = mapio::trace::TraceConfig::default();
     fuzz("ros-map", &seeds, |bytes| {
         let (text, image) = match bytes.iter().position(|&b| b == 0) {
@@ -246,7 +257,8 @@ fn ros_maps_never_panic_the_parser_or_the_tracer() {
             None => (bytes, &[][..]),
         };
         let meta = MapMeta::parse(&String::from_utf8_lossy(text), Path::new("fuzz.yaml"));
-        let pgm = Pgm::parse(image, Path::new("fuzz.pgm"));
+        let channels = meta.as_ref().map_or(Channels::WithAlpha, MapMeta::channels);
+        let pgm = mapio::image::read(image, Path::new("fuzz.pgm"), channels);
         if let (Ok(meta), Ok(pgm)) = (meta, pgm) {
             // traced only while small, and surveyed (a rough grid's walls) while smaller, as a
             // fuzz input must stay cheap to run

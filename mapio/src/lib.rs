@@ -1,17 +1,19 @@
 //! Maps in and out of GEMA2: what turns other people's maps and a robot's survey into a
 //! [`map::WallMap`], and a wall map back into what other tools read.
 //!
-//! One job: map formats and map making. ROS map_server grids read and written ([`ros`]), a
+//! One job: map formats and map making. ROS map_server grids read and written ([`ros`], their
+//! PGM or PNG images in [`image`]), a
 //! grid's occupied faces traced into walls ([`trace`]), a wall map built from scans at known
 //! poses ([`build`], over the evidence per cell of [`occupancy`]), a rough grid surveyed by a
 //! virtual laser and built so ([`resurvey`]), and [`load_map`], which takes whatever a user
 //! names on a command line.
 //!
 //! Depends on `map` (the model it produces), `laser`, and `segment` (the scans' lines a map is
-//! built from); nothing of the pipeline. Inside the crate: `trace` <- `ros` <- `resurvey` <-
+//! built from); nothing of the pipeline. Inside the crate: `image`, `trace` <- `ros` <- `resurvey` <-
 //! `load`; `occupancy` <- `build` <- `resurvey`.
 
 pub mod build;
+pub mod image;
 pub mod load;
 pub mod occupancy;
 pub mod resurvey;

@@ -9,9 +9,10 @@
 //! [`OccupancyGrid::from_walls`] and [`OccupancyGrid::save`] go the other way, so a plan can
 //! be given to AMCL as the same map.
 //!
-//! Only PGM images (P5 binary, P2 text; 8 or 16 bits) are read: a PNG map converts with any
-//! image tool (`convert map.png map.pgm`).
+//! The image is PGM or PNG ([`crate::image`]).
 
+pub use crate::image::Pgm;
+use crate::image::{self, Channels, ImageError};
 use crate::trace::{Raster, TraceConfig};
 use map::bitgrid::Grid;
 use map::SeenFree;
@@ -61,6 +62,12 @@ pub enum RosMapError {
     Meta { path: PathBuf, message: String },
     #[error("{path}: {message}")]
     Image { path: PathBuf, message: String },
+}
+
+impl From<ImageError> for RosMapError {
+    fn from(e: ImageError) -> Self {
+        RosMapError::Image { path: e.path, message: e.message }
+    }
 }
 
 /// Why a grid gives no wall map, or a wall map no grid.
@@ -137,6 +144,15 @@ impl MapMeta {
             self.image.clone()
         } else {
             yaml.parent().unwrap_or(Path::new("")).join(&self.image)
+        }
+    }
+
+    /// How a colour image's channels become one value under this `mode`.
+    pub fn channels(&self) -> Channels {
+        match self.mode {
+            Mode::Trinary => Channels::WithAlpha,
+            Mode::Scale => Channels::ColourOnly,
+            Mode::Raw => Channels::ColourTruncated,
         }
     }
 
@@ -289,104 +305,6 @@ fn unquote(v: &str) -> &str {
     v
 }
 
-/// A PGM image: `width` x `height` values, the top row first.
-#[derive(Clone, Debug, PartialEq)]
-pub struct Pgm {
-    pub width: usize,
-    pub height: usize,
-    pub maxval: u16,
-    pub values: Vec<u16>,
-}
-
-impl Pgm {
-    /// Parses a P5 (binary) or P2 (text) PGM; `path` names it in errors.
-    pub fn parse(bytes: &[u8], path: &Path) -> Result<Self, RosMapError> {
-        let err = |message: String| RosMapError::Image { path: path.to_owned(), message };
-        if bytes.starts_with(b"\x89PNG") {
-            return Err(err("is a PNG image: gema2 reads PGM maps (P5 or P2); convert it, e.g. `convert map.png \
-                            map.pgm`, and name the .pgm in the YAML file"
-                .into()));
-        }
-        let binary = match bytes.get(..2) {
-            Some(b"P5") => true,
-            Some(b"P2") => false,
-            _ => return Err(err("not a PGM image (it starts with neither P5 nor P2)".into())),
-        };
-        // the header: magic, width, height, maxval, with comments; one whitespace byte after
-        let mut pos = 2;
-        let mut header = [0usize; 3];
-        for (k, what) in ["width", "height", "maxval"].iter().enumerate() {
-            header[k] = next_number(bytes, &mut pos).ok_or_else(|| err(format!("the header has no {what}")))?;
-        }
-        let [width, height, maxval] = header;
-        if width == 0 || height == 0 || !(1..=65535).contains(&maxval) {
-            return Err(err(format!(
-                "a {width} x {height} image with maxval {maxval}: none of them may be 0, and maxval is at most 65535"
-            )));
-        }
-        let cells = width
-            .checked_mul(height)
-            .filter(|&n| n <= MAX_CELLS)
-            .ok_or_else(|| err(format!("{width} x {height} cells: at most {MAX_CELLS} are read")))?;
-        let maxval = maxval as u16;
-        let mut values = Vec::with_capacity(cells);
-        if binary {
-            let data = bytes.get(pos + 1..).unwrap_or(&[]);
-            let wide = maxval > 255;
-            let need = cells * if wide { 2 } else { 1 };
-            if data.len() < need {
-                return Err(err(format!("the image data stops after {} of {need} bytes", data.len())));
-            }
-            if wide {
-                values.extend(data[..need].chunks_exact(2).map(|b| u16::from_be_bytes([b[0], b[1]])));
-            } else {
-                values.extend(data[..need].iter().map(|&b| u16::from(b)));
-            }
-        } else {
-            for k in 0..cells {
-                let v =
-                    next_number(bytes, &mut pos).ok_or_else(|| err(format!("the image has {k} of {cells} values")))?;
-                values.push(v.min(65535) as u16);
-            }
-        }
-        if let Some(k) = values.iter().position(|&v| v > maxval) {
-            return Err(err(format!("pixel {k} has value {} above maxval {maxval}", values[k])));
-        }
-        Ok(Pgm { width, height, maxval, values })
-    }
-
-    /// The image as binary PGM (P5, 8 bits when `maxval` allows).
-    pub fn to_bytes(&self) -> Vec<u8> {
-        let mut out = format!("P5\n# gema2\n{} {}\n{}\n", self.width, self.height, self.maxval).into_bytes();
-        if self.maxval > 255 {
-            out.extend(self.values.iter().flat_map(|v| v.to_be_bytes()));
-        } else {
-            out.extend(self.values.iter().map(|&v| v as u8));
-        }
-        out
-    }
-}
-
-/// The next decimal number of a PGM header or text body, skipping whitespace and comments.
-fn next_number(bytes: &[u8], pos: &mut usize) -> Option<usize> {
-    loop {
-        match bytes.get(*pos)? {
-            b'#' => {
-                while bytes.get(*pos).is_some_and(|&b| b != b'\n') {
-                    *pos += 1;
-                }
-            }
-            b if b.is_ascii_whitespace() => *pos += 1,
-            _ => break,
-        }
-    }
-    let start = *pos;
-    while bytes.get(*pos).is_some_and(u8::is_ascii_digit) {
-        *pos += 1;
-    }
-    std::str::from_utf8(&bytes[start..*pos]).ok()?.parse().ok()
-}
-
 /// Shades written for each cell: map_server's own (black walls, white free, grey unknown).
 const OCCUPIED_SHADE: u16 = 0;
 const FREE_SHADE: u16 = 254;
@@ -399,7 +317,7 @@ impl OccupancyGrid {
         let meta = MapMeta::parse(&text, yaml)?;
         let image = meta.image_beside(yaml);
         let bytes = std::fs::read(&image).map_err(|cause| RosMapError::Io { path: image.clone(), cause })?;
-        let pgm = Pgm::parse(&bytes, &image)?;
+        let pgm = image::read(&bytes, &image, meta.channels())?;
         Self::from_image(&meta, &pgm).ok_or_else(|| RosMapError::Image {
             path: image,
             message: "the image's values do not fill its width and height".into(),
@@ -787,8 +705,7 @@ mod tests {
         let wide = Pgm { width: 2, height: 1, maxval: 1000, values: vec![1000, 3] };
         assert_eq!(Pgm::parse(&wide.to_bytes(), Path::new("c.pgm")).unwrap(), wide);
         for (bytes, says) in [
-            (&b"\x89PNG\r\n"[..], "a.pgm: is a PNG image"),
-            (b"P6\n1 1\n255\n\0\0\0", "not a PGM image"),
+            (&b"P6\n1 1\n255\n\0\0\0"[..], "a.pgm: neither a PGM (P5, P2) nor a PNG image"),
             (b"P5\n3 2\n255\n\0\0", "stops after 2 of 6 bytes"),
             (b"P2\n2 2\n255\n1 2 3", "has 3 of 4 values"),
             (b"P2\n2 1\n100\n1 200", "pixel 1 has value 200 above maxval 100"),
@@ -848,8 +765,23 @@ mod tests {
         assert_eq!(files_of(&yaml), vec![yaml.clone(), dir.join("room.pgm")]);
         assert_eq!(files_of(&dir.join("none.yaml")), vec![dir.join("none.yaml")]);
         let again = OccupancyGrid::load(&yaml).unwrap();
+        // the same image as an 8-bit RGB PNG, as an image tool converts it, reads the same
+        let pgm = grid.to_pgm();
+        let mut png = Vec::new();
+        {
+            let mut e = png::Encoder::new(&mut png, pgm.width as u32, pgm.height as u32);
+            e.set_color(png::ColorType::Rgb);
+            let mut w = e.write_header().unwrap();
+            let rgb: Vec<u8> = pgm.values.iter().flat_map(|&v| [v as u8; 3]).collect();
+            w.write_image_data(&rgb).unwrap();
+        }
+        std::fs::write(dir.join("room.png"), png).unwrap();
+        let text = std::fs::read_to_string(&yaml).unwrap().replace("room.pgm", "room.png");
+        std::fs::write(dir.join("png.yaml"), text).unwrap();
+        let from_png = OccupancyGrid::load(&dir.join("png.yaml"));
         std::fs::remove_dir_all(&dir).ok();
         assert_eq!(again, grid);
+        assert_eq!(from_png.unwrap(), grid);
         let map = again.to_wall_map(&TraceConfig::default(), None).unwrap();
         assert_eq!(map.sigma, 0.025);
         // the inner faces lie a half thickness inside the drawn walls, to within a cell
