@@ -1,6 +1,7 @@
 #!/usr/bin/env python3
 """Converts a CARMEN log (ROBOTLASER1 or FLASER lines; .gz is fine) to a ROS 2 bag, written by
-the `rosbags` package: MCAP storage by default (sqlite3 with --storage sqlite3), CDR.
+the `rosbags` package: MCAP storage by default (sqlite3 with --storage sqlite3), CDR; or, with
+--storage rosbag1, to a ROS 1 bag (OUT is the .bag file; --compression none, bz2 or lz4).
 
 Topics:
   /scan   sensor_msgs/msg/LaserScan, frame `laser`, stamped with the log's time;
@@ -15,8 +16,8 @@ The scans are read as gema2 reads them (docs/sensors.md): a FLASER line's n read
 --flaser-fov / --flaser-start say otherwise; readings at or beyond the maximum range (50 m for
 FLASER unless --flaser-range-max) are written +inf, "no return" in REP 117.
 
-Usage: carmen2bag.py LOG OUT [--storage mcap|sqlite3] [--flaser-fov DEG] [--flaser-start DEG]
-       [--flaser-range-max M]
+Usage: carmen2bag.py LOG OUT [--storage mcap|sqlite3|rosbag1] [--compression none|bz2|lz4]
+       [--flaser-fov DEG] [--flaser-start DEG] [--flaser-range-max M]
 Run it with the project's Python: `$(scripts/python-env) scripts/carmen2bag.py ...`.
 """
 
@@ -27,6 +28,7 @@ import sys
 from pathlib import Path
 
 import numpy as np
+from rosbags.rosbag1 import Writer as Writer1
 from rosbags.rosbag2 import StoragePlugin, Writer
 from rosbags.typesys import Stores, get_typestore
 
@@ -105,13 +107,16 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("log")
     ap.add_argument("out", help="the bag directory to create")
-    ap.add_argument("--storage", choices=["mcap", "sqlite3"], default="mcap")
+    ap.add_argument("--storage", choices=["mcap", "sqlite3", "rosbag1"], default="mcap")
+    ap.add_argument("--compression", choices=["none", "bz2", "lz4"], default="none")
     ap.add_argument("--flaser-fov", type=float)
     ap.add_argument("--flaser-start", type=float)
     ap.add_argument("--flaser-range-max", type=float, default=50.0)
     args = ap.parse_args()
 
-    ts = get_typestore(Stores.ROS2_HUMBLE)
+    ros1 = args.storage == "rosbag1"
+    ts = get_typestore(Stores.ROS1_NOETIC if ros1 else Stores.ROS2_HUMBLE)
+    serialize = ts.serialize_ros1 if ros1 else ts.serialize_cdr
     T = ts.types
     Time, Header = T["builtin_interfaces/msg/Time"], T["std_msgs/msg/Header"]
     LaserScan, PoseStamped = T["sensor_msgs/msg/LaserScan"], T["geometry_msgs/msg/PoseStamped"]
@@ -119,15 +124,29 @@ def main():
     Odometry, PoseWithCov = T["nav_msgs/msg/Odometry"], T["geometry_msgs/msg/PoseWithCovariance"]
     TwistWithCov, Twist, Vector3 = T["geometry_msgs/msg/TwistWithCovariance"], T["geometry_msgs/msg/Twist"], T["geometry_msgs/msg/Vector3"]
 
+    seq = 0
+
+    def header(sec, nanosec, frame):
+        nonlocal seq
+        seq += 1
+        stamp = Time(sec=sec, nanosec=nanosec)
+        return Header(seq=seq, stamp=stamp, frame_id=frame) if ros1 else Header(stamp=stamp, frame_id=frame)
+
     def pose(x, y, th):
         return Pose(position=Point(x=x, y=y, z=0.0), orientation=Quaternion(x=0.0, y=0.0, z=math.sin(th / 2), w=math.cos(th / 2)))
 
-    storage = StoragePlugin.MCAP if args.storage == "mcap" else StoragePlugin.SQLITE3
+    if ros1:
+        writer = Writer1(Path(args.out))
+        if args.compression != "none":
+            writer.set_compression(Writer1.CompressionFormat[args.compression.upper()])
+    else:
+        storage = StoragePlugin.MCAP if args.storage == "mcap" else StoragePlugin.SQLITE3
+        writer = Writer(Path(args.out), version=8, storage_plugin=storage)
     truth = True
     scans = skipped = replaced = 0
     last_time = 0
     last_good = 0.0
-    with Writer(Path(args.out), version=8, storage_plugin=storage) as w:
+    with writer as w:
         scan_c = w.add_connection("/scan", LaserScan.__msgtype__, typestore=ts)
         truth_c = w.add_connection("/truth", PoseStamped.__msgtype__, typestore=ts)
         odom_c = w.add_connection("/odom", Odometry.__msgtype__, typestore=ts)
@@ -156,7 +175,7 @@ def main():
                 last_time = log_time
                 r = np.array([math.inf if v >= max_range * (1 - 1e-6) else v for v in ranges], dtype=np.float32)
                 msg = LaserScan(
-                    header=Header(stamp=Time(sec=sec, nanosec=nanosec), frame_id="laser"),
+                    header=header(sec, nanosec, "laser"),
                     angle_min=start,
                     angle_max=start + inc * (len(ranges) - 1),
                     angle_increment=inc,
@@ -167,18 +186,18 @@ def main():
                     ranges=r,
                     intensities=np.array([], dtype=np.float32),
                 )
-                w.write(scan_c, log_time, ts.serialize_cdr(msg, LaserScan.__msgtype__))
+                w.write(scan_c, log_time, serialize(msg, LaserScan.__msgtype__))
                 if truth:
-                    p = PoseStamped(header=Header(stamp=Time(sec=sec, nanosec=nanosec), frame_id="map"), pose=pose(*laser))
-                    w.write(truth_c, log_time, ts.serialize_cdr(p, PoseStamped.__msgtype__))
+                    p = PoseStamped(header=header(sec, nanosec, "map"), pose=pose(*laser))
+                    w.write(truth_c, log_time, serialize(p, PoseStamped.__msgtype__))
                 if odom is not None:
                     o = Odometry(
-                        header=Header(stamp=Time(sec=sec, nanosec=nanosec), frame_id="odom"),
+                        header=header(sec, nanosec, "odom"),
                         child_frame_id="base_link",
                         pose=PoseWithCov(pose=pose(*odom), covariance=np.zeros(36)),
                         twist=TwistWithCov(twist=Twist(linear=Vector3(x=0.0, y=0.0, z=0.0), angular=Vector3(x=0.0, y=0.0, z=0.0)), covariance=np.zeros(36)),
                     )
-                    w.write(odom_c, log_time, ts.serialize_cdr(o, Odometry.__msgtype__))
+                    w.write(odom_c, log_time, serialize(o, Odometry.__msgtype__))
                 scans += 1
     print(
         f"{args.out}: {scans} scans{'' if truth else ', no truth'}; {skipped} lines skipped; "

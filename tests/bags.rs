@@ -219,6 +219,38 @@ fn a_sqlite3_bag_locates_as_its_mcap_twin() {
     assert_eq!(from_file, from_mcap);
 }
 
+/// ROS 1 bags written by rosbags (ROS 1 serialization: a header with `seq`, no alignment; plain,
+/// bz2 and lz4 chunks) read as the same scans in a ROS 2 bag do: the same rows, single-scan and
+/// sequential on the bag's odometry.
+#[test]
+fn a_ros1_bag_locates_as_its_ros2_twin() {
+    let dir = tempfile::tempdir().unwrap();
+    let log = sim(dir.path(), "walk.log", 40, &["--trajectory"]);
+    let ros2 = dir.path().join("walk-bag");
+    carmen2bag(&log, &ros2, &[]);
+    let topics = ["--truth-topic", "/truth", "--odom-topic", "/odom"];
+    let twin = |name: &str, bag: &Path, extra: &[&str]| {
+        let mut source = vec!["--bag", bag.to_str().unwrap()];
+        source.extend_from_slice(&topics);
+        locate(dir.path(), name, MAP, &source, extra)
+    };
+    let (single, single_report) = twin("ros2", &ros2, &[]);
+    let (sequential, _) = twin("ros2-seq", &ros2, &["--sequential"]);
+    assert_eq!(single.len(), 40);
+    let success = |r: &str| r.lines().find(|l| l.starts_with("success")).map(str::to_owned);
+    for compression in ["none", "bz2", "lz4"] {
+        // a ROS 1 bag by its usual name, and by another
+        let name = if compression == "lz4" { "walk-lz4.recording" } else { &format!("walk-{compression}.bag") };
+        let bag = dir.path().join(name);
+        carmen2bag(&log, &bag, &["--storage", "rosbag1", "--compression", compression]);
+        let (rows, report) = twin(compression, &bag, &[]);
+        assert_eq!(rows, single, "{compression}");
+        assert_eq!(success(&report), success(&single_report), "{compression}");
+        let (rows, _) = twin(&format!("{compression}-seq"), &bag, &["--sequential"]);
+        assert_eq!(rows, sequential, "{compression}");
+    }
+}
+
 #[test]
 fn a_bag_cut_short_locates_the_scans_before_the_cut_and_fails() {
     let dir = tempfile::tempdir().unwrap();

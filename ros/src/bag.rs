@@ -1,7 +1,9 @@
-//! rosbag2 bags, read in bag order without loading them whole: a bag directory (its
+//! Bags, read in bag order without loading them whole: a rosbag2 directory (its
 //! `metadata.yaml` names the files, in order) or a single file, in MCAP storage (`.mcap`,
-//! [`crate::mcap_file`]) or sqlite3 storage (`.db3`, [`crate::db3`]). Each message comes with its topic and its
-//! ROS type (`sensor_msgs/msg/LaserScan`); the bytes are CDR ([`crate::msg`]).
+//! [`crate::mcap_file`]) or sqlite3 storage (`.db3`, [`crate::db3`]), or a ROS 1 bag (`.bag`,
+//! [`crate::ros1_bag`]). Each message comes with its topic and its ROS type
+//! (`sensor_msgs/msg/LaserScan`); the bytes are CDR, or ROS 1's serialization, as the message
+//! says ([`crate::msg`] decodes both).
 //!
 //! A file that stops making sense (cut short, a bad chunk) ends the reading there with an error
 //! naming it; the messages before it have been returned. Other storage (a compressed bag's
@@ -9,6 +11,7 @@
 
 use crate::db3::Db3File;
 use crate::mcap_file::McapFile;
+use crate::ros1_bag::Ros1BagFile;
 pub use crate::stored::{BagError, BagMessage, TopicInfo};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -21,7 +24,8 @@ pub struct Bag {
 }
 
 impl Bag {
-    /// The bag at `path`: a directory holding `metadata.yaml`, or one `.mcap` or `.db3` file.
+    /// The bag at `path`: a directory holding `metadata.yaml`, or one `.mcap`, `.db3` or ROS 1
+    /// `.bag` file (a ROS 1 bag by any name).
     pub fn open(path: &Path) -> Result<Bag, BagError> {
         let io = |cause| BagError::Io { path: path.to_owned(), cause };
         if path.is_dir() {
@@ -66,6 +70,7 @@ impl Bag {
         for file in &self.files {
             let found = match FileKind::of(file) {
                 Some(FileKind::Db3) => crate::db3::topics(file)?,
+                Some(FileKind::Ros1) => crate::ros1_bag::topics(file)?,
                 _ => crate::mcap_file::topics(file)?,
             };
             for t in found {
@@ -92,6 +97,7 @@ impl Bag {
 enum FileKind {
     Mcap,
     Db3,
+    Ros1,
 }
 
 impl FileKind {
@@ -99,6 +105,8 @@ impl FileKind {
         match path.extension().and_then(|e| e.to_str()) {
             Some("mcap") => Some(FileKind::Mcap),
             Some("db3") => Some(FileKind::Db3),
+            Some("bag") => Some(FileKind::Ros1),
+            _ if crate::ros1_bag::is_ros1_bag(path) => Some(FileKind::Ros1),
             _ => None,
         }
     }
@@ -108,12 +116,14 @@ impl FileKind {
 enum FileReader {
     Mcap(McapFile),
     Db3(Db3File),
+    Ros1(Ros1BagFile),
 }
 
 impl FileReader {
     fn open(path: &Path, wanted: Vec<String>) -> Result<Self, BagError> {
         match FileKind::of(path) {
             Some(FileKind::Db3) => Db3File::open(path, wanted).map(FileReader::Db3),
+            Some(FileKind::Ros1) => Ros1BagFile::open(path, wanted).map(FileReader::Ros1),
             _ => McapFile::open(path, wanted).map(FileReader::Mcap),
         }
     }
@@ -122,6 +132,7 @@ impl FileReader {
         match self {
             FileReader::Mcap(f) => f.next_message(),
             FileReader::Db3(f) => f.next_message(),
+            FileReader::Ros1(f) => f.next_message(),
         }
     }
 }

@@ -14,6 +14,7 @@
 //! between two scans, in whatever frame it is.
 
 use crate::bag::{Bag, BagError, Messages};
+use crate::cdr::Encoding;
 use crate::msg;
 use laser::{interpolate, pose, LaserScan, Pose};
 use thiserror::Error;
@@ -91,14 +92,14 @@ impl Truth {
 }
 
 /// A pose message's stamp and planar pose, by its type.
-fn stamped_pose(ros_type: &str, data: &[u8]) -> Result<(i64, Pose), String> {
+fn stamped_pose(ros_type: &str, encoding: Encoding, data: &[u8]) -> Result<(i64, Pose), String> {
     let (header, p) = match ros_type {
         msg::PoseStamped::TYPE => {
-            let m = msg::PoseStamped::decode(data).map_err(|e| e.to_string())?;
+            let m = msg::PoseStamped::decode_as(encoding, data).map_err(|e| e.to_string())?;
             (m.header, m.pose)
         }
         msg::Odometry::TYPE => {
-            let m = msg::Odometry::decode(data).map_err(|e| e.to_string())?;
+            let m = msg::Odometry::decode_as(encoding, data).map_err(|e| e.to_string())?;
             (m.header, m.pose.pose)
         }
         other => return Err(format!("a {other}, not a PoseStamped or Odometry")),
@@ -170,7 +171,7 @@ impl BagScans {
             for (order, m) in bag.messages(&[&topic.name, name]).enumerate() {
                 let m = m?;
                 if *m.topic == **name {
-                    match stamped_pose(&m.ros_type, &m.data) {
+                    match stamped_pose(&m.ros_type, m.encoding, &m.data) {
                         Ok((stamp, p)) => poses.push((stamp, order, p)),
                         Err(_) => bad_truth += 1,
                     }
@@ -220,7 +221,7 @@ impl Iterator for BagScans {
             let index = self.index;
             self.index += 1;
             let lost = |cause: String| BagScanError::Message { topic: self.topic.clone(), index, cause };
-            let message = match msg::LaserScan::decode(&m.data) {
+            let message = match msg::LaserScan::decode_as(m.encoding, &m.data) {
                 Ok(message) => message,
                 Err(e) => return Some(Err(lost(e.to_string()))),
             };

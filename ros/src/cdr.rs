@@ -5,6 +5,10 @@
 //!
 //! The reader checks every length against what is left: a hostile or cut message is an error,
 //! never a panic or a huge allocation.
+//!
+//! The same reader reads ROS 1's serialization ([`Encoding::Ros1`], as in a ROS 1 bag): no
+//! encapsulation header, little-endian, nothing aligned, strings without a closing NUL; and
+//! a `std_msgs/Header` opens with a `seq` ([`CdrReader::is_ros1`]).
 
 use thiserror::Error;
 
@@ -14,16 +18,28 @@ pub enum CdrError {
     Truncated { what: &'static str, need: usize, len: usize },
     #[error("unknown CDR encapsulation {0:#06x} (ROS 2 writes 0x0000 or 0x0001)")]
     Encapsulation(u16),
-    #[error("a string that is not UTF-8 or not NUL-terminated")]
+    #[error("a string that is not UTF-8, or in CDR not NUL-terminated")]
     BadString,
 }
 
-/// Reads one CDR message.
+/// How a message's bytes are laid out.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Encoding {
+    /// CDR, as ROS 2 writes (on the wire, in rosbag2 bags).
+    #[default]
+    Cdr,
+    /// ROS 1's serialization (in ROS 1 bags).
+    Ros1,
+}
+
+/// Reads one CDR (or ROS 1) message.
 pub struct CdrReader<'a> {
     bytes: &'a [u8],
-    /// Position in `bytes`; alignment counts from [`HEADER`].
+    /// Position in `bytes`; alignment counts from `origin`.
     pos: usize,
     little: bool,
+    /// Where alignment counts from ([`HEADER`] in CDR); `None`: nothing is aligned (ROS 1).
+    origin: Option<usize>,
 }
 
 /// Bytes of the encapsulation header.
@@ -40,12 +56,32 @@ impl<'a> CdrReader<'a> {
             0x0001 | 0x0003 => true,  // CDR_LE, PL_CDR_LE
             other => return Err(CdrError::Encapsulation(other)),
         };
-        Ok(CdrReader { bytes, pos: HEADER, little })
+        Ok(CdrReader { bytes, pos: HEADER, little, origin: Some(HEADER) })
+    }
+
+    /// A reader of `bytes` in ROS 1's serialization.
+    pub fn ros1(bytes: &'a [u8]) -> Self {
+        CdrReader { bytes, pos: 0, little: true, origin: None }
+    }
+
+    /// A reader of `bytes` laid out as `encoding` says.
+    pub fn of(encoding: Encoding, bytes: &'a [u8]) -> Result<Self, CdrError> {
+        match encoding {
+            Encoding::Cdr => Self::new(bytes),
+            Encoding::Ros1 => Ok(Self::ros1(bytes)),
+        }
+    }
+
+    /// Whether this reads ROS 1's serialization, whose `std_msgs/Header` has a `seq`.
+    pub fn is_ros1(&self) -> bool {
+        self.origin.is_none()
     }
 
     fn take(&mut self, n: usize, align: usize, what: &'static str) -> Result<&'a [u8], CdrError> {
-        let offset = self.pos - HEADER;
-        let start = self.pos + (align - offset % align) % align;
+        let start = match self.origin {
+            Some(origin) => self.pos + (align - (self.pos - origin) % align) % align,
+            None => self.pos,
+        };
         let end = start.checked_add(n).filter(|&e| e <= self.bytes.len()).ok_or(CdrError::Truncated {
             what,
             need: start.saturating_add(n).saturating_sub(self.bytes.len()),
@@ -102,10 +138,15 @@ impl<'a> CdrReader<'a> {
             return Ok(String::new());
         }
         let b = self.take(n, 1, "a string")?;
-        let (&nul, text) = b.split_last().ok_or(CdrError::BadString)?;
-        if nul != 0 {
-            return Err(CdrError::BadString);
-        }
+        let text = if self.is_ros1() {
+            b
+        } else {
+            let (&nul, text) = b.split_last().ok_or(CdrError::BadString)?;
+            if nul != 0 {
+                return Err(CdrError::BadString);
+            }
+            text
+        };
         std::str::from_utf8(text).map(str::to_owned).map_err(|_| CdrError::BadString)
     }
 

@@ -2,7 +2,7 @@
 //! each topic and its type, the `messages` table holds the CDR bytes in the order they were
 //! recorded (by row id). Read a page of rows at a time, never the whole file.
 
-use crate::stored::{BagError, BagMessage, TopicInfo};
+use crate::stored::{BagError, BagMessage, Encoding, TopicInfo};
 use rusqlite::{Connection, OpenFlags};
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
@@ -116,6 +116,7 @@ impl Db3File {
                     ros_type: Arc::clone(ros_type),
                     log_time: time.max(0) as u64,
                     data,
+                    encoding: Encoding::Cdr,
                 });
             }
         }

@@ -1,7 +1,8 @@
 //! ROS 2 interop without a ROS installation: the messages gema2 reads and writes, in the CDR
 //! encoding ROS 2 puts on the wire and in bags ([`cdr`], [`msg`]); a `sensor_msgs/LaserScan` as
 //! the scan every stage sees, read as REP 117 says ([`scan`]); and rosbag2 bags in MCAP and
-//! sqlite3 storage ([`bag`], [`db3`]).
+//! sqlite3 storage ([`bag`], [`db3`]), and ROS 1 bags, whose ROS 1 serialization the same
+//! decoders read ([`ros1_bag`]).
 //!
 //! One job: ROS 2 bytes in and out. Depends on `laser` (what a scan and a pose are) and the
 //! `mcap` crate; nothing here knows the algorithm or the pipeline.
@@ -12,6 +13,7 @@ pub mod cdr;
 pub mod db3;
 pub mod mcap_file;
 pub mod msg;
+pub mod ros1_bag;
 pub mod scan;
 pub mod stored;
 

@@ -2,7 +2,7 @@
 //! whole, chunks plain or compressed (zstd, lz4); their topics from the summary section, or by
 //! reading through a file that has none (cut short).
 
-use crate::stored::{BagError, BagMessage, TopicInfo};
+use crate::stored::{BagError, BagMessage, Encoding, TopicInfo};
 use mcap::sans_io::{LinearReadEvent, LinearReader, SummaryReadEvent, SummaryReader};
 use std::collections::{BTreeMap, HashMap};
 use std::fs::File;
@@ -135,6 +135,7 @@ impl McapFile {
                             ros_type: Arc::clone(ros_type),
                             log_time: header.log_time,
                             data: data.into_owned(),
+                            encoding: Encoding::Cdr,
                         }));
                     }
                 }

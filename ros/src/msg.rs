@@ -1,9 +1,10 @@
 //! The ROS 2 messages gema2 reads and writes, field for field as their `.msg` files define
-//! them, with their CDR encoding (`decode` / `encode`, for bags). Names are ROS's. Each also
+//! them, with their CDR encoding (`decode` / `encode`, for bags; `decode_as` also reads a ROS 1
+//! bag's serialization of the same message). Names are ROS's. Each also
 //! derives serde in field order, which is how a serde CDR encoder (a DDS client's) lays out the
 //! same bytes: fixed arrays as tuples, vectors and strings with their lengths.
 
-use crate::cdr::{CdrError, CdrReader, CdrWriter};
+use crate::cdr::{CdrError, CdrReader, CdrWriter, Encoding};
 use serde::{Deserialize, Serialize};
 
 /// `builtin_interfaces/msg/Time`.
@@ -46,6 +47,10 @@ pub struct Header {
 
 impl Header {
     fn decode(r: &mut CdrReader) -> Result<Self, CdrError> {
+        if r.is_ros1() {
+            // ROS 1's header opens with a sequence number ROS 2 dropped
+            r.u32()?;
+        }
         Ok(Header { stamp: Time::decode(r)?, frame_id: r.string()? })
     }
 
@@ -74,7 +79,12 @@ impl LaserScan {
     pub const TYPE: &'static str = "sensor_msgs/msg/LaserScan";
 
     pub fn decode(bytes: &[u8]) -> Result<Self, CdrError> {
-        let r = &mut CdrReader::new(bytes)?;
+        Self::decode_as(Encoding::Cdr, bytes)
+    }
+
+    /// Decodes `bytes` laid out as `encoding` says.
+    pub fn decode_as(encoding: Encoding, bytes: &[u8]) -> Result<Self, CdrError> {
+        let r = &mut CdrReader::of(encoding, bytes)?;
         Ok(LaserScan {
             header: Header::decode(r)?,
             angle_min: r.f32()?,
@@ -156,7 +166,12 @@ impl PoseStamped {
     pub const TYPE: &'static str = "geometry_msgs/msg/PoseStamped";
 
     pub fn decode(bytes: &[u8]) -> Result<Self, CdrError> {
-        let r = &mut CdrReader::new(bytes)?;
+        Self::decode_as(Encoding::Cdr, bytes)
+    }
+
+    /// Decodes `bytes` laid out as `encoding` says.
+    pub fn decode_as(encoding: Encoding, bytes: &[u8]) -> Result<Self, CdrError> {
+        let r = &mut CdrReader::of(encoding, bytes)?;
         Ok(PoseStamped { header: Header::decode(r)?, pose: Pose::decode(r)? })
     }
 
@@ -240,7 +255,12 @@ impl PoseWithCovarianceStamped {
     pub const TYPE: &'static str = "geometry_msgs/msg/PoseWithCovarianceStamped";
 
     pub fn decode(bytes: &[u8]) -> Result<Self, CdrError> {
-        let r = &mut CdrReader::new(bytes)?;
+        Self::decode_as(Encoding::Cdr, bytes)
+    }
+
+    /// Decodes `bytes` laid out as `encoding` says.
+    pub fn decode_as(encoding: Encoding, bytes: &[u8]) -> Result<Self, CdrError> {
+        let r = &mut CdrReader::of(encoding, bytes)?;
         Ok(PoseWithCovarianceStamped { header: Header::decode(r)?, pose: PoseWithCovariance::decode(r)? })
     }
 
@@ -279,7 +299,12 @@ impl Odometry {
     pub const TYPE: &'static str = "nav_msgs/msg/Odometry";
 
     pub fn decode(bytes: &[u8]) -> Result<Self, CdrError> {
-        let r = &mut CdrReader::new(bytes)?;
+        Self::decode_as(Encoding::Cdr, bytes)
+    }
+
+    /// Decodes `bytes` laid out as `encoding` says.
+    pub fn decode_as(encoding: Encoding, bytes: &[u8]) -> Result<Self, CdrError> {
+        let r = &mut CdrReader::of(encoding, bytes)?;
         Ok(Odometry {
             header: Header::decode(r)?,
             child_frame_id: r.string()?,

@@ -1,7 +1,8 @@
 //! What a bag holds, whatever its storage: its topics, its messages, and why one cannot be
 //! read. Shared by the bag ([`crate::bag`]) and the readers of each storage
-//! ([`crate::mcap_file`], [`crate::db3`]).
+//! ([`crate::mcap_file`], [`crate::db3`], [`crate::ros1_bag`]).
 
+pub use crate::cdr::Encoding;
 use std::path::PathBuf;
 use std::sync::Arc;
 use thiserror::Error;
@@ -20,7 +21,9 @@ pub enum BagError {
          `ros2 bag convert` or `rosbags-convert --dst-storage mcap`"
     )]
     Storage { path: PathBuf, storage: String },
-    #[error("{path}: not a bag: neither a directory with metadata.yaml nor an .mcap file")]
+    #[error("{path}: not a readable ROS 1 bag: {cause}")]
+    Ros1 { path: PathBuf, cause: String },
+    #[error("{path}: not a bag: neither a directory with metadata.yaml, nor an .mcap, .db3 or ROS 1 .bag file")]
     NotABag { path: PathBuf },
     #[error("{path}: the bag's metadata.yaml names no data file")]
     NoFiles { path: PathBuf },
@@ -43,6 +46,8 @@ pub struct BagMessage {
     pub ros_type: Arc<str>,
     /// When the recorder received it, ns since the epoch.
     pub log_time: u64,
-    /// The message, CDR.
+    /// The message, laid out as `encoding` says: CDR in a rosbag2 bag, ROS 1's serialization
+    /// in a ROS 1 bag.
     pub data: Vec<u8>,
+    pub encoding: Encoding,
 }
