@@ -4,6 +4,10 @@
 //! 1 name (`sensor_msgs/LaserScan`) is given in ROS 2's form (`sensor_msgs/msg/LaserScan`),
 //! and its bytes are ROS 1's serialization ([`Encoding::Ros1`]).
 //!
+//! A bag with an index (its connections and, per chunk, the connections it holds) has the
+//! chunks without a wanted topic passed over unread: a laser topic beside cameras reads a
+//! fraction of the file.
+//!
 //! A record is a `u32` header length, the header (fields of a `u32` length and `name=value`),
 //! a `u32` data length and the data. Every length is checked against what the file holds and
 //! read as it arrives, so a hostile length is an error, never a huge allocation. A bag cut
@@ -11,7 +15,7 @@
 //! then an error naming where.
 
 use crate::stored::{BagError, BagMessage, Encoding, TopicInfo};
-use std::collections::{BTreeMap, HashMap};
+use std::collections::{BTreeMap, HashMap, HashSet};
 use std::fs::File;
 use std::io::{BufReader, Read, Seek, SeekFrom};
 use std::path::{Path, PathBuf};
@@ -191,6 +195,39 @@ fn read_bag_header(r: &mut impl Read, path: &Path) -> Result<u64, BagError> {
     record.u64_field("index_pos").map_err(bad)
 }
 
+/// A bag's index: its connections, and each chunk's place with the connections it holds.
+struct Index {
+    connections: BTreeMap<u32, Connection>,
+    chunks: Vec<(u64, Vec<(u32, u32)>)>,
+}
+
+/// Reads the index at `index_pos` (the connection and chunk-info records after the chunks).
+fn read_index(reader: &mut BufReader<File>, index_pos: u64) -> Result<Index, String> {
+    reader.seek(SeekFrom::Start(index_pos)).map_err(|e| e.to_string())?;
+    let mut index = Index { connections: BTreeMap::new(), chunks: Vec::new() };
+    while let Some(record) = next_record(reader).map_err(|e| format!("in the index: {e}"))? {
+        match record.op()? {
+            OP_CONNECTION => {
+                let (id, c) = connection(&record)?;
+                index.connections.insert(id, c);
+            }
+            OP_CHUNK_INFO => {
+                // (connection, messages in the chunk) pairs
+                let held = record
+                    .data
+                    .chunks_exact(8)
+                    .map(|p| {
+                        (u32::from_le_bytes([p[0], p[1], p[2], p[3]]), u32::from_le_bytes([p[4], p[5], p[6], p[7]]))
+                    })
+                    .collect();
+                index.chunks.push((record.u64_field("chunk_pos")?, held));
+            }
+            _ => {}
+        }
+    }
+    Ok(index)
+}
+
 /// One ROS 1 bag file being read in file order.
 pub struct Ros1BagFile {
     path: PathBuf,
@@ -200,25 +237,53 @@ pub struct Ros1BagFile {
     /// The chunk being read and where in it.
     chunk: Vec<u8>,
     at: usize,
-    /// Bytes of the file read so far, for errors.
+    /// Bytes of the file read so far: where the next record starts.
     offset: u64,
+    length: u64,
+    /// Where the chunks holding no wanted topic start (from the index): passed over unread.
+    unwanted: HashSet<u64>,
 }
 
 impl Ros1BagFile {
     /// Opens `path` to read the messages on `wanted` topics (every topic when empty).
     pub fn open(path: &Path, wanted: Vec<String>) -> Result<Self, BagError> {
-        let file = File::open(path).map_err(|cause| BagError::Io { path: path.to_owned(), cause })?;
+        let io = |cause| BagError::Io { path: path.to_owned(), cause };
+        let file = File::open(path).map_err(io)?;
+        let length = file.metadata().map_err(io)?.len();
         let mut reader = BufReader::new(file);
-        read_bag_header(&mut reader, path)?;
-        let offset = reader.stream_position().map_err(|cause| BagError::Io { path: path.to_owned(), cause })?;
+        let index_pos = read_bag_header(&mut reader, path)?;
+        let offset = reader.stream_position().map_err(io)?;
+        let mut connections = HashMap::new();
+        let mut unwanted = HashSet::new();
+        if !wanted.is_empty() && index_pos >= offset && index_pos < length {
+            // a broken index only costs the passing over: the chunks are read as they come
+            if let Ok(index) = read_index(&mut reader, index_pos) {
+                let ids: HashSet<u32> = index
+                    .connections
+                    .iter()
+                    .filter(|(_, c)| wanted.iter().any(|w| **w == *c.topic))
+                    .map(|(&id, _)| id)
+                    .collect();
+                unwanted = index
+                    .chunks
+                    .iter()
+                    .filter(|(_, held)| held.iter().all(|(id, _)| !ids.contains(id)))
+                    .map(|(pos, _)| *pos)
+                    .collect();
+                connections.extend(index.connections);
+            }
+            reader.seek(SeekFrom::Start(offset)).map_err(io)?;
+        }
         Ok(Ros1BagFile {
             path: path.to_owned(),
             reader,
             wanted,
-            connections: HashMap::new(),
+            connections,
             chunk: Vec::new(),
             at: 0,
             offset,
+            length,
+            unwanted,
         })
     }
 
@@ -239,6 +304,10 @@ impl Ros1BagFile {
             } else {
                 self.chunk.clear();
                 self.at = 0;
+                if self.unwanted.contains(&self.offset) {
+                    self.pass_over()?;
+                    continue;
+                }
                 let mut counted = CountingReader { inner: &mut self.reader, read: 0 };
                 let record = next_record(&mut counted);
                 let read = counted.read;
@@ -285,6 +354,29 @@ impl Ros1BagFile {
     }
 }
 
+impl Ros1BagFile {
+    /// Passes over the record at `offset` (a chunk holding no wanted topic): reads its header
+    /// and length, not its data.
+    fn pass_over(&mut self) -> Result<(), BagError> {
+        let mut head = [0u8; 4];
+        self.reader.read_exact(&mut head).map_err(|e| self.bad(format!("a chunk cut short: {e}")))?;
+        let header_len = u32::from_le_bytes(head);
+        if header_len > MAX_HEADER {
+            return Err(self.bad(format!("a record header of {header_len} bytes (at most {MAX_HEADER} are read)")));
+        }
+        self.reader.seek_relative(i64::from(header_len)).map_err(|e| self.bad(format!("a chunk cut short: {e}")))?;
+        self.reader.read_exact(&mut head).map_err(|e| self.bad(format!("a chunk cut short: {e}")))?;
+        let data_len = u64::from(u32::from_le_bytes(head));
+        let end = self.offset + 8 + u64::from(header_len) + data_len;
+        if end > self.length {
+            return Err(self.bad("a chunk cut short in its data".into()));
+        }
+        self.reader.seek_relative(data_len as i64).map_err(|e| self.bad(format!("a chunk cut short: {e}")))?;
+        self.offset = end;
+        Ok(())
+    }
+}
+
 /// A reader that counts the bytes read through it.
 struct CountingReader<'a, R> {
     inner: &'a mut R,
@@ -311,24 +403,11 @@ pub fn topics(path: &Path) -> Result<Vec<TopicInfo>, BagError> {
     let mut connections: BTreeMap<u32, Connection> = BTreeMap::new();
     let mut counts: HashMap<u32, u64> = HashMap::new();
     if index > 0 && index < length {
-        reader.seek(SeekFrom::Start(index)).map_err(io)?;
-        while let Some(record) = next_record(&mut reader).map_err(|e| bad(format!("in the index: {e}")))? {
-            match record.op().map_err(&bad)? {
-                OP_CONNECTION => {
-                    let (id, c) = connection(&record).map_err(&bad)?;
-                    connections.insert(id, c);
-                }
-                OP_CHUNK_INFO => {
-                    // (connection, messages in the chunk) pairs
-                    for pair in record.data.chunks_exact(8) {
-                        let id = u32::from_le_bytes([pair[0], pair[1], pair[2], pair[3]]);
-                        let n = u32::from_le_bytes([pair[4], pair[5], pair[6], pair[7]]);
-                        *counts.entry(id).or_default() += u64::from(n);
-                    }
-                }
-                _ => {}
-            }
+        let found = read_index(&mut reader, index).map_err(bad)?;
+        for (id, n) in found.chunks.iter().flat_map(|(_, held)| held) {
+            *counts.entry(*id).or_default() += u64::from(*n);
         }
+        connections = found.connections;
     } else {
         let mut file = Ros1BagFile::open(path, Vec::new())?;
         while let Some(m) = file.next_message()? {
@@ -407,10 +486,16 @@ mod tests {
         b
     }
 
-    /// A bag of `chunks` (each compressed as named), with an index after them when `indexed`.
-    fn bag(chunks: &[(&str, Vec<u8>)], index: &[Vec<u8>], indexed: bool) -> Vec<u8> {
+    /// A chunk: its compression, its records and the (connection, messages) pairs it holds.
+    type Chunk = (&'static str, Vec<u8>, Vec<(u32, u32)>);
+
+    /// A bag of `chunks` (each compressed as named), with an index after them when `indexed`:
+    /// `connections`, then a chunk-info record per chunk.
+    fn bag(chunks: &[Chunk], connections: &[Vec<u8>], indexed: bool) -> Vec<u8> {
         let mut body = Vec::new();
-        for (compression, records) in chunks {
+        let mut infos = Vec::new();
+        for (compression, records, held) in chunks {
+            infos.push(chunk_info((MAGIC.len() + 4096 + body.len()) as u64, held));
             let data = match *compression {
                 "none" => records.clone(),
                 "bz2" => {
@@ -451,16 +536,17 @@ mod tests {
         out.extend(head);
         out.extend(body);
         if indexed {
-            for r in index {
+            for r in connections.iter().chain(&infos) {
                 out.extend(r);
             }
         }
         out
     }
 
-    fn chunk_info(counts: &[(u32, u32)]) -> Vec<u8> {
+    fn chunk_info(pos: u64, counts: &[(u32, u32)]) -> Vec<u8> {
         let data: Vec<u8> = counts.iter().flat_map(|&(c, n)| [c.to_le_bytes(), n.to_le_bytes()].concat()).collect();
-        record(&[("op", &[OP_CHUNK_INFO]), ("count", &(counts.len() as u32).to_le_bytes())], &data)
+        let count = (counts.len() as u32).to_le_bytes();
+        record(&[("op", &[OP_CHUNK_INFO]), ("chunk_pos", &pos.to_le_bytes()), ("count", &count)], &data)
     }
 
     fn write(dir: &Path, name: &str, bytes: &[u8]) -> PathBuf {
@@ -471,7 +557,7 @@ mod tests {
 
     /// Scans on /scan (connection 0) and an odometry on /odom (connection 1), over three
     /// chunks compressed each way.
-    fn three_chunks() -> (Vec<(&'static str, Vec<u8>)>, Vec<Vec<u8>>) {
+    fn three_chunks() -> (Vec<Chunk>, Vec<Vec<u8>>) {
         // an Odometry in ROS 1: seq, stamp, frame_id, child_frame_id, then the pose (x = 2.5,
         // facing +y), its covariance, the twist and its covariance
         let mut ros1_odom = Vec::new();
@@ -493,14 +579,11 @@ mod tests {
         let second =
             [connection_record(1, "/odom", "nav_msgs/Odometry"), message_record(1, 101, 0, &ros1_odom)].concat();
         let third = message_record(0, 102, 0, &ros1_scan(2, 102, &[3.0]));
-        let index = vec![
+        let connections = vec![
             connection_record(0, "/scan", "sensor_msgs/LaserScan"),
             connection_record(1, "/odom", "nav_msgs/Odometry"),
-            chunk_info(&[(0, 1)]),
-            chunk_info(&[(1, 1)]),
-            chunk_info(&[(0, 1)]),
         ];
-        (vec![("none", first), ("bz2", second), ("lz4", third)], index)
+        (vec![("none", first, vec![(0, 1)]), ("bz2", second, vec![(1, 1)]), ("lz4", third, vec![(0, 1)])], connections)
     }
 
     #[test]
@@ -533,8 +616,16 @@ mod tests {
             let mut file = Ros1BagFile::open(&path, vec!["/odom".into()]).unwrap();
             assert_eq!(&*file.next_message().unwrap().unwrap().topic, "/odom");
             assert!(file.next_message().unwrap().is_none());
+            // with an index, the chunks without it are passed over unread: a chunk of /scan
+            // that would not decompress is not even looked at
+            let mut spoilt = chunks.clone();
+            spoilt[2].0 = "zstd";
+            let path = write(dir.path(), "s.bag", &bag(&spoilt, &index, indexed));
+            let mut file = Ros1BagFile::open(&path, vec!["/odom".into()]).unwrap();
+            assert_eq!(&*file.next_message().unwrap().unwrap().topic, "/odom");
+            assert_eq!(file.next_message().is_err(), !indexed);
             // the topics, from the index or read through
-            let t = topics(&path).unwrap();
+            let t = topics(&dir.path().join("a.bag")).unwrap();
             let listed: Vec<(&str, &str, Option<u64>)> =
                 t.iter().map(|t| (t.name.as_str(), t.ros_type.as_str(), t.messages)).collect();
             assert_eq!(listed, [("/odom", Odometry::TYPE, Some(1)), ("/scan", LaserScan::TYPE, Some(2))], "{indexed}");
@@ -564,12 +655,12 @@ mod tests {
         let e = Ros1BagFile::open(&old, Vec::new()).err().unwrap().to_string();
         assert!(e.contains("\"#ROSBAG V1.2\" is not format 2.0") && e.contains("rosbag fix"), "{e}");
         // a chunk of an unknown compression
-        let zstd = write(dir.path(), "z.bag", &bag(&[("zstd", chunks[0].1.clone())], &[], false));
+        let zstd = write(dir.path(), "z.bag", &bag(&[("zstd", chunks[0].1.clone(), vec![])], &[], false));
         let mut file = Ros1BagFile::open(&zstd, Vec::new()).unwrap();
         let e = file.next_message().unwrap_err().to_string();
         assert!(e.contains("compressed as \"zstd\""), "{e}");
         // a message before any connection names its topic
-        let orphan = write(dir.path(), "o.bag", &bag(&[("none", message_record(4, 1, 0, b""))], &[], false));
+        let orphan = write(dir.path(), "o.bag", &bag(&[("none", message_record(4, 1, 0, b""), vec![])], &[], false));
         let e = Ros1BagFile::open(&orphan, Vec::new()).unwrap().next_message().unwrap_err().to_string();
         assert!(e.contains("connection 4, which no record defined"), "{e}");
         // a huge record header length
