@@ -124,16 +124,11 @@ impl MapMeta {
     /// Parses the YAML text of a map_server map; `path` names it in errors.
     pub fn parse(text: &str, path: &Path) -> Result<Self, RosMapError> {
         let mut fields = MetaFields::default();
-        for (k, raw) in text.lines().enumerate() {
-            let err = |message: String| RosMapError::Yaml { path: path.to_owned(), line: k + 1, message };
-            let content = strip_comment(raw).trim();
-            if content.is_empty() || content == "---" {
-                continue;
-            }
-            let Some((key, value)) = content.split_once(':') else {
-                return Err(err(format!("expected `key: value`, found {content:?}")));
-            };
-            fields.take(key.trim(), unquote(value.trim())).map_err(err)?;
+        let entries =
+            yaml_entries(text).map_err(|(line, message)| RosMapError::Yaml { path: path.to_owned(), line, message })?;
+        for (line, key, value) in entries {
+            let err = |message: String| RosMapError::Yaml { path: path.to_owned(), line, message };
+            fields.take(&key, unquote(&value)).map_err(err)?;
         }
         fields.finish(path)
     }
@@ -281,6 +276,92 @@ fn parse_origin(value: &str) -> Option<[f64; 3]> {
 }
 
 /// `line` without a `#` comment (a `#` at the start or after a space, outside quotes).
+/// A `key: value` of a YAML file and the line its key is on.
+type YamlEntry = (usize, String, String);
+
+/// The `key: value` entries of a map_server YAML file, with the line each key is on, in the
+/// layouts tools write: a key a line (`map_saver`), a list as `[a, b, c]` (also across lines)
+/// or as a block of `- item` lines under its key (PyYAML's default), or the whole map in
+/// braces (`{image: m.pgm, resolution: 0.05, ...}`). A list's value is given as `[a, b, c]`.
+/// Errors carry their line.
+fn yaml_entries(text: &str) -> Result<Vec<YamlEntry>, (usize, String)> {
+    let lines: Vec<(usize, &str)> = text
+        .lines()
+        .enumerate()
+        .map(|(k, raw)| (k + 1, strip_comment(raw).trim()))
+        .filter(|(_, l)| !l.is_empty() && *l != "---" && *l != "...")
+        .collect();
+    let mut entries = Vec::new();
+    if let Some(&(first, l)) = lines.first().filter(|(_, l)| l.starts_with('{')) {
+        // one flow mapping, perhaps over several lines
+        let whole: Vec<&str> = lines.iter().map(|(_, l)| *l).collect();
+        let whole = whole.join(" ");
+        let inner = whole
+            .strip_prefix('{')
+            .and_then(|w| w.strip_suffix('}'))
+            .ok_or((first, format!("a mapping in braces that does not close, from {l:?}")))?;
+        for item in split_top_level(inner).into_iter().filter(|i| !i.trim().is_empty()) {
+            let (key, value) = item.split_once(':').ok_or((first, format!("expected `key: value`, found {item:?}")))?;
+            entries.push((first, key.trim().to_owned(), value.trim().to_owned()));
+        }
+        return Ok(entries);
+    }
+    let mut k = 0;
+    while let Some(&(line, content)) = lines.get(k) {
+        k += 1;
+        if content.starts_with("- ") || content == "-" {
+            return Err((line, format!("a list item {content:?} under no key")));
+        }
+        let Some((key, value)) = content.split_once(':') else {
+            return Err((line, format!("expected `key: value`, found {content:?}")));
+        };
+        let mut value = value.trim().to_owned();
+        if value.is_empty() {
+            // a block list: the `- item` lines that follow
+            let mut items = Vec::new();
+            while let Some(item) = lines.get(k).and_then(|(_, l)| l.strip_prefix("- ").or((*l == "-").then_some(""))) {
+                items.push(item.trim().to_owned());
+                k += 1;
+            }
+            if !items.is_empty() {
+                value = format!("[{}]", items.join(", "));
+            }
+        } else if value.starts_with('[') && !value.contains(']') {
+            // a flow list over several lines
+            while let Some(&(_, more)) = lines.get(k) {
+                k += 1;
+                value.push(' ');
+                value.push_str(more);
+                if more.contains(']') {
+                    break;
+                }
+            }
+        }
+        entries.push((line, key.trim().to_owned(), value));
+    }
+    Ok(entries)
+}
+
+/// `text` split at its commas outside brackets and quotes.
+fn split_top_level(text: &str) -> Vec<&str> {
+    let (mut parts, mut depth, mut quote, mut start) = (Vec::new(), 0i32, None, 0);
+    for (k, ch) in text.char_indices() {
+        match (quote, ch) {
+            (None, '"' | '\'') => quote = Some(ch),
+            (Some(q), c) if c == q => quote = None,
+            (None, '[' | '{') => depth += 1,
+            (None, ']' | '}') => depth -= 1,
+            (None, ',') if depth == 0 => {
+                parts.push(&text[start..k]);
+                start = k + 1;
+            }
+            _ => {}
+        }
+    }
+    parts.push(&text[start..]);
+    parts
+}
+
 fn strip_comment(line: &str) -> &str {
     let mut quote = None;
     let mut previous = ' ';
@@ -715,6 +796,31 @@ mod tests {
         ] {
             let e = Pgm::parse(bytes, Path::new("a.pgm")).unwrap_err().to_string();
             assert!(e.contains(says), "{e}");
+        }
+    }
+
+    #[test]
+    fn yaml_files_in_the_layouts_tools_write_read_alike() {
+        let expect = meta("image: a.pgm\nresolution: 0.05\norigin: [-1.5, 2, 0.1]\nnegate: 1").unwrap();
+        for text in [
+            // PyYAML's default: a list as a block of items
+            "image: a.pgm\nnegate: 1\norigin:\n- -1.5\n- 2\n- 0.1\nresolution: 0.05\n",
+            "image: a.pgm\nresolution: 0.05\norigin:\n  - -1.5   # x\n  - 2\n  - 0.1\nnegate: 1\n",
+            // a flow list over lines, and the whole map in braces
+            "image: a.pgm\nresolution: 0.05\norigin: [-1.5,\n  2, 0.1]\nnegate: 1\n",
+            "{image: a.pgm, resolution: 0.05, origin: [-1.5, 2, 0.1], negate: 1}\n",
+            "---\n{image: 'a.pgm',\n resolution: 0.05, origin: [-1.5, 2, 0.1],\n negate: 1}\n...\n",
+        ] {
+            assert_eq!(meta(text).unwrap(), expect, "{text:?}");
+        }
+        for (text, says) in [
+            ("image: a.pgm\n- 1\n", "line 2: a list item"),
+            ("{image: a.pgm, resolution: 0.05", "line 1: a mapping in braces that does not close"),
+            ("{image: a.pgm, resolution}", "line 1: expected `key: value`"),
+            ("image: a.pgm\nresolution: 0.05\norigin:\n- 1\n- 2\nnegate: 0\n", "line 3: origin must be [x, y, yaw]"),
+        ] {
+            let e = meta(text).unwrap_err().to_string();
+            assert!(e.contains(says), "{text:?}: {e}");
         }
     }
 
