@@ -6,7 +6,9 @@ It publishes, as ROS 2 does:
   rt/scan        sensor_msgs::msg::dds_::LaserScan_ (best effort), the scans of a CARMEN log
                  (ROBOTLASER1 lines, e.g. from `gema2 sim`) at --rate, stamped 0.025 s apart;
   rt/tf_static   tf2_msgs::msg::dds_::TFMessage_ (reliable, transient local): base_link ->
-                 laser at --laser-pose;
+                 laser at --laser-pose; with --upside-down, the laser rolled 180 degrees there,
+                 its scans read as such a laser reads them (the span mirrored, the ranges in
+                 reverse);
   rt/odom        with --odom, nav_msgs::msg::dds_::Odometry_ (reliable): each line's robot pose
                  (ROBOTLASER1's odometry), stamped as its scan and written just before it;
 and, with --grid, a map_server map (YAML and PGM) on rt/map as nav_msgs::msg::dds_::OccupancyGrid_
@@ -18,8 +20,8 @@ and the latency from publishing the scan to receiving its pose (ms); then, on st
 latency's p50 and p99. Run every DDS participant of a test in a network namespace (the test
 does): discovery multicasts.
 
-Usage: ros2_peer.py LOG [--rate HZ] [--laser-pose x,y,yaw] [--grid MAP.yaml] [--odom] [--wait S]
-       [--domain N]
+Usage: ros2_peer.py LOG [--rate HZ] [--laser-pose x,y,yaw] [--upside-down] [--grid MAP.yaml] [--odom]
+       [--wait S] [--domain N]
 """
 
 import argparse
@@ -235,8 +237,10 @@ def grid_of(yaml_path):
     )
 
 
-def quaternion(yaw):
-    return Quaternion(x=0.0, y=0.0, z=math.sin(yaw / 2), w=math.cos(yaw / 2))
+def quaternion(yaw, roll=0.0):
+    # Rz(yaw) Rx(roll)
+    cy, sy, cr, sr = math.cos(yaw / 2), math.sin(yaw / 2), math.cos(roll / 2), math.sin(roll / 2)
+    return Quaternion(x=cy * sr, y=sy * sr, z=sy * cr, w=cy * cr)
 
 
 def main():
@@ -250,6 +254,7 @@ def main():
     ap.add_argument("--grid", help="a map_server YAML map to publish on rt/map")
     ap.add_argument("--regrid-after", type=int, help="publish the grid again after this many scans (a map update)")
     ap.add_argument("--odom", action="store_true", help="publish each line's robot pose on rt/odom")
+    ap.add_argument("--upside-down", action="store_true", help="the laser is mounted rolled 180 degrees")
     args = ap.parse_args()
     mount = [float(v) for v in args.laser_pose.split(",")]
     scans = scans_of(args.log)
@@ -272,7 +277,10 @@ def main():
                 TransformStamped(
                     header=Header(stamp=Time(sec=0, nanosec=0), frame_id="base_link"),
                     child_frame_id="laser",
-                    transform=Transform(translation=Vector3(x=mount[0], y=mount[1], z=0.0), rotation=quaternion(mount[2])),
+                    transform=Transform(
+                        translation=Vector3(x=mount[0], y=mount[1], z=0.3),
+                        rotation=quaternion(mount[2], math.pi if args.upside_down else 0.0),
+                    ),
                 )
             ]
         )
@@ -318,6 +326,12 @@ def main():
     period = 1.0 / args.rate
     t0 = time.monotonic()
     for k, (start, inc, max_range, ranges, robot) in enumerate(scans):
+        if args.upside_down:
+            # the rolled laser's beam j, at its angle a_j, looks where the upright one's beam at
+            # -a_j does: its span is the upright one's mirrored, its ranges the upright ones in
+            # reverse
+            start = -(start + inc * (len(ranges) - 1))
+            ranges = list(reversed(ranges))
         due = t0 + k * period
         while time.monotonic() < due:
             time.sleep(min(0.001, max(0.0, due - time.monotonic())))

@@ -117,6 +117,55 @@ fn cyclone_dds_scans_in_and_poses_out_with_none_lost() {
     eprintln!("{}", latency.trim());
 }
 
+/// A laser mounted upside down (rolled 180 degrees on /tf_static), as the robot sees it: its
+/// beams turn clockwise. The bridge reads its scans mirrored and locates them where the
+/// upright laser's would be; unmirrored, the office would be seen in a mirror.
+#[test]
+fn a_laser_mounted_upside_down_is_read_mirrored() {
+    if !namespaces_work() {
+        common::skipped("a_laser_mounted_upside_down_is_read_mirrored", "no network namespace (unshare --net)");
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let log = d.join("flip.log");
+    let sim = Command::new(exe())
+        .args(["sim", "--map", "office", "--scans", "60", "--seed", "3", "--out", log.to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert!(sim.status.success(), "{}", String::from_utf8_lossy(&sim.stderr));
+    let pipeline = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/pipelines/ros2.toml"));
+    let context =
+        office_beside_the_peer(d, pipeline, "tflip", 60, &log, "--rate 20 --laser-pose 0.2,0.0,0.3 --upside-down");
+    assert!(context.contains("is mounted upside down"), "{context}");
+    // the located laser poses against the log's own (ROBOTLASER1's laser pose)
+    let truth: Vec<(f64, f64, f64)> = std::fs::read_to_string(&log)
+        .unwrap()
+        .lines()
+        .filter(|l| l.starts_with("ROBOTLASER1"))
+        .map(|l| {
+            let t: Vec<f64> = l.split_whitespace().skip(1).map(|v| v.parse().unwrap_or(f64::NAN)).collect();
+            let n = t[7] as usize;
+            let m = t[8 + n] as usize;
+            let at = 9 + n + m;
+            (t[at], t[at + 1], t[at + 2])
+        })
+        .collect();
+    let online = rows(&d.join("online.csv"));
+    let right = online
+        .iter()
+        .skip(1)
+        .filter(|r| {
+            let k: usize = r[0].parse().unwrap();
+            let num = |s: &String| s.parse::<f64>().unwrap_or(f64::NAN);
+            let (x, y, t) = truth[k];
+            let turn = (num(&r[3]) - t + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU) - std::f64::consts::PI;
+            (num(&r[1]) - x).hypot(num(&r[2]) - y) <= 0.3 && turn.abs() <= 5f64.to_radians()
+        })
+        .count();
+    assert!(right >= 54, "{right} of 60 right: {context}");
+}
+
 /// The map from a ROS 2 map_server: Cyclone DDS publishes the office drawn as a grid on /map
 /// (transient local, as map_server does); the map server takes it (`--map ros2:/map`, the
 /// pipeline file's default), traces it into walls and the pipeline locates the scans against

@@ -25,6 +25,15 @@ pub enum ScanError {
     Layout { angle_min: f32, angle_max: f32, angle_increment: f32, range_min: f32, range_max: f32, beams: usize },
 }
 
+/// `m` as a laser upright in its place would read it, when it is mounted upside down (rolled
+/// 180 degrees): the same beams in the same order at the negated angles, clockwise.
+pub fn mirrored(mut m: msg::LaserScan) -> msg::LaserScan {
+    m.angle_min = -m.angle_min;
+    m.angle_max = -m.angle_max;
+    m.angle_increment = -m.angle_increment;
+    m
+}
+
 /// The scan `m` describes.
 pub fn laser_scan(m: &msg::LaserScan) -> Result<LaserScan, ScanError> {
     let n = m.ranges.len();
@@ -107,6 +116,17 @@ mod tests {
         // an increment left out is derived from the ends
         m.angle_increment = 0.0;
         assert_eq!(laser_scan(&m).unwrap().geometry.angle_increment, -0.5);
+    }
+
+    #[test]
+    fn a_mirrored_scan_reads_each_beam_at_its_negated_angle() {
+        let mut m = message(vec![1.0, 2.0, 3.0, 4.0, 5.0]);
+        (m.angle_min, m.angle_max, m.angle_increment) = (-0.5, 1.5, 0.5);
+        let (plain, flipped) = (laser_scan(&m).unwrap(), laser_scan(&mirrored(m)).unwrap());
+        assert_eq!(plain.ranges, flipped.ranges);
+        for i in 0..5 {
+            assert_eq!(flipped.geometry.angle(i), -plain.geometry.angle(i));
+        }
     }
 
     #[test]

@@ -1,13 +1,29 @@
 //! The laser's place on the robot, from `/tf_static`: the chain of static transforms from the
-//! robot's frame (`base_link`) down to the scan's `frame_id`, composed in the plane.
+//! robot's frame (`base_link`) down to the scan's `frame_id`, composed in 3D and seen in the
+//! plane ([`Mount`]). A laser mounted upside down (its z axis pointing down, a roll of 180
+//! degrees) sweeps clockwise as the robot sees it: its mount says so, and its scans are read
+//! mirrored, as Nav2's AMCL reads them.
 
 use laser::{pose, Pose};
+use nalgebra::{Isometry3, Quaternion, Translation3, UnitQuaternion, Vector3};
 use std::collections::HashMap;
 
 /// Static transforms by child frame: its parent and its pose in the parent's frame.
 #[derive(Clone, Debug, Default)]
 pub struct StaticFrames {
-    parents: HashMap<String, (String, Pose)>,
+    parents: HashMap<String, (String, Isometry3<f64>)>,
+}
+
+/// A laser's place on the robot as the plane sees it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Mount {
+    /// Its position and the heading of its x axis in the robot's frame.
+    pub pose: Pose,
+    /// Its z axis points down: its beams turn clockwise in the robot's frame, and its scans
+    /// are to be read mirrored (`ros::scan::mirrored`).
+    pub upside_down: bool,
+    /// Degrees between its scan plane and the robot's floor (0 level, upside down too).
+    pub tilt_deg: f64,
 }
 
 /// A frame name without the leading `/` some publishers still write.
@@ -19,21 +35,41 @@ fn frame(name: &str) -> &str {
 const DEEPEST: usize = 64;
 
 impl StaticFrames {
-    /// Adds (or replaces) `child`'s pose `x, y, yaw` in `parent`'s frame.
-    pub fn insert(&mut self, parent: &str, child: &str, x: f64, y: f64, yaw: f64) {
-        if [x, y, yaw].iter().all(|v| v.is_finite()) && frame(parent) != frame(child) {
-            self.parents.insert(frame(child).to_owned(), (frame(parent).to_owned(), pose(x, y, yaw)));
+    /// Adds (or replaces) `child`'s pose in `parent`'s frame: its `translation` and its
+    /// `rotation` quaternion (x, y, z, w; normalised here). A transform that is not finite or
+    /// has no rotation (a zero quaternion) is left out.
+    pub fn insert(&mut self, parent: &str, child: &str, translation: [f64; 3], rotation: [f64; 4]) {
+        let [qx, qy, qz, qw] = rotation;
+        let q = Quaternion::new(qw, qx, qy, qz);
+        let finite = translation.iter().chain(&rotation).all(|v| v.is_finite());
+        if !finite || q.norm() < 1e-9 || frame(parent) == frame(child) {
+            return;
         }
+        let t = Isometry3::from_parts(Translation3::from(translation), UnitQuaternion::from_quaternion(q));
+        self.parents.insert(frame(child).to_owned(), (frame(parent).to_owned(), t));
     }
 
-    /// The pose of `child` in `base`'s frame, when the transforms reach from one to the other.
-    pub fn pose_of(&self, child: &str, base: &str) -> Option<Pose> {
+    /// Adds `child`'s planar pose `x, y, yaw` in `parent`'s frame.
+    pub fn insert_planar(&mut self, parent: &str, child: &str, x: f64, y: f64, yaw: f64) {
+        let (s, c) = (yaw / 2.0).sin_cos();
+        self.insert(parent, child, [x, y, 0.0], [0.0, 0.0, s, c]);
+    }
+
+    /// Where `child` is on `base`, when the transforms reach from one to the other.
+    pub fn mount_of(&self, child: &str, base: &str) -> Option<Mount> {
         let (child, base) = (frame(child), frame(base));
         let mut at = child;
-        let mut p = Pose::identity();
+        let mut p = Isometry3::identity();
         for _ in 0..DEEPEST {
             if at == base {
-                return Some(p);
+                let x = p.rotation * Vector3::x();
+                let z = p.rotation * Vector3::z();
+                let t = p.translation.vector;
+                return Some(Mount {
+                    pose: pose(t.x, t.y, x.y.atan2(x.x)),
+                    upside_down: z.z < 0.0,
+                    tilt_deg: z.z.abs().clamp(0.0, 1.0).acos().to_degrees(),
+                });
             }
             let (parent, t) = self.parents.get(at)?;
             p = t * p;
@@ -41,32 +77,72 @@ impl StaticFrames {
         }
         None
     }
+
+    /// The planar pose of `child` in `base`'s frame ([`StaticFrames::mount_of`]).
+    pub fn pose_of(&self, child: &str, base: &str) -> Option<Pose> {
+        self.mount_of(child, base).map(|m| m.pose)
+    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
     use laser::pose_theta;
+    use std::f64::consts::{FRAC_PI_2, PI};
+
+    /// The quaternion (x, y, z, w) of roll, pitch and yaw.
+    fn rpy(roll: f64, pitch: f64, yaw: f64) -> [f64; 4] {
+        let q = UnitQuaternion::from_euler_angles(roll, pitch, yaw);
+        [q.i, q.j, q.k, q.w]
+    }
 
     #[test]
     fn a_chain_of_static_transforms_composes() {
         let mut f = StaticFrames::default();
-        f.insert("base_link", "/laser_mount", 0.2, 0.0, std::f64::consts::FRAC_PI_2);
-        f.insert("laser_mount", "laser", 0.1, 0.0, 0.0);
+        f.insert_planar("base_link", "/laser_mount", 0.2, 0.0, FRAC_PI_2);
+        f.insert_planar("laser_mount", "laser", 0.1, 0.0, 0.0);
         let p = f.pose_of("laser", "/base_link").unwrap();
         assert!((p.translation.x - 0.2).abs() < 1e-12 && (p.translation.y - 0.1).abs() < 1e-12);
-        assert!((pose_theta(&p) - std::f64::consts::FRAC_PI_2).abs() < 1e-12);
+        assert!((pose_theta(&p) - FRAC_PI_2).abs() < 1e-12);
+        assert!(!f.mount_of("laser", "base_link").unwrap().upside_down);
         assert_eq!(f.pose_of("base_link", "base_link"), Some(Pose::identity()));
         assert_eq!(f.pose_of("camera", "base_link"), None);
     }
 
     #[test]
+    fn a_laser_mounted_upside_down_is_told_and_keeps_the_heading_of_its_x_axis() {
+        let mut f = StaticFrames::default();
+        // rolled 180 degrees, facing 30 degrees left, 0.3 m up on a plate 0.1 m forward
+        f.insert_planar("base_link", "plate", 0.1, 0.0, 0.0);
+        f.insert("plate", "laser", [0.0, 0.05, 0.3], rpy(PI, 0.0, 30f64.to_radians()));
+        let m = f.mount_of("laser", "base_link").unwrap();
+        assert!(m.upside_down && m.tilt_deg < 1e-6);
+        assert!((m.pose.translation.x - 0.1).abs() < 1e-12 && (m.pose.translation.y - 0.05).abs() < 1e-12);
+        assert!((pose_theta(&m.pose) - 30f64.to_radians()).abs() < 1e-9, "{}", pose_theta(&m.pose));
+        // a beam 10 degrees left of the flipped laser's x axis points 10 degrees right of it
+        let laser = f.parents["laser"].1.rotation;
+        let beam = laser * Vector3::new(10f64.to_radians().cos(), 10f64.to_radians().sin(), 0.0);
+        assert!((beam.y.atan2(beam.x) - 20f64.to_radians()).abs() < 1e-9);
+        // flipped twice is upright; pitched 180 degrees is upside down too
+        f.insert("laser", "again", [0.0; 3], rpy(PI, 0.0, 0.0));
+        assert!(!f.mount_of("again", "base_link").unwrap().upside_down);
+        f.insert("base_link", "pitched", [0.0; 3], rpy(0.0, PI, 0.0));
+        let m = f.mount_of("pitched", "base_link").unwrap();
+        assert!(m.upside_down && (pose_theta(&m.pose).abs() - PI).abs() < 1e-9);
+        // a tilt is measured
+        f.insert("base_link", "tilted", [0.0; 3], rpy(0.0, 12f64.to_radians(), 0.0));
+        assert!((f.mount_of("tilted", "base_link").unwrap().tilt_deg - 12.0).abs() < 1e-9);
+    }
+
+    #[test]
     fn a_loop_or_a_bad_transform_is_no_answer() {
         let mut f = StaticFrames::default();
-        f.insert("a", "b", 1.0, 0.0, 0.0);
-        f.insert("b", "a", 1.0, 0.0, 0.0);
+        f.insert_planar("a", "b", 1.0, 0.0, 0.0);
+        f.insert_planar("b", "a", 1.0, 0.0, 0.0);
         assert_eq!(f.pose_of("a", "base_link"), None);
-        f.insert("base_link", "laser", f64::NAN, 0.0, 0.0);
+        f.insert_planar("base_link", "laser", f64::NAN, 0.0, 0.0);
+        assert_eq!(f.pose_of("laser", "base_link"), None);
+        f.insert("base_link", "laser", [0.0; 3], [0.0; 4]);
         assert_eq!(f.pose_of("laser", "base_link"), None);
     }
 }

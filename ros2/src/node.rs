@@ -10,7 +10,7 @@
 //! stamped with the time it was published.
 
 use crate::covariance::covariance;
-use crate::frames::StaticFrames;
+use crate::frames::{Mount, StaticFrames};
 use crate::seeding::Seeding;
 use anyhow::{anyhow, Context as _, Result};
 use clap::Args;
@@ -297,6 +297,46 @@ fn subscribe<M: 'static>(
     dds.create_subscription(&topic, None).map_err(|e| anyhow!("ros2: {name}: {e:?}"))
 }
 
+/// Scan `m` as the robot's plane sees it: mirrored when /tf_static mounts its laser upside
+/// down (unless `--laser-pose` places the laser), said once per change, with a laser's tilt
+/// out of the plane.
+fn read_as_mounted(
+    m: msg::LaserScan,
+    a: &Ros2Args,
+    shared: &Mutex<Shared>,
+    said: &mut Option<Mount>,
+) -> msg::LaserScan {
+    if a.laser_pose.is_some() {
+        return m;
+    }
+    let mount = shared.lock().unwrap_or_else(|p| p.into_inner()).frames.mount_of(&m.header.frame_id, &a.base_frame);
+    let Some(mount) = mount else { return m };
+    if said.is_none_or(|s| s.upside_down != mount.upside_down) {
+        if mount.upside_down {
+            messages::say!(
+                "ros2: {:?} is mounted upside down (/tf_static): its scans are read mirrored",
+                m.header.frame_id
+            );
+        }
+        if mount.tilt_deg > TILT_SAID_DEG {
+            messages::say!(
+                "ros2: {:?} is tilted {:.0} degrees out of the floor's plane (/tf_static): its ranges are taken as level",
+                m.header.frame_id,
+                mount.tilt_deg
+            );
+        }
+        *said = Some(mount);
+    }
+    if mount.upside_down {
+        ros::scan::mirrored(m)
+    } else {
+        m
+    }
+}
+
+/// A laser tilted more than this (degrees) is said to be.
+const TILT_SAID_DEG: f64 = 5.0;
+
 /// The scan thread: LaserScans from DDS into the pipeline, static transforms into `shared`.
 fn scans_in(context: &Context, a: &Ros2Args, shared: &Mutex<Shared>, stop: &AtomicBool) -> Result<()> {
     let mut dds = context
@@ -325,6 +365,7 @@ fn scans_in(context: &Context, a: &Ros2Args, shared: &Mutex<Shared>, stop: &Atom
         Outlet::<ScanMsg>::open(&node, &a.stage.prefix, Topic::Scan, BackpressureStrategy::RetryUntilDelivered)?;
     let mut events = Events::with_capacity(8);
     let (mut seq, mut bad) = (0u64, 0u64);
+    let mut mount_said = None;
     while !stop.load(Ordering::Relaxed) && !messages::termination_requested(&node) {
         if let Err(e) = poll.poll(&mut events, Some(STOP_POLL)) {
             if e.kind() != std::io::ErrorKind::Interrupted {
@@ -337,8 +378,12 @@ fn scans_in(context: &Context, a: &Ros2Args, shared: &Mutex<Shared>, stop: &Atom
                 Ok((m, _)) => {
                     let mut s = shared.lock().unwrap_or_else(|p| p.into_inner());
                     for t in &m.transforms {
-                        let (x, y, yaw) = t.transform.planar();
-                        s.frames.insert(&t.header.frame_id, &t.child_frame_id, x, y, yaw);
+                        s.frames.insert(
+                            &t.header.frame_id,
+                            &t.child_frame_id,
+                            t.transform.translation,
+                            t.transform.rotation,
+                        );
                     }
                 }
                 Err(e) => messages::say!("ros2: /tf_static: a message that does not decode: {e:?}"),
@@ -356,10 +401,10 @@ fn scans_in(context: &Context, a: &Ros2Args, shared: &Mutex<Shared>, stop: &Atom
         }
         while let Some(taken) = scans.take().transpose() {
             let enter = monotonic_ns();
-            let scan = match taken
-                .map_err(|e| format!("does not decode: {e:?}"))
-                .and_then(|(m, _)| ros::laser_scan(&m).map(|s| (s, m.header)).map_err(|e| e.to_string()))
-            {
+            let scan = match taken.map_err(|e| format!("does not decode: {e:?}")).and_then(|(m, _)| {
+                let m = read_as_mounted(m, a, shared, &mut mount_said);
+                ros::laser_scan(&m).map(|s| (s, m.header)).map_err(|e| e.to_string())
+            }) {
                 Ok(scan) => scan,
                 Err(e) => {
                     bad += 1;
