@@ -192,6 +192,12 @@ fn source(a: &AcquireArgs) -> Result<(Source, &'static str)> {
         let topics =
             ros::ScanTopics { scan: a.scan_topic.clone(), odometry: a.odom_topic.clone(), ..Default::default() };
         let scans = ros::BagScans::open(&bag, &topics)?;
+        if let Some((frame, _)) = scans.mount().filter(|(_, m)| m.upside_down) {
+            messages::say!(
+                "acquire: {}: /tf_static mounts {frame:?} upside down: its scans are read mirrored",
+                path.display()
+            );
+        }
         let items = scans.map(|item| {
             item.map(|s| (s.scan, s.odometry)).map_err(|e| match e.is_one_message() {
                 true => anyhow::Error::new(Skipped(e.to_string())),

@@ -12,9 +12,14 @@
 //! Odometry comes the same way from a second such topic (`nav_msgs/Odometry` as a robot's base
 //! publishes it), matched to each scan by stamp: the sequential localizer reads only the motion
 //! between two scans, in whatever frame it is.
+//!
+//! A bag's `/tf_static` places the laser on the robot ([`crate::frames`]): a laser mounted
+//! upside down has its scans read mirrored, as the ROS 2 bridge reads them live, and the
+//! mount is told ([`BagScans::mount`]) for a truth topic of the robot's pose.
 
 use crate::bag::{Bag, BagError, Messages};
 use crate::cdr::Encoding;
+use crate::frames::{Mount, StaticFrames};
 use crate::msg;
 use laser::{interpolate, pose, LaserScan, Pose};
 use thiserror::Error;
@@ -54,7 +59,12 @@ pub struct ScanTopics {
     pub laser_pose: Option<(f64, f64, f64)>,
     /// An Odometry or PoseStamped topic holding the robot's odometry.
     pub odometry: Option<String>,
+    /// The robot's frame on `/tf_static`; `None`: `base_link`.
+    pub base_frame: Option<String>,
 }
+
+/// The static transforms' topic.
+pub const TF_STATIC: &str = "/tf_static";
 
 /// One scan of the bag.
 #[derive(Clone, Debug)]
@@ -92,15 +102,16 @@ impl Truth {
 }
 
 /// A pose message's stamp and planar pose, by its type.
-fn stamped_pose(ros_type: &str, encoding: Encoding, data: &[u8]) -> Result<(i64, Pose), String> {
-    let (header, p) = match ros_type {
+/// With an Odometry, the frame whose pose it is (`child_frame_id`).
+fn stamped_pose(ros_type: &str, encoding: Encoding, data: &[u8]) -> Result<(i64, Pose, Option<String>), String> {
+    let (header, p, child) = match ros_type {
         msg::PoseStamped::TYPE => {
             let m = msg::PoseStamped::decode_as(encoding, data).map_err(|e| e.to_string())?;
-            (m.header, m.pose)
+            (m.header, m.pose, None)
         }
         msg::Odometry::TYPE => {
             let m = msg::Odometry::decode_as(encoding, data).map_err(|e| e.to_string())?;
-            (m.header, m.pose.pose)
+            (m.header, m.pose.pose, Some(m.child_frame_id))
         }
         other => return Err(format!("a {other}, not a PoseStamped or Odometry")),
     };
@@ -108,7 +119,7 @@ fn stamped_pose(ros_type: &str, encoding: Encoding, data: &[u8]) -> Result<(i64,
     if !(x.is_finite() && y.is_finite() && yaw.is_finite()) {
         return Err("a pose that is not finite".into());
     }
-    Ok((header.stamp.nanos(), pose(x, y, yaw)))
+    Ok((header.stamp.nanos(), pose(x, y, yaw), child))
 }
 
 /// The scans of a bag, in bag order.
@@ -127,6 +138,11 @@ pub struct BagScans {
     pub total: Option<u64>,
     /// Messages of the truth and odometry topics that did not decode.
     pub bad_truth: usize,
+    /// The bag's static transforms, and the robot's frame among them.
+    frames: StaticFrames,
+    base_frame: String,
+    /// The first scan's frame and its place on the robot, when `/tf_static` gives one.
+    mount: Option<(String, Mount)>,
 }
 
 impl BagScans {
@@ -157,7 +173,9 @@ impl BagScans {
             },
         };
         let mut bad_truth = 0;
-        let mut read = |name: &String, what: &str| -> Result<Truth, BagScanError> {
+        // whose pose the truth is, when its messages say (an Odometry's child frame)
+        let mut truth_frame: Option<String> = None;
+        let mut read = |name: &String, what: &str| -> Result<(Truth, Option<String>), BagScanError> {
             let Some(t) = all.iter().find(|t| &t.name == name) else {
                 return Err(refused(format!("no {what} topic {name} in the bag; it has {}", listing())));
             };
@@ -167,21 +185,66 @@ impl BagScans {
                     t.ros_type
                 )));
             }
-            let mut poses = Vec::new();
+            let (mut poses, mut child) = (Vec::new(), None);
             for (order, m) in bag.messages(&[&topic.name, name]).enumerate() {
                 let m = m?;
                 if *m.topic == **name {
                     match stamped_pose(&m.ros_type, m.encoding, &m.data) {
-                        Ok((stamp, p)) => poses.push((stamp, order, p)),
+                        Ok((stamp, p, frame)) => {
+                            poses.push((stamp, order, p));
+                            child = child.or(frame);
+                        }
                         Err(_) => bad_truth += 1,
                     }
                 }
             }
             poses.sort_by_key(|p| (p.0, p.1));
-            Ok(Truth { poses })
+            Ok((Truth { poses }, child))
         };
-        let truth = topics.truth.as_ref().map(|name| read(name, "truth")).transpose()?;
-        let odometry = topics.odometry.as_ref().map(|name| read(name, "odometry")).transpose()?;
+        let truth = match &topics.truth {
+            Some(name) => {
+                let (truth, frame) = read(name, "truth")?;
+                truth_frame = frame;
+                Some(truth)
+            }
+            None => None,
+        };
+        let odometry = topics.odometry.as_ref().map(|name| read(name, "odometry").map(|r| r.0)).transpose()?;
+        let mut frames = StaticFrames::default();
+        if all.iter().any(|t| t.name == TF_STATIC && t.ros_type == msg::TfMessage::TYPE) {
+            for m in bag.messages(&[TF_STATIC]) {
+                let m = m?;
+                match msg::TfMessage::decode_as(m.encoding, &m.data) {
+                    Ok(tf) => tf.transforms.iter().for_each(|t| {
+                        frames.insert(
+                            &t.header.frame_id,
+                            &t.child_frame_id,
+                            t.transform.translation,
+                            t.transform.rotation,
+                        )
+                    }),
+                    Err(_) => bad_truth += 1,
+                }
+            }
+        }
+        // the laser's place, by the frame of the first scan that decodes
+        let base_frame = topics.base_frame.clone().unwrap_or_else(|| "base_link".into());
+        let mut mount = None;
+        if !frames.is_empty() {
+            let first = bag.messages(&[&topic.name]).find_map(|m| {
+                let m = m.ok()?;
+                msg::LaserScan::decode_as(m.encoding, &m.data).ok()
+            });
+            mount = first
+                .and_then(|s| Some((s.header.frame_id.clone(), frames.mount_of(&s.header.frame_id, &base_frame)?)));
+        }
+        // the truth is the robot's when an Odometry says so: the laser sits where /tf_static
+        // puts it, unless told otherwise
+        let of_robot = truth_frame.as_deref().map(|f| f.trim_start_matches('/')) == Some(base_frame.as_str());
+        let laser_pose = topics
+            .laser_pose
+            .map(|(x, y, t)| pose(x, y, t))
+            .or_else(|| mount.as_ref().filter(|_| of_robot).map(|(_, m): &(String, Mount)| m.pose));
         // the scans' order among the truth topic's messages, as `read` counted it
         let wanted: Vec<&str> = [Some(topic.name.as_str()), topics.truth.as_deref()].into_iter().flatten().collect();
         Ok(BagScans {
@@ -189,13 +252,22 @@ impl BagScans {
             topic: topic.name.clone(),
             truth,
             odometry,
-            laser_pose: topics.laser_pose.map(|(x, y, t)| pose(x, y, t)),
+            laser_pose,
             index: 0,
             order: 0,
             ranks: Default::default(),
             total: topic.messages,
             bad_truth,
+            frames,
+            base_frame,
+            mount,
         })
+    }
+
+    /// The scans' frame (the first scan's) and its place on the robot, from the bag's
+    /// `/tf_static`.
+    pub fn mount(&self) -> Option<&(String, Mount)> {
+        self.mount.as_ref()
     }
 
     /// The topic read.
@@ -221,10 +293,13 @@ impl Iterator for BagScans {
             let index = self.index;
             self.index += 1;
             let lost = |cause: String| BagScanError::Message { topic: self.topic.clone(), index, cause };
-            let message = match msg::LaserScan::decode_as(m.encoding, &m.data) {
+            let mut message = match msg::LaserScan::decode_as(m.encoding, &m.data) {
                 Ok(message) => message,
                 Err(e) => return Some(Err(lost(e.to_string()))),
             };
+            if self.frames.mount_of(&message.header.frame_id, &self.base_frame).is_some_and(|m| m.upside_down) {
+                message = crate::scan::mirrored(message);
+            }
             let mut scan = match crate::scan::laser_scan(&message) {
                 Ok(scan) => scan,
                 Err(e) => return Some(Err(lost(e.to_string()))),

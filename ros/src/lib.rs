@@ -11,6 +11,7 @@ pub mod bag;
 pub mod bag_scans;
 pub mod cdr;
 pub mod db3;
+pub mod frames;
 pub mod mcap_file;
 pub mod msg;
 pub mod ros1_bag;

@@ -375,6 +375,38 @@ pub struct TfMessage {
 
 impl TfMessage {
     pub const TYPE: &'static str = "tf2_msgs/msg/TFMessage";
+
+    pub fn decode(bytes: &[u8]) -> Result<Self, CdrError> {
+        Self::decode_as(Encoding::Cdr, bytes)
+    }
+
+    /// Decodes `bytes` laid out as `encoding` says.
+    pub fn decode_as(encoding: Encoding, bytes: &[u8]) -> Result<Self, CdrError> {
+        let r = &mut CdrReader::of(encoding, bytes)?;
+        // each transform takes at least 64 bytes: the length check bounds the allocation
+        let n = r.len(64, "a TransformStamped[]")?;
+        let transforms = (0..n)
+            .map(|_| {
+                Ok(TransformStamped {
+                    header: Header::decode(r)?,
+                    child_frame_id: r.string()?,
+                    transform: Transform { translation: r.f64_array()?, rotation: r.f64_array()? },
+                })
+            })
+            .collect::<Result<_, CdrError>>()?;
+        Ok(TfMessage { transforms })
+    }
+
+    pub fn encode(&self) -> Vec<u8> {
+        let mut w = CdrWriter::new();
+        w.u32(self.transforms.len() as u32);
+        for t in &self.transforms {
+            t.header.encode(&mut w);
+            w.string(&t.child_frame_id);
+            t.transform.translation.iter().chain(&t.transform.rotation).for_each(|&v| w.f64(v));
+        }
+        w.finish()
+    }
 }
 
 #[cfg(test)]
@@ -398,6 +430,14 @@ mod tests {
             ..Default::default()
         };
         assert_eq!(LaserScan::decode(&scan.encode()).unwrap(), scan);
+        let tf = TfMessage {
+            transforms: vec![TransformStamped {
+                header: header(),
+                child_frame_id: "laser".into(),
+                transform: Transform { translation: [0.1, 0.2, 0.3], rotation: [1.0, 0.0, 0.0, 0.0] },
+            }],
+        };
+        assert_eq!(TfMessage::decode(&tf.encode()).unwrap(), tf);
         let pose = PoseStamped { header: header(), pose: Pose::from_planar(1.0, -2.0, 3.0) };
         assert_eq!(PoseStamped::decode(&pose.encode()).unwrap(), pose);
         let mut covariance = [0.0; 36];

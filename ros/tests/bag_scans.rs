@@ -132,6 +132,7 @@ fn two_laser_topics_need_choosing_and_truth_comes_by_stamp() {
             truth: Some(topic.into()),
             laser_pose: Some((0.5, 0.0, 0.0)),
             odometry: None,
+            base_frame: None,
         };
         let scans: Vec<_> = BagScans::open(&bag, &topics).unwrap().map(|s| s.unwrap().scan.truth.unwrap()).collect();
         // at its own stamp, and halfway between two; the laser half a metre ahead of the robot
@@ -149,4 +150,58 @@ fn two_laser_topics_need_choosing_and_truth_comes_by_stamp() {
         Err(BagScanError::Topic { message: e, .. }) => assert!(e.contains("odometry topic /rear holds"), "{e}"),
         other => panic!("{:?}", other.map(|_| ())),
     }
+}
+
+/// A bag's /tf_static: a laser rolled 180 degrees has its scans read mirrored, and an Odometry
+/// truth of base_link is composed with the mount; a PoseStamped truth is taken as the laser's.
+#[test]
+fn a_bag_s_static_transforms_mount_the_laser() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("flipped.mcap");
+    // rolled 180 degrees (quaternion x = 1), 0.2 m ahead of base_link, 0.3 m up
+    let tf = msg::TfMessage {
+        transforms: vec![msg::TransformStamped {
+            header: Header { stamp: at(0), frame_id: "base_link".into() },
+            child_frame_id: "laser".into(),
+            transform: msg::Transform { translation: [0.2, 0.0, 0.3], rotation: [1.0, 0.0, 0.0, 0.0] },
+        }],
+    };
+    let robot = |k: u32| msg::Odometry {
+        header: Header { stamp: at(k), frame_id: "map".into() },
+        child_frame_id: "base_link".into(),
+        pose: msg::PoseWithCovariance { pose: msg::Pose::from_planar(1.0 + k as f64, 0.0, 0.0), ..Default::default() },
+        ..Default::default()
+    };
+    let stamped = |k: u32| msg::PoseStamped {
+        header: Header { stamp: at(k), frame_id: "map".into() },
+        pose: msg::Pose::from_planar(1.0 + k as f64, 0.0, 0.0),
+    };
+    write_bag(
+        &path,
+        &[
+            ("/tf_static", msg::TfMessage::TYPE, tf.encode()),
+            ("/truth", msg::Odometry::TYPE, robot(0).encode()),
+            ("/posed", msg::PoseStamped::TYPE, stamped(0).encode()),
+            ("/scan", msg::LaserScan::TYPE, scan(0, 0.1).encode()),
+            ("/truth", msg::Odometry::TYPE, robot(1).encode()),
+            ("/posed", msg::PoseStamped::TYPE, stamped(1).encode()),
+            ("/scan", msg::LaserScan::TYPE, scan(1, 0.1).encode()),
+        ],
+    );
+    let bag = Bag::open(&path).unwrap();
+    let topics = ScanTopics { truth: Some("/truth".into()), ..Default::default() };
+    let scans = BagScans::open(&bag, &topics).unwrap();
+    let (frame, mount) = scans.mount().cloned().unwrap();
+    assert!(frame == "laser" && mount.upside_down && (mount.pose.translation.x - 0.2).abs() < 1e-12);
+    let read: Vec<_> = scans.map(|s| s.unwrap().scan).collect();
+    // the beams turn clockwise: the first at +0.2 rad, the last at -0.2
+    let g = &read[0].geometry;
+    assert!((g.angle(0) - 0.2).abs() < 1e-6 && (g.angle(4) + 0.2).abs() < 1e-6, "{g:?}");
+    // the robot's pose composed with the mount
+    let truth = read[1].truth.unwrap();
+    assert!((truth.translation.x - 2.2).abs() < 1e-9, "{truth:?}");
+    // a PoseStamped's truth is the laser's own unless --laser-pose says
+    let posed = ScanTopics { truth: Some("/posed".into()), ..Default::default() };
+    let truth = BagScans::open(&bag, &posed).unwrap().nth(1).unwrap().unwrap().scan.truth.unwrap();
+    assert!((truth.translation.x - 2.0).abs() < 1e-9, "{truth:?}");
 }

@@ -8,12 +8,11 @@
 //!   time; with `--initialpose` an `ok` pose also seeds Nav2's AMCL on `/initialpose`,
 //!   rate-limited.
 //!
-//! One job: translate between ROS 2 and the pipeline. Pure parts ([`covariance`], [`frames`],
+//! One job: translate between ROS 2 and the pipeline. Pure parts ([`covariance`], the static frames of `ros::frames`,
 //! [`odometry`], [`seeding`]) are libraries with tests; [`node`] is the process. Depends on `ros` (the
 //! messages), `messages` (the wire), `acquire` (a scan as a message) and `ros2-client`.
 
 pub mod covariance;
-pub mod frames;
 pub mod node;
 pub mod odometry;
 pub mod seeding;

@@ -10,13 +10,13 @@
 //! stamped with the time it was published.
 
 use crate::covariance::covariance;
-use crate::frames::{Mount, StaticFrames};
 use crate::seeding::Seeding;
 use anyhow::{anyhow, Context as _, Result};
 use clap::Args;
 use laser::{pose, pose_theta, Pose};
 use messages::iceoryx2::prelude::*;
 use messages::{monotonic_ns, Freshness, Look, Outlet, PoseMsg, ScanMsg, Stage, Topic, STATUS_FAILED, STATUS_OK};
+use ros::frames::{Mount, StaticFrames};
 use ros::msg;
 use ros2_client::dds::rustdds::mio1::{Events, Interest, Poll, Token};
 use ros2_client::dds::{Context, ContextOptions, Publisher, Subscription};

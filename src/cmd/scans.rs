@@ -69,6 +69,31 @@ pub enum SourceError {
     Stop(anyhow::Error),
 }
 
+/// What a bag's `/tf_static` says of its laser, and what is done with it.
+fn mount_said(
+    frame: &str,
+    mount: &ros::frames::Mount,
+    truth: &Option<String>,
+    laser_pose: Option<(f64, f64, f64)>,
+) -> String {
+    let p = &mount.pose;
+    let mut said = format!(
+        "/tf_static places {frame:?} at {:.3}, {:.3}, {:.1} deg on base_link",
+        p.translation.x,
+        p.translation.y,
+        laser::pose_theta(p).to_degrees()
+    );
+    if mount.upside_down {
+        said += ", upside down: its scans are read mirrored";
+    }
+    if let (Some(truth), None) = (truth, laser_pose) {
+        said += &format!(
+            "; the truth ({truth}) is taken as the robot's pose when it is an Odometry of base_link, else as the laser's (--laser-pose says otherwise)"
+        );
+    }
+    said
+}
+
 /// The scans of a log or a bag.
 pub struct Source {
     /// The log or bag, for messages.
@@ -90,8 +115,12 @@ impl Source {
                 truth: bag.truth_topic.clone(),
                 laser_pose: bag.laser_pose,
                 odometry: bag.odom_topic.clone(),
+                base_frame: None,
             };
             let scans = ros::BagScans::open(&opened, &topics)?;
+            if let Some((frame, mount)) = scans.mount() {
+                eprintln!("{}: {}", path.display(), mount_said(frame, mount, &bag.truth_topic, bag.laser_pose));
+            }
             if scans.bad_truth > 0 {
                 eprintln!(
                     "{}: {} messages of the truth and odometry topics did not decode",

@@ -1,4 +1,4 @@
-//! The laser's place on the robot, from `/tf_static`: the chain of static transforms from the
+//! The laser's place on the robot, from `/tf_static` (live or in a bag): the chain of static transforms from the
 //! robot's frame (`base_link`) down to the scan's `frame_id`, composed in 3D and seen in the
 //! plane ([`Mount`]). A laser mounted upside down (its z axis pointing down, a roll of 180
 //! degrees) sweeps clockwise as the robot sees it: its mount says so, and its scans are read
@@ -47,6 +47,11 @@ impl StaticFrames {
         }
         let t = Isometry3::from_parts(Translation3::from(translation), UnitQuaternion::from_quaternion(q));
         self.parents.insert(frame(child).to_owned(), (frame(parent).to_owned(), t));
+    }
+
+    /// Whether no transform is known.
+    pub fn is_empty(&self) -> bool {
+        self.parents.is_empty()
     }
 
     /// Adds `child`'s planar pose `x, y, yaw` in `parent`'s frame.
