@@ -27,6 +27,10 @@ pub const MAGIC: &[u8] = b"#ROSBAG V2.0\n";
 /// Largest record header read: the fields of a record are a few short values.
 const MAX_HEADER: u32 = 1 << 20;
 
+/// Largest chunk decompressed: rosbag closes a chunk at 768 KB, or at one message larger than
+/// that (a camera frame, a point cloud); a larger declared size is a corrupt or hostile bag.
+const MAX_CHUNK: u64 = 1 << 30;
+
 /// The record kinds (the `op` field).
 const OP_MESSAGE: u8 = 0x02;
 const OP_BAG_HEADER: u8 = 0x03;
@@ -165,6 +169,9 @@ fn connection(record: &Record) -> Result<(u32, Connection), String> {
 fn chunk_records(record: &Record) -> Result<Vec<u8>, String> {
     let compression = record.text_field("compression")?;
     let size = u64::from(record.u32_field("size")?);
+    if size > MAX_CHUNK {
+        return Err(format!("a chunk of {size} bytes (at most {MAX_CHUNK} are read)"));
+    }
     let data = record.data.as_slice();
     let out = match compression.as_str() {
         "none" => Some(data.to_vec()),
