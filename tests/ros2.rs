@@ -14,6 +14,12 @@ fn exe() -> &'static str {
     env!("CARGO_BIN_EXE_gema2")
 }
 
+/// Runs `gema2 args...`, which must succeed.
+fn gema2_ok(args: &[&str]) {
+    let out = Command::new(exe()).args(args).output().unwrap();
+    assert!(out.status.success(), "gema2 {}: {}", args.join(" "), String::from_utf8_lossy(&out.stderr));
+}
+
 /// Whether this machine lets the test make a network namespace.
 fn namespaces_work() -> bool {
     Command::new("unshare").args(["--net", "--map-root-user", "true"]).status().is_ok_and(|s| s.success())
@@ -78,12 +84,23 @@ fn cyclone_dds_scans_in_and_poses_out_with_none_lost() {
     let d = dir.path();
     // a UST-10LX's scans: 1081 beams over 270 degrees, to 10 m
     let log = d.join("ust.log");
-    let sim = Command::new(exe())
-        .args(["sim", "--map", "office", "--beams", "1081", "--fov", "270", "--range-max", "10", "--scans", "200"])
-        .args(["--seed", "2", "--out", log.to_str().unwrap()])
-        .output()
-        .unwrap();
-    assert!(sim.status.success(), "{}", String::from_utf8_lossy(&sim.stderr));
+    gema2_ok(&[
+        "sim",
+        "--map",
+        "office",
+        "--beams",
+        "1081",
+        "--fov",
+        "270",
+        "--range-max",
+        "10",
+        "--scans",
+        "200",
+        "--seed",
+        "2",
+        "--out",
+        log.to_str().unwrap(),
+    ]);
     let pipeline = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/pipelines/ros2.toml"));
     let context = office_beside_the_peer(d, pipeline, "tros2", 200, &log, "--rate 40 --laser-pose 0.2,0.05,0.1");
     let logs = |f: &str| std::fs::read_to_string(d.join(f)).unwrap_or_default();
@@ -129,11 +146,7 @@ fn a_laser_mounted_upside_down_is_read_mirrored() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     let log = d.join("flip.log");
-    let sim = Command::new(exe())
-        .args(["sim", "--map", "office", "--scans", "60", "--seed", "3", "--out", log.to_str().unwrap()])
-        .output()
-        .unwrap();
-    assert!(sim.status.success(), "{}", String::from_utf8_lossy(&sim.stderr));
+    gema2_ok(&["sim", "--map", "office", "--scans", "60", "--seed", "3", "--out", log.to_str().unwrap()]);
     let pipeline = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/pipelines/ros2.toml"));
     let context =
         office_beside_the_peer(d, pipeline, "tflip", 60, &log, "--rate 20 --laser-pose 0.2,0.0,0.3 --upside-down");
@@ -180,18 +193,25 @@ fn the_map_comes_from_a_ros_2_map_server() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     let grid = d.join("office.yaml");
-    let export = Command::new(exe())
-        .args(["map", "export-ros", "--map", "office", "--out", grid.to_str().unwrap()])
-        .output()
-        .unwrap();
-    assert!(export.status.success(), "{}", String::from_utf8_lossy(&export.stderr));
+    gema2_ok(&["map", "export-ros", "--map", "office", "--out", grid.to_str().unwrap()]);
     let log = d.join("ust.log");
-    let sim = Command::new(exe())
-        .args(["sim", "--map", "office", "--beams", "1081", "--fov", "270", "--range-max", "10", "--scans", "80"])
-        .args(["--seed", "6", "--out", log.to_str().unwrap()])
-        .output()
-        .unwrap();
-    assert!(sim.status.success(), "{}", String::from_utf8_lossy(&sim.stderr));
+    gema2_ok(&[
+        "sim",
+        "--map",
+        "office",
+        "--beams",
+        "1081",
+        "--fov",
+        "270",
+        "--range-max",
+        "10",
+        "--scans",
+        "80",
+        "--seed",
+        "6",
+        "--out",
+        log.to_str().unwrap(),
+    ]);
     let pipeline = concat!(env!("CARGO_MANIFEST_DIR"), "/pipelines/ros2.toml");
     let peer = concat!(env!("CARGO_MANIFEST_DIR"), "/scripts/ros2_peer.py");
     let prefix = format!("tros2map_{}", std::process::id());
@@ -265,12 +285,18 @@ fn odometry_over_dds_carries_the_sequential_localizer_from_scan_to_scan() {
     let d = dir.path();
     // a robot walking the office, its exact odometry in each line's robot pose
     let log = d.join("walk.log");
-    let sim = Command::new(exe())
-        .args(["sim", "--map", "office", "--trajectory", "--scans", "100", "--seed", "4"])
-        .args(["--out", log.to_str().unwrap()])
-        .output()
-        .unwrap();
-    assert!(sim.status.success(), "{}", String::from_utf8_lossy(&sim.stderr));
+    gema2_ok(&[
+        "sim",
+        "--map",
+        "office",
+        "--trajectory",
+        "--scans",
+        "100",
+        "--seed",
+        "4",
+        "--out",
+        log.to_str().unwrap(),
+    ]);
     let text = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/pipelines/ros2.toml")).unwrap();
     let text = common::with_stage_lines(&text, "localize", "implementation = \"sequential\"");
     let pipeline = d.join("ros2-sequential.toml");
