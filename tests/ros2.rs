@@ -20,6 +20,19 @@ fn gema2_ok(args: &[&str]) {
     assert!(out.status.success(), "gema2 {}: {}", args.join(" "), String::from_utf8_lossy(&out.stderr));
 }
 
+/// A simulated UST-10LX's scans in the office (1081 beams over 270 degrees, to 10 m): `scans`
+/// of them, drawn with `seed`, as a log in `d`.
+fn office_ust_log(d: &Path, scans: usize, seed: u32) -> std::path::PathBuf {
+    let log = d.join("ust.log");
+    let (scans, seed) = (scans.to_string(), seed.to_string());
+    let fov = ["--beams", "1081", "--fov", "270", "--range-max", "10"];
+    gema2_ok(
+        &[&["sim", "--map", "office"][..], &fov, &["--scans", &scans, "--seed", &seed, "--out", log.to_str().unwrap()]]
+            .concat(),
+    );
+    log
+}
+
 /// Whether this machine lets the test make a network namespace.
 fn namespaces_work() -> bool {
     Command::new("unshare").args(["--net", "--map-root-user", "true"]).status().is_ok_and(|s| s.success())
@@ -82,25 +95,7 @@ fn cyclone_dds_scans_in_and_poses_out_with_none_lost() {
     }
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    // a UST-10LX's scans: 1081 beams over 270 degrees, to 10 m
-    let log = d.join("ust.log");
-    gema2_ok(&[
-        "sim",
-        "--map",
-        "office",
-        "--beams",
-        "1081",
-        "--fov",
-        "270",
-        "--range-max",
-        "10",
-        "--scans",
-        "200",
-        "--seed",
-        "2",
-        "--out",
-        log.to_str().unwrap(),
-    ]);
+    let log = office_ust_log(d, 200, 2);
     let pipeline = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/pipelines/ros2.toml"));
     let context = office_beside_the_peer(d, pipeline, "tros2", 200, &log, "--rate 40 --laser-pose 0.2,0.05,0.1");
     let logs = |f: &str| std::fs::read_to_string(d.join(f)).unwrap_or_default();
@@ -194,24 +189,7 @@ fn the_map_comes_from_a_ros_2_map_server() {
     let d = dir.path();
     let grid = d.join("office.yaml");
     gema2_ok(&["map", "export-ros", "--map", "office", "--out", grid.to_str().unwrap()]);
-    let log = d.join("ust.log");
-    gema2_ok(&[
-        "sim",
-        "--map",
-        "office",
-        "--beams",
-        "1081",
-        "--fov",
-        "270",
-        "--range-max",
-        "10",
-        "--scans",
-        "80",
-        "--seed",
-        "6",
-        "--out",
-        log.to_str().unwrap(),
-    ]);
+    let log = office_ust_log(d, 80, 6);
     let pipeline = concat!(env!("CARGO_MANIFEST_DIR"), "/pipelines/ros2.toml");
     let peer = concat!(env!("CARGO_MANIFEST_DIR"), "/scripts/ros2_peer.py");
     let prefix = format!("tros2map_{}", std::process::id());
