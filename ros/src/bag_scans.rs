@@ -215,14 +215,7 @@ impl BagScans {
             for m in bag.messages(&[TF_STATIC]) {
                 let m = m?;
                 match msg::TfMessage::decode_as(m.encoding, &m.data) {
-                    Ok(tf) => tf.transforms.iter().for_each(|t| {
-                        frames.insert(
-                            &t.header.frame_id,
-                            &t.child_frame_id,
-                            t.transform.translation,
-                            t.transform.rotation,
-                        )
-                    }),
+                    Ok(tf) => frames.add(&tf),
                     Err(_) => bad_truth += 1,
                 }
             }

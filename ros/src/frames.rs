@@ -4,6 +4,7 @@
 //! degrees) sweeps clockwise as the robot sees it: its mount says so, and its scans are read
 //! mirrored, as Nav2's AMCL reads them.
 
+use crate::msg;
 use laser::{pose, Pose};
 use nalgebra::{Isometry3, Quaternion, Translation3, UnitQuaternion, Vector3};
 use std::collections::HashMap;
@@ -49,15 +50,16 @@ impl StaticFrames {
         self.parents.insert(frame(child).to_owned(), (frame(parent).to_owned(), t));
     }
 
+    /// Adds (or replaces) every transform of a `/tf_static` message.
+    pub fn add(&mut self, tf: &msg::TfMessage) {
+        for t in &tf.transforms {
+            self.insert(&t.header.frame_id, &t.child_frame_id, t.transform.translation, t.transform.rotation);
+        }
+    }
+
     /// Whether no transform is known.
     pub fn is_empty(&self) -> bool {
         self.parents.is_empty()
-    }
-
-    /// Adds `child`'s planar pose `x, y, yaw` in `parent`'s frame.
-    pub fn insert_planar(&mut self, parent: &str, child: &str, x: f64, y: f64, yaw: f64) {
-        let (s, c) = (yaw / 2.0).sin_cos();
-        self.insert(parent, child, [x, y, 0.0], [0.0, 0.0, s, c]);
     }
 
     /// Where `child` is on `base`, when the transforms reach from one to the other.
@@ -94,6 +96,14 @@ mod tests {
     use super::*;
     use laser::pose_theta;
     use std::f64::consts::{FRAC_PI_2, PI};
+
+    impl StaticFrames {
+        /// Adds `child`'s planar pose `x, y, yaw` in `parent`'s frame.
+        fn insert_planar(&mut self, parent: &str, child: &str, x: f64, y: f64, yaw: f64) {
+            let (s, c) = (yaw / 2.0).sin_cos();
+            self.insert(parent, child, [x, y, 0.0], [0.0, 0.0, s, c]);
+        }
+    }
 
     /// The quaternion (x, y, z, w) of roll, pitch and yaw.
     fn rpy(roll: f64, pitch: f64, yaw: f64) -> [f64; 4] {

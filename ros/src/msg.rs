@@ -352,13 +352,6 @@ pub struct Transform {
     pub rotation: [f64; 4],
 }
 
-impl Transform {
-    /// As a planar pose (x, y, yaw): what a laser's mounting is to a 2D localizer.
-    pub fn planar(&self) -> (f64, f64, f64) {
-        Pose { position: self.translation, orientation: self.rotation }.planar()
-    }
-}
-
 /// `geometry_msgs/msg/TransformStamped`: `child_frame_id`'s pose in `header.frame_id`.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct TransformStamped {

@@ -375,17 +375,7 @@ fn scans_in(context: &Context, a: &Ros2Args, shared: &Mutex<Shared>, stop: &Atom
         // edge-triggered: take all that came, from both, on any wake-up
         while let Some(taken) = tf.take().transpose() {
             match taken {
-                Ok((m, _)) => {
-                    let mut s = shared.lock().unwrap_or_else(|p| p.into_inner());
-                    for t in &m.transforms {
-                        s.frames.insert(
-                            &t.header.frame_id,
-                            &t.child_frame_id,
-                            t.transform.translation,
-                            t.transform.rotation,
-                        );
-                    }
-                }
+                Ok((m, _)) => shared.lock().unwrap_or_else(|p| p.into_inner()).frames.add(&m),
                 Err(e) => messages::say!("ros2: /tf_static: a message that does not decode: {e:?}"),
             }
         }
