@@ -315,11 +315,9 @@ impl Ros1BagFile {
                     self.pass_over()?;
                     continue;
                 }
-                let mut counted = CountingReader { inner: &mut self.reader, read: 0 };
-                let record = next_record(&mut counted);
-                let read = counted.read;
-                let record = record.map_err(|e| self.bad(e))?;
-                self.offset += read;
+                let record = next_record(&mut self.reader).map_err(|e| self.bad(e))?;
+                self.offset =
+                    self.reader.stream_position().map_err(|cause| BagError::Io { path: self.path.clone(), cause })?;
                 match record {
                     None => return Ok(None),
                     Some(r) if r.op().map_err(|e| self.bad(e))? == OP_CHUNK => {
@@ -381,20 +379,6 @@ impl Ros1BagFile {
         self.reader.seek_relative(data_len as i64).map_err(|e| self.bad(format!("a chunk cut short: {e}")))?;
         self.offset = end;
         Ok(())
-    }
-}
-
-/// A reader that counts the bytes read through it.
-struct CountingReader<'a, R> {
-    inner: &'a mut R,
-    read: u64,
-}
-
-impl<R: Read> Read for CountingReader<'_, R> {
-    fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
-        let n = self.inner.read(buf)?;
-        self.read += n as u64;
-        Ok(n)
     }
 }
 
