@@ -20,7 +20,7 @@
 use crate::bag::{Bag, BagError, Messages};
 use crate::cdr::Encoding;
 use crate::frames::{Mount, StaticFrames};
-use crate::msg;
+use crate::msg::{self, Decode};
 use laser::{interpolate, pose, LaserScan, Pose};
 use thiserror::Error;
 

@@ -1,6 +1,6 @@
 //! The ROS 2 messages gema2 reads and writes, field for field as their `.msg` files define
-//! them, with their CDR encoding (`decode` / `encode`, for bags; `decode_as` also reads a ROS 1
-//! bag's serialization of the same message). Names are ROS's. Each also
+//! them, with their CDR encoding ([`Decode`] / `encode`, for bags; [`Decode::decode_as`] also
+//! reads a ROS 1 bag's serialization of the same message). Names are ROS's. Each also
 //! derives serde in field order, which is how a serde CDR encoder (a DDS client's) lays out the
 //! same bytes: fixed arrays as tuples, vectors and strings with their lengths.
 
@@ -78,27 +78,6 @@ pub struct LaserScan {
 impl LaserScan {
     pub const TYPE: &'static str = "sensor_msgs/msg/LaserScan";
 
-    pub fn decode(bytes: &[u8]) -> Result<Self, CdrError> {
-        Self::decode_as(Encoding::Cdr, bytes)
-    }
-
-    /// Decodes `bytes` laid out as `encoding` says.
-    pub fn decode_as(encoding: Encoding, bytes: &[u8]) -> Result<Self, CdrError> {
-        let r = &mut CdrReader::of(encoding, bytes)?;
-        Ok(LaserScan {
-            header: Header::decode(r)?,
-            angle_min: r.f32()?,
-            angle_max: r.f32()?,
-            angle_increment: r.f32()?,
-            time_increment: r.f32()?,
-            scan_time: r.f32()?,
-            range_min: r.f32()?,
-            range_max: r.f32()?,
-            ranges: r.f32_seq()?,
-            intensities: r.f32_seq()?,
-        })
-    }
-
     pub fn encode(&self) -> Vec<u8> {
         let mut w = CdrWriter::new();
         self.header.encode(&mut w);
@@ -164,16 +143,6 @@ pub struct PoseStamped {
 
 impl PoseStamped {
     pub const TYPE: &'static str = "geometry_msgs/msg/PoseStamped";
-
-    pub fn decode(bytes: &[u8]) -> Result<Self, CdrError> {
-        Self::decode_as(Encoding::Cdr, bytes)
-    }
-
-    /// Decodes `bytes` laid out as `encoding` says.
-    pub fn decode_as(encoding: Encoding, bytes: &[u8]) -> Result<Self, CdrError> {
-        let r = &mut CdrReader::of(encoding, bytes)?;
-        Ok(PoseStamped { header: Header::decode(r)?, pose: Pose::decode(r)? })
-    }
 
     pub fn encode(&self) -> Vec<u8> {
         let mut w = CdrWriter::new();
@@ -254,16 +223,6 @@ pub struct PoseWithCovarianceStamped {
 impl PoseWithCovarianceStamped {
     pub const TYPE: &'static str = "geometry_msgs/msg/PoseWithCovarianceStamped";
 
-    pub fn decode(bytes: &[u8]) -> Result<Self, CdrError> {
-        Self::decode_as(Encoding::Cdr, bytes)
-    }
-
-    /// Decodes `bytes` laid out as `encoding` says.
-    pub fn decode_as(encoding: Encoding, bytes: &[u8]) -> Result<Self, CdrError> {
-        let r = &mut CdrReader::of(encoding, bytes)?;
-        Ok(PoseWithCovarianceStamped { header: Header::decode(r)?, pose: PoseWithCovariance::decode(r)? })
-    }
-
     pub fn encode(&self) -> Vec<u8> {
         let mut w = CdrWriter::new();
         self.header.encode(&mut w);
@@ -297,21 +256,6 @@ pub struct Odometry {
 
 impl Odometry {
     pub const TYPE: &'static str = "nav_msgs/msg/Odometry";
-
-    pub fn decode(bytes: &[u8]) -> Result<Self, CdrError> {
-        Self::decode_as(Encoding::Cdr, bytes)
-    }
-
-    /// Decodes `bytes` laid out as `encoding` says.
-    pub fn decode_as(encoding: Encoding, bytes: &[u8]) -> Result<Self, CdrError> {
-        let r = &mut CdrReader::of(encoding, bytes)?;
-        Ok(Odometry {
-            header: Header::decode(r)?,
-            child_frame_id: r.string()?,
-            pose: PoseWithCovariance::decode(r)?,
-            twist: TwistWithCovariance::default(),
-        })
-    }
 
     /// The twist is written as zero.
     pub fn encode(&self) -> Vec<u8> {
@@ -369,13 +313,77 @@ pub struct TfMessage {
 impl TfMessage {
     pub const TYPE: &'static str = "tf2_msgs/msg/TFMessage";
 
-    pub fn decode(bytes: &[u8]) -> Result<Self, CdrError> {
+    pub fn encode(&self) -> Vec<u8> {
+        let mut w = CdrWriter::new();
+        w.u32(self.transforms.len() as u32);
+        for t in &self.transforms {
+            t.header.encode(&mut w);
+            w.string(&t.child_frame_id);
+            t.transform.translation.iter().chain(&t.transform.rotation).for_each(|&v| w.f64(v));
+        }
+        w.finish()
+    }
+}
+
+/// A whole message, read field by field from CDR or from ROS 1's serialization (the reader
+/// knows which: its `std_msgs/Header` reads the `seq` only ROS 1 has).
+pub trait Decode: Sized {
+    /// The message's fields, from `r`.
+    fn read(r: &mut CdrReader) -> Result<Self, CdrError>;
+
+    /// Decodes CDR `bytes`, their encapsulation header first.
+    fn decode(bytes: &[u8]) -> Result<Self, CdrError> {
         Self::decode_as(Encoding::Cdr, bytes)
     }
 
     /// Decodes `bytes` laid out as `encoding` says.
-    pub fn decode_as(encoding: Encoding, bytes: &[u8]) -> Result<Self, CdrError> {
-        let r = &mut CdrReader::of(encoding, bytes)?;
+    fn decode_as(encoding: Encoding, bytes: &[u8]) -> Result<Self, CdrError> {
+        Self::read(&mut CdrReader::of(encoding, bytes)?)
+    }
+}
+
+impl Decode for LaserScan {
+    fn read(r: &mut CdrReader) -> Result<Self, CdrError> {
+        Ok(LaserScan {
+            header: Header::decode(r)?,
+            angle_min: r.f32()?,
+            angle_max: r.f32()?,
+            angle_increment: r.f32()?,
+            time_increment: r.f32()?,
+            scan_time: r.f32()?,
+            range_min: r.f32()?,
+            range_max: r.f32()?,
+            ranges: r.f32_seq()?,
+            intensities: r.f32_seq()?,
+        })
+    }
+}
+
+impl Decode for PoseStamped {
+    fn read(r: &mut CdrReader) -> Result<Self, CdrError> {
+        Ok(PoseStamped { header: Header::decode(r)?, pose: Pose::decode(r)? })
+    }
+}
+
+impl Decode for PoseWithCovarianceStamped {
+    fn read(r: &mut CdrReader) -> Result<Self, CdrError> {
+        Ok(PoseWithCovarianceStamped { header: Header::decode(r)?, pose: PoseWithCovariance::decode(r)? })
+    }
+}
+
+impl Decode for Odometry {
+    fn read(r: &mut CdrReader) -> Result<Self, CdrError> {
+        Ok(Odometry {
+            header: Header::decode(r)?,
+            child_frame_id: r.string()?,
+            pose: PoseWithCovariance::decode(r)?,
+            twist: TwistWithCovariance::default(),
+        })
+    }
+}
+
+impl Decode for TfMessage {
+    fn read(r: &mut CdrReader) -> Result<Self, CdrError> {
         // each transform takes at least 64 bytes: the length check bounds the allocation
         let n = r.len(64, "a TransformStamped[]")?;
         let transforms = (0..n)
@@ -388,17 +396,6 @@ impl TfMessage {
             })
             .collect::<Result<_, CdrError>>()?;
         Ok(TfMessage { transforms })
-    }
-
-    pub fn encode(&self) -> Vec<u8> {
-        let mut w = CdrWriter::new();
-        w.u32(self.transforms.len() as u32);
-        for t in &self.transforms {
-            t.header.encode(&mut w);
-            w.string(&t.child_frame_id);
-            t.transform.translation.iter().chain(&t.transform.rotation).for_each(|&v| w.f64(v));
-        }
-        w.finish()
     }
 }
 

@@ -425,7 +425,7 @@ pub fn topics(path: &Path) -> Result<Vec<TopicInfo>, BagError> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::msg::{LaserScan, Odometry};
+    use crate::msg::{Decode, LaserScan, Odometry};
     use proptest::prelude::*;
 
     /// A record of `fields` (name, value) and `data`.
