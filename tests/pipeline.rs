@@ -177,21 +177,21 @@ fn the_sequential_localizer_in_the_pipeline_answers_as_offline() {
 }
 
 /// Where the best track misses a scan, the answer is where odometry put it, with no cost of its
-/// own: the pipeline's row says so as `gema2 locate --sequential`'s does (a furnished office
+/// own: the pipeline's row says so as `gema2 locate --sequential`'s does (a furnished warehouse
 /// walked 0.8 m a scan with drifting odometry, replayed).
 #[test]
 fn a_missed_track_s_answer_reads_the_same_from_the_pipeline_as_offline() {
     let dir = tempfile::tempdir().unwrap();
     let log = dir.path().join("walk.log");
     let log = log.to_str().unwrap();
-    let walk = ["--map", "office", "--scenario", "furniture", "--seed", "2", "--trajectory", "--step", "0.8"];
+    let walk = ["--map", "warehouse", "--scenario", "furniture", "--seed", "2", "--trajectory", "--step", "0.8"];
     let rest = ["--odom-noise", "0.05,0.01,0.05,0.01", "--scans", "60", "--out", log];
     let out = gema2(&["sim"].iter().chain(&walk).chain(&rest).copied().collect::<Vec<_>>());
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let text = std::fs::read_to_string(common::write_pipeline(
         dir.path(),
         "p.toml",
-        "office",
+        "warehouse",
         &["--log", log, "--rate", "max"],
     ))
     .unwrap();
@@ -199,7 +199,8 @@ fn a_missed_track_s_answer_reads_the_same_from_the_pipeline_as_offline() {
     std::fs::write(&pipeline, common::with_stage_lines(&text, "localize", "implementation = \"sequential\"")).unwrap();
     let (online, offline) = (dir.path().join("on.csv"), dir.path().join("off.csv"));
     run_to_csv(&pipeline, &prefix("missed"), 60, &online);
-    let out = gema2(&["locate", "--map", "office", "--log", log, "--sequential", "--out", offline.to_str().unwrap()]);
+    let out =
+        gema2(&["locate", "--map", "warehouse", "--log", log, "--sequential", "--out", offline.to_str().unwrap()]);
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let (a, b) = (rows(&online), rows(&offline));
     assert_eq!((a.len(), b.len()), (60, 60));

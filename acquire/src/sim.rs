@@ -5,6 +5,11 @@
 //! every wall, enclosed (rays in most directions meet a wall), so the robot is never outside,
 //! and in the connected region of the free space that holds most of it (see [`FreeSpace`]), so
 //! the robot is never inside a rack, a pillar or any other closed outline.
+//!
+//! A scan from a random pose places its own obstacles about it. A walk ([`Walk`]) keeps its
+//! furniture where it was put: boxes stay for the rest of the walk, new ones are put against
+//! the walls ahead as the robot comes to them, and the walk goes around them. People are
+//! placed afresh each scan: they move.
 
 use laser::motion::{DriftingOdometry, OdometryNoise};
 use laser::rng::Rng;
@@ -21,7 +26,8 @@ pub enum Scenario {
     Clean,
     /// 1-4 people (cylinders of 0.2-0.4 m) within 0.6-3 m of the robot, in view.
     People,
-    /// 2-5 boxes (0.4-1.6 x 0.3-0.8 m) against walls the robot sees.
+    /// 2-5 boxes (0.4-1.6 x 0.3-0.8 m) against walls the robot sees; on a walk, boxes that
+    /// stay where they were put, four within reach of the robot.
     Furniture,
 }
 
@@ -117,7 +123,16 @@ pub struct Simulator {
     main_region: Option<u32>,
     count: u64,
     obstacles: Obstacles,
+    /// On a walk: every box put so far, kept where it is ([`Simulator::keep_furniture`]).
+    kept_boxes: Option<Vec<[Point2<f64>; 4]>>,
 }
+
+/// On a walk, boxes are put until this many have their centre within [`BOX_REACH`] of the robot.
+const WALK_BOXES: usize = 4;
+
+/// How far from the robot a walk's box counts towards [`WALK_BOXES`], metres: placed boxes are
+/// at most 5 m (a wall's distance) plus half a box's depth away.
+const BOX_REACH: f64 = 5.5;
 
 impl Simulator {
     pub fn new(map: &WallMap, sensor: SensorModel, scenario: Scenario, seed: u64) -> Self {
@@ -137,6 +152,7 @@ impl Simulator {
             clearance: 0.35,
             count: 0,
             obstacles: Obstacles::default(),
+            kept_boxes: None,
         };
         sim.main_region = sim.main_region();
         sim
@@ -223,10 +239,23 @@ impl Simulator {
         (1..=steps).all(|k| self.room_at(a + (b - a) * (k as f64 / steps as f64)))
     }
 
-    /// Whether the robot fits at `q`: clear of the walls, in the main free space.
+    /// Whether the robot fits at `q`: clear of the walls and of the boxes kept on a walk, in
+    /// the main free space.
     fn room_at(&self, q: Point2<f64>) -> bool {
         self.field.distance(q) >= self.clearance
             && self.main_region.is_none_or(|main| self.free_space.region(q) == Some(main))
+            && self
+                .kept_boxes
+                .as_ref()
+                .is_none_or(|boxes| boxes.iter().flat_map(box_walls).all(|w| w.closest(q).0 >= self.clearance))
+    }
+
+    /// From now on, furniture stays where it is put ([`Walk`]): each scan sees the boxes put so
+    /// far, and new ones are put only where fewer than [`WALK_BOXES`] are within reach.
+    pub fn keep_furniture(&mut self) {
+        if self.kept_boxes.is_none() {
+            self.kept_boxes = Some(Vec::new());
+        }
     }
 
     /// A uniformly drawn pose in the main free space.
@@ -351,10 +380,19 @@ impl Simulator {
 
     fn furniture(&mut self, p: &Pose) -> Obstacles {
         let origin = Point2::from(p.translation.vector);
-        let want = self.rng.int(2, 5);
-        let mut boxes: Vec<[Point2<f64>; 4]> = Vec::new();
+        // on a walk: the boxes put before, and new ones until enough are within reach
+        let kept = self.kept_boxes.take();
+        let walking = kept.is_some();
+        let (mut boxes, want) = match kept {
+            Some(boxes) => {
+                let near = boxes.iter().filter(|b| (centre(b) - origin).norm() <= BOX_REACH).count();
+                let want = boxes.len() + WALK_BOXES.saturating_sub(near);
+                (boxes, want)
+            }
+            None => (Vec::new(), self.rng.int(2, 5)),
+        };
         for _ in 0..60 {
-            if boxes.len() == want {
+            if boxes.len() >= want {
                 break;
             }
             let bearing = self.bearing_in_view(p);
@@ -380,14 +418,39 @@ impl Simulator {
             let clear_of_robot = (centre - origin).norm() > depth.hypot(width) / 2.0 + self.clearance;
             let inside = corners.iter().all(|&c| self.field.distance(c) > 0.005)
                 && self.field.distance(centre) >= depth / 2.0 - 0.02;
-            let apart = boxes.iter().all(|b| (b[0] + (b[2] - b[0]) / 2.0 - centre).norm() > width.max(depth) + 0.2);
-            if clear_of_robot && inside && apart {
+            let apart = boxes.iter().all(|b| (self::centre(b) - centre).norm() > width.max(depth) + 0.2);
+            // a walk's boxes leave the way past them open: a robot fits between a box's front
+            // and the walls or boxes across from it
+            let passable = !walking || {
+                let front = [-1.0, 0.0, 1.0].map(|u| centre + normal * (depth / 2.0) + along * (u * width / 2.0));
+                let gap = 2.0 * self.clearance + 0.3;
+                front.iter().all(|&f| {
+                    self.map_range(f, normal.y.atan2(normal.x)) >= gap
+                        && boxes.iter().flat_map(box_walls).all(|w| w.closest(f).0 >= gap)
+                })
+            };
+            if clear_of_robot && inside && apart && passable {
                 boxes.push(corners);
             }
         }
-        let walls = boxes.iter().flat_map(|c| (0..4).map(move |k| Wall { a: c[k], b: c[(k + 1) % 4] })).collect();
+        // a scan sees the boxes within its range (and a box's size) of the robot
+        let reach = if walking { self.sensor.geometry.range_max + 1.0 } else { f64::INFINITY };
+        let walls = boxes.iter().filter(|b| (centre(b) - origin).norm() <= reach).flat_map(box_walls).collect();
+        if walking {
+            self.kept_boxes = Some(boxes);
+        }
         Obstacles { walls, circles: Vec::new() }
     }
+}
+
+/// A box's centre.
+fn centre(corners: &[Point2<f64>; 4]) -> Point2<f64> {
+    corners[0] + (corners[2] - corners[0]) / 2.0
+}
+
+/// A box's four edges.
+fn box_walls(c: &[Point2<f64>; 4]) -> impl Iterator<Item = Wall> + '_ {
+    (0..4).map(move |k| Wall { a: c[k], b: c[(k + 1) % 4] })
 }
 
 fn ray_circle(o: Point2<f64>, dir: Vector2<f64>, c: Point2<f64>, r: f64) -> Option<f64> {
@@ -414,7 +477,8 @@ pub struct Walk {
 
 impl Walk {
     /// The walk of `sim`, whose seed was `seed`; odometry drawn with `noise`, or exact without.
-    pub fn new(sim: Simulator, step: f64, noise: Option<OdometryNoise>, seed: u64) -> Self {
+    pub fn new(mut sim: Simulator, step: f64, noise: Option<OdometryNoise>, seed: u64) -> Self {
+        sim.keep_furniture();
         let drawn = noise.map(|n| DriftingOdometry::new(n, seed ^ 0x0D0_0D0));
         Walk { sim, step, last: None, drawn }
     }
@@ -513,6 +577,37 @@ mod tests {
             at = next;
         }
         assert!(furthest > 3.0, "the walk stayed within {furthest} m");
+    }
+
+    /// On a walk the furniture stays where it was put: a box seen once is seen again while the
+    /// robot is near it, the robot keeps clear of every box, and new boxes come as it moves on.
+    #[test]
+    fn a_walk_s_furniture_stays_put_and_the_walk_goes_around_it() {
+        let map = worlds::by_name("warehouse").unwrap();
+        let sim = Simulator::new(&map, SensorModel::urg04lx(), Scenario::Furniture, 7);
+        let mut walk = Walk::new(sim, 0.5, None, 7);
+        let mut seen: Vec<Wall> = Vec::new();
+        let mut kept_seen = 0;
+        for _ in 0..200 {
+            let (scan, _) = walk.next_scan();
+            let at = Point2::from(scan.truth.unwrap().translation.vector);
+            let now = &walk.sim.obstacles().walls;
+            for w in now {
+                assert!(w.closest(at).0 >= walk.sim.clearance - 1e-9, "the robot at {at} is in a box");
+            }
+            // every box seen before whose centre is within the sensor's range is still there
+            for w in seen.iter().filter(|w| (w.a - at).norm() < 4.0) {
+                assert!(now.contains(w), "a box moved: {w:?}");
+                kept_seen += 1;
+            }
+            for w in now {
+                if !seen.contains(w) {
+                    seen.push(*w);
+                }
+            }
+        }
+        assert!(kept_seen > 100, "boxes were seen again only {kept_seen} times");
+        assert!(seen.len() / 4 > 8, "only {} boxes over the walk", seen.len() / 4);
     }
 
     #[test]
