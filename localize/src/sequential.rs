@@ -426,7 +426,13 @@ impl Sequential {
                 };
                 let along = along.map(|(pose, cost)| (pose, cost, false));
                 let elsewhere = match (near, along) {
-                    (Some(a), Some(b)) => Some(if b.1.value < a.1.value { b } else { a }),
+                    (Some(a), Some(b)) => {
+                        let cheaper = if b.1.value < a.1.value { b } else { a };
+                        // both looks refined to one pose: the near look's word that no rival
+                        // lies within the gate holds for it
+                        let one = a.2 && same_pose(&a.0, &b.0, 0.05, 1f64.to_radians());
+                        Some((cheaper.0, cheaper.1, cheaper.2 || one))
+                    }
                     (a, b) => a.or(b),
                 };
                 if let Some((pose, cost, sure)) = elsewhere {
