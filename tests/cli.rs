@@ -895,6 +895,7 @@ fn percent(cell: &str, row: &[String]) -> f64 {
 fn sequential_row(dir: &Path, log: &str) -> Vec<String> {
     let out = gema2(&[
         "evaluate",
+        "--no-sim",
         "--carmen",
         dir.to_str().unwrap(),
         "--sequential",
@@ -927,6 +928,45 @@ fn a_track_whose_odometry_is_off_past_the_window_stays_right_on_a_real_log() {
     let row = sequential_row(dir.path(), "edmonton-corrected");
     assert!(row[5].starts_with("0 "), "a wrong ok: {row:?}");
     assert!(percent(&row[6], &row) >= 97.0, "fewer right poses after the first fix: {row:?}");
+}
+
+/// `evaluate --sequential` walks a robot through each map of the suite, every scenario, 0.2
+/// and 0.8 m a scan, and gives each walk the row a CARMEN log gets; a walk's row equals `gema2
+/// sim --trajectory` then `gema2 locate --sequential` on the same map and seeds.
+#[test]
+fn evaluate_sequential_walks_the_simulated_maps() {
+    let dir = tempfile::tempdir().unwrap();
+    let page = dir.path().join("results.md");
+    let noise = "0.05,0.01,0.05,0.01";
+    let args = ["evaluate", "--sequential", "--scans", "30", "--map-seeds", "--odom-noise", noise, "--seed", "2"];
+    let out = gema2(&args.iter().copied().chain(["--markdown", page.to_str().unwrap()]).collect::<Vec<_>>());
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let table = text(&out.stdout);
+    let rows: Vec<&str> = table.lines().filter(|l| l.contains(" m | 30 |")).collect();
+    assert_eq!(rows.len(), 24, "{table}");
+    let row = |name: &str| -> Vec<String> {
+        let label = format!("{name} | 30 |");
+        let line = rows.iter().find(|l| l.starts_with(&label)).unwrap_or_else(|| panic!("no {name} in {table}"));
+        line.split('|').map(|c| c.trim().to_string()).collect()
+    };
+    let furnished = row("office furniture 0.8 m");
+    let log = dir.path().join("walk.log");
+    let sim = ["sim", "--map", "office", "--scenario", "furniture", "--trajectory", "--step", "0.8"];
+    let rest = ["--odom-noise", noise, "--seed", "2", "--scans", "30", "--out", log.to_str().unwrap()];
+    let out = gema2(&sim.iter().chain(&rest).copied().collect::<Vec<_>>());
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let out =
+        gema2(&["locate", "--map", "office", "--log", log.to_str().unwrap(), "--sequential", "--out", "/dev/null"]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let said = text(&out.stdout);
+    let after = said.split("right after the first fix (within 0.3 m and 5 deg) ").nth(1).unwrap_or_default();
+    let percent_of_locate: f64 = after.split(" %").next().unwrap_or_default().parse().unwrap_or(f64::NAN);
+    assert!((percent(&furnished[6], &furnished) - percent_of_locate).abs() < 0.06, "{furnished:?}\n{said}");
+    let page = std::fs::read_to_string(&page).unwrap();
+    assert!(
+        page.contains("### simulated walks of 30 scans") && page.contains("| apartment clean 0.2 m | 30 |"),
+        "{page}"
+    );
 }
 
 /// Where a track's window misses a turn, the near look and the look along can both refine to

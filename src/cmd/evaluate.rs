@@ -50,10 +50,11 @@ pub struct EvaluateArgs {
     /// `--markdown docs/results.md` regenerates that page's accuracy tables.
     #[arg(long, value_name = "FILE")]
     pub markdown: Option<PathBuf>,
-    /// With --carmen: locate each log's odd scans against the map of its even ones with the
-    /// sequential localizer instead, and report per log how soon each start is sure, how often
-    /// `ok` is wrong, and what tracking costs (--odom-noise, --odom-seed, --restart-every as
-    /// `gema2 locate --sequential`; the suite leaves out the simulated logs).
+    /// Locate with the sequential localizer instead: simulated walks (each map and scenario
+    /// of the suite, 0.2 and 0.8 m a scan, --odom-noise drawn as `gema2 sim --trajectory`
+    /// draws it) and, with --carmen, each log's odd scans against the map of its even ones;
+    /// per log how soon each start is sure, how often `ok` is wrong, and what tracking costs
+    /// (--odom-noise, --odom-seed, --restart-every as `gema2 locate --sequential`).
     #[command(flatten)]
     pub seq: crate::sequential::SequentialArgs,
     /// With --sequential: also kidnap the robot this many times a log: 20 located scans of one
@@ -224,8 +225,7 @@ pub fn run(a: EvaluateArgs) -> Result<()> {
     }
     a.seq.check()?;
     if a.seq.sequential {
-        let Some(dir) = &a.carmen else { bail!("--sequential locates CARMEN logs: give --carmen") };
-        return sequential_suite(&a, dir, &config);
+        return sequential_suite(&a, &config);
     }
     let mut page = String::new();
     if !a.no_sim {
@@ -396,79 +396,172 @@ pub(crate) fn odd_scans_and_even_map(log: &Path, malformed: &mut Malformed) -> R
     Ok((built_map(log, 0)?, odd))
 }
 
-/// `--sequential`: each CARMEN log's odd scans against the map of its even ones, by the
-/// sequential localizer, one row a log.
-fn sequential_suite(a: &EvaluateArgs, dir: &Path, config: &Gema2Config) -> Result<()> {
-    use crate::sequential::{Odometry, SeqRun};
+/// The columns of `--sequential`'s tables.
+const SEQ_HEAD: [&str; 11] = [
+    "log",
+    "scans",
+    "starts",
+    "median to fix",
+    "fixed within 3",
+    "wrong ok",
+    "right after fix",
+    "tracking median us",
+    "tracking p99 us",
+    "median us",
+    "kidnaps: last ok on the old place / wrong ok after the cut / right ok within 5",
+];
+
+/// The distances walked between two scans of `--sequential`'s simulated walks, metres.
+const WALK_STEPS: [f64; 2] = [0.2, 0.8];
+
+/// The share of right poses after the first fix that the walks' total counts walks at
+/// (issue 48's bar).
+const STEADY: f64 = 0.995;
+
+/// `--sequential`: the sequential localizer on simulated walks through the suite's maps (but
+/// with `--no-sim`), and on each CARMEN log's odd scans against the map of its even ones;
+/// a table each, one row a log.
+fn sequential_suite(a: &EvaluateArgs, config: &Gema2Config) -> Result<()> {
     let noise = a.seq.noise()?;
-    let title = format!(
-        "{}: odd scans against a map of the even ones, sequential, odometry {}, a cold start every {} located scans",
-        dir.display(),
-        noise
-            .map_or("of the log".to_string(), |n| format!("drawn with noise {:?}, seed {}", n.alphas, a.seq.odom_seed)),
-        a.seq.restart_every.map_or("- (never)".to_string(), |n| n.to_string()),
-    );
-    println!("{title}\n");
-    let head = [
-        "log",
-        "scans",
-        "starts",
-        "median to fix",
-        "fixed within 3",
-        "wrong ok",
-        "right after fix",
-        "tracking median us",
-        "tracking p99 us",
-        "median us",
-        "kidnaps: last ok on the old place / wrong ok after the cut / right ok within 5",
-    ];
-    let mut table = format!("### {title}\n\n| {} |\n|{}\n", head.join(" | "), "---|".repeat(head.len()));
-    println!("{}", head.join(" | "));
-    let mut malformed = Malformed::default();
-    for log in carmen_logs(dir)? {
-        let (map, odd) = odd_scans_and_even_map(&log, &mut malformed)?;
-        let model = Arc::new(MapModel::new(map, &config.map_corners));
-        let mut run = SeqRun::new(Arc::clone(&model), config, a.seq.restart_every);
-        let mut odometry = Odometry::new(noise, a.seq.odom_seed);
-        let stem = log_stem(&log);
-        let odd: Vec<&LogScan> = odd.iter().collect();
-        let mut progress = crate::progress::Progress::scans(&stem, Some(odd.len() as u64));
-        for item in &odd {
-            let odom = odometry.next(item.odometry, item.scan.truth.as_ref(), false)?;
-            let o = run.locate(&item.scan, odom);
-            progress.add(&o.outcome);
+    let restarts = a.seq.restart_every.map_or("- (never)".to_string(), |n| n.to_string());
+    let mut page = String::new();
+    if !a.no_sim {
+        let title = format!(
+            "simulated walks of {} scans, {} m a scan, seed {}, sequential, odometry {}, a cold start every {restarts} located scans",
+            a.scans,
+            WALK_STEPS.map(|s| s.to_string()).join(" or "),
+            a.seed,
+            noise.map_or("exact".to_string(), |n| format!("drawn with noise {:?}", n.alphas)),
+        );
+        let mut table = seq_header(&title);
+        let (mut all, mut walks, mut steady) = (crate::sequential::SeqSummary::default(), 0, 0);
+        for (name, map) in suite_maps(&a.map_seeds)? {
+            let model = Arc::new(MapModel::new(map.clone(), &config.map_corners));
+            for step in WALK_STEPS {
+                for scenario in [Scenario::Clean, Scenario::People, Scenario::Furniture] {
+                    let walk = walked_log(&map, scenario, a.seed, a.scans, step, noise)?;
+                    let name = format!("{name} {scenario} {step} m");
+                    // the walk's odometry already drifts as asked: located as the log's own
+                    let (row, s) = seq_row(a, &name, &model, config, &walk, None)?;
+                    table += &row;
+                    all.add(&s);
+                    walks += 1;
+                    steady += usize::from(s.right_after_fix_share().is_some_and(|r| r >= STEADY));
+                }
+            }
         }
-        progress.finish();
-        let (kidnaps, missed) = kidnap_all(&odd, a.kidnaps, &model, config, noise, a.seq.odom_seed)?;
-        let s = run.summary();
-        let pct = |v: Option<f64>| v.map_or("-".to_string(), |v| format!("{:.1} %", 100.0 * v));
-        let (t50, t99) =
-            s.tracking().map_or(("-".to_string(), "-".to_string()), |(a, b)| (format!("{a:.0}"), format!("{b:.0}")));
-        let cells = [
-            stem,
-            s.scans.to_string(),
-            s.starts.to_string(),
-            s.median_to_fix(),
-            pct(Some(s.fixed_within(3))),
-            s.wrong_ok_cell(),
-            s.right_after_fix_cell(1),
-            t50,
-            t99,
-            format!("{:.0}", s.median_micros()),
-            kidnaps,
-        ];
-        println!("{}", cells.join(" | "));
-        for m in missed {
-            println!("  {m}");
-        }
-        table += &format!("| {} |\n", cells.join(" | "));
+        let total = format!(
+            "total: {walks} walks, {} scans, {} starts; fixed within 3: {:.1} %; wrong ok {}; right after fix {}; walks at {:.1} % or more right after fix: {steady} of {walks}",
+            all.scans,
+            all.starts,
+            100.0 * all.fixed_within(3),
+            all.wrong_ok_cell(),
+            all.right_after_fix_cell(2),
+            100.0 * STEADY,
+        );
+        println!("{total}");
+        page += &format!("{table}\n{total}\n\n");
     }
-    table += &format!("\n{}\n", crate::report::disputed_meaning());
+    let mut malformed = Malformed::default();
+    if let Some(dir) = &a.carmen {
+        let title = format!(
+            "{}: odd scans against a map of the even ones, sequential, odometry {}, a cold start every {restarts} located scans",
+            dir.display(),
+            noise
+                .map_or("of the log".to_string(), |n| format!("drawn with noise {:?}, seed {}", n.alphas, a.seq.odom_seed)),
+        );
+        let mut table = seq_header(&title);
+        for log in carmen_logs(dir)? {
+            let (map, odd) = odd_scans_and_even_map(&log, &mut malformed)?;
+            let model = Arc::new(MapModel::new(map, &config.map_corners));
+            table += &seq_row(a, &log_stem(&log), &model, config, &odd, noise)?.0;
+        }
+        page += &table;
+    }
+    page += &format!("{}\n", crate::report::disputed_meaning());
     if let Some(path) = &a.markdown {
         let command: Vec<String> = std::env::args().skip(1).filter(|s| !s.is_empty()).collect();
-        crate::results::write_section(path, "evaluate-sequential", &format!("gema2 {}", command.join(" ")), &table)?;
+        crate::results::write_section(path, "evaluate-sequential", &format!("gema2 {}", command.join(" ")), &page)?;
     }
     malformed.into_result("skipped")
+}
+
+/// A `--sequential` table's title and head, printed; the markdown of both returned.
+fn seq_header(title: &str) -> String {
+    println!("\n{title}\n\n{}", SEQ_HEAD.join(" | "));
+    format!("### {title}\n\n| {} |\n|{}\n", SEQ_HEAD.join(" | "), "---|".repeat(SEQ_HEAD.len()))
+}
+
+/// One log's row of `--sequential`'s table: `scans` located in order by a sequential run on
+/// `model`, with odometry drawn with `noise` (the log's own without), and `--kidnaps`
+/// splices of them. Printed, with the splices that missed a bar; the markdown row and the
+/// run's figures returned.
+fn seq_row(
+    a: &EvaluateArgs,
+    name: &str,
+    model: &Arc<MapModel>,
+    config: &Gema2Config,
+    scans: &[LogScan],
+    noise: Option<laser::motion::OdometryNoise>,
+) -> Result<(String, crate::sequential::SeqSummary)> {
+    use crate::sequential::{Odometry, SeqRun};
+    let mut run = SeqRun::new(Arc::clone(model), config, a.seq.restart_every);
+    let mut odometry = Odometry::new(noise, a.seq.odom_seed);
+    let scans: Vec<&LogScan> = scans.iter().collect();
+    let mut progress = crate::progress::Progress::scans(name, Some(scans.len() as u64));
+    for item in &scans {
+        let odom = odometry.next(item.odometry, item.scan.truth.as_ref(), false)?;
+        let o = run.locate(&item.scan, odom);
+        progress.add(&o.outcome);
+    }
+    progress.finish();
+    let (kidnaps, missed) = kidnap_all(&scans, a.kidnaps, model, config, noise, a.seq.odom_seed)?;
+    let s = run.summary();
+    let pct = |v: Option<f64>| v.map_or("-".to_string(), |v| format!("{:.1} %", 100.0 * v));
+    let (t50, t99) =
+        s.tracking().map_or(("-".to_string(), "-".to_string()), |(a, b)| (format!("{a:.0}"), format!("{b:.0}")));
+    let cells = [
+        name.to_string(),
+        s.scans.to_string(),
+        s.starts.to_string(),
+        s.median_to_fix(),
+        pct(Some(s.fixed_within(3))),
+        s.wrong_ok_cell(),
+        s.right_after_fix_cell(1),
+        t50,
+        t99,
+        format!("{:.0}", s.median_micros()),
+        kidnaps,
+    ];
+    println!("{}", cells.join(" | "));
+    for m in missed {
+        println!("  {m}");
+    }
+    Ok((format!("| {} |\n", cells.join(" | ")), s))
+}
+
+/// A robot walking `step` metres a scan through `map` among `scenario`'s obstacles, its
+/// odometry drawn with `noise` (exact without), as `gema2 sim --trajectory` writes it and
+/// `gema2 locate` reads it back: a row equals `gema2 sim --trajectory --step S --odom-noise N
+/// --seed S` then `gema2 locate --sequential` on the same map.
+fn walked_log(
+    map: &WallMap,
+    scenario: Scenario,
+    seed: u64,
+    scans: usize,
+    step: f64,
+    noise: Option<laser::motion::OdometryNoise>,
+) -> Result<Vec<LogScan>> {
+    let sim = Simulator::new(map, SensorModel::urg04lx(), scenario, seed);
+    let mut walk = acquire::Walk::new(sim, step, Some(noise.unwrap_or(laser::motion::OdometryNoise::NONE)), seed);
+    let mut text = Vec::new();
+    for _ in 0..scans {
+        let (scan, odometry) = walk.next_scan();
+        acquire::write_robotlaser1_with_odometry(&mut text, &scan, odometry.as_ref())?;
+    }
+    let reader =
+        CarmenReader::from_reader(Box::new(std::io::Cursor::new(text)), Path::new("walked"), FlaserLayout::default());
+    Ok(reader.collect::<Result<_, _>>()?)
 }
 
 /// `--kidnaps N`: N splices of two stretches of the log's `odd` scans at least 10 m apart, each
