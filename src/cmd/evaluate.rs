@@ -451,13 +451,14 @@ fn sequential_suite(a: &EvaluateArgs, config: &Gema2Config) -> Result<()> {
             }
         }
         let total = format!(
-            "total: {walks} walks, {} scans, {} starts; fixed within 3: {:.1} %; wrong ok {}; right after fix {}; walks at {:.1} % or more right after fix: {steady} of {walks}",
+            "total: {walks} walks, {} scans, {} starts; fixed within 3: {:.1} %; wrong ok {}; right after fix {}; walks at {:.1} % or more right after fix: {steady} of {walks}; tracking median {} us",
             all.scans,
             all.starts,
             100.0 * all.fixed_within(3),
             all.wrong_ok_cell(),
             all.right_after_fix_cell(2),
             100.0 * STEADY,
+            all.tracking().map_or("-".to_string(), |(t50, _)| format!("{t50:.0}")),
         );
         println!("{total}");
         page += &format!("{table}\n{total}\n\n");
