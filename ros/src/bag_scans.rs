@@ -172,10 +172,8 @@ impl BagScans {
                 }
             },
         };
-        let mut bad_truth = 0;
-        // whose pose the truth is, when its messages say (an Odometry's child frame)
-        let mut truth_frame: Option<String> = None;
-        let mut read = |name: &String, what: &str| -> Result<(Truth, Option<String>), BagScanError> {
+        // the truth and odometry topics, checked before anything is read
+        let pose_topic = |name: &String, what: &str| -> Result<(), BagScanError> {
             let Some(t) = all.iter().find(|t| &t.name == name) else {
                 return Err(refused(format!("no {what} topic {name} in the bag; it has {}", listing())));
             };
@@ -185,41 +183,70 @@ impl BagScans {
                     t.ros_type
                 )));
             }
-            let (mut poses, mut child) = (Vec::new(), None);
-            for (order, m) in bag.messages(&[&topic.name, name]).enumerate() {
+            Ok(())
+        };
+        if let Some(name) = &topics.truth {
+            pose_topic(name, "truth")?;
+        }
+        if let Some(name) = &topics.odometry {
+            pose_topic(name, "odometry")?;
+        }
+        let has_tf = all.iter().any(|t| t.name == TF_STATIC && t.ros_type == msg::TfMessage::TYPE);
+        // one pass through the bag for the truth, the odometry and /tf_static. Each pose keeps
+        // its place among the scans and its own topic's messages: the scans' reading pass
+        // counts the truth's order the same way
+        let mut bad_truth = 0;
+        let (mut truth_poses, mut odometry_poses) = (Vec::new(), Vec::new());
+        // whose pose the truth is, when its messages say (an Odometry's child frame)
+        let mut truth_frame: Option<String> = None;
+        let mut frames = StaticFrames::default();
+        let mut pass: Vec<&str> = Vec::new();
+        for name in
+            [topics.truth.as_deref(), topics.odometry.as_deref(), has_tf.then_some(TF_STATIC)].into_iter().flatten()
+        {
+            if !pass.contains(&name) {
+                pass.push(name);
+            }
+        }
+        if !pass.is_empty() {
+            pass.push(&topic.name);
+            let (mut truth_order, mut odometry_order) = (0, 0);
+            for m in bag.messages(&pass) {
                 let m = m?;
-                if *m.topic == **name {
-                    match stamped_pose(&m.ros_type, m.encoding, &m.data) {
-                        Ok((stamp, p, frame)) => {
-                            poses.push((stamp, order, p));
-                            child = child.or(frame);
+                let on_scans = *m.topic == *topic.name;
+                let on_truth = topics.truth.as_deref() == Some(&*m.topic);
+                let on_odometry = topics.odometry.as_deref() == Some(&*m.topic);
+                if on_truth || on_odometry {
+                    let pose = stamped_pose(&m.ros_type, m.encoding, &m.data);
+                    for (on, order, poses) in
+                        [(on_truth, truth_order, &mut truth_poses), (on_odometry, odometry_order, &mut odometry_poses)]
+                    {
+                        match (on, &pose) {
+                            (false, _) => {}
+                            (true, Ok((stamp, p, _))) => poses.push((*stamp, order, *p)),
+                            (true, Err(_)) => bad_truth += 1,
                         }
+                    }
+                    if let (true, Ok((_, _, frame))) = (on_truth, &pose) {
+                        truth_frame = truth_frame.or_else(|| frame.clone());
+                    }
+                }
+                if *m.topic == *TF_STATIC && has_tf {
+                    match msg::TfMessage::decode_as(m.encoding, &m.data) {
+                        Ok(tf) => frames.add(&tf),
                         Err(_) => bad_truth += 1,
                     }
                 }
-            }
-            poses.sort_by_key(|p| (p.0, p.1));
-            Ok((Truth { poses }, child))
-        };
-        let truth = match &topics.truth {
-            Some(name) => {
-                let (truth, frame) = read(name, "truth")?;
-                truth_frame = frame;
-                Some(truth)
-            }
-            None => None,
-        };
-        let odometry = topics.odometry.as_ref().map(|name| read(name, "odometry").map(|r| r.0)).transpose()?;
-        let mut frames = StaticFrames::default();
-        if all.iter().any(|t| t.name == TF_STATIC && t.ros_type == msg::TfMessage::TYPE) {
-            for m in bag.messages(&[TF_STATIC]) {
-                let m = m?;
-                match msg::TfMessage::decode_as(m.encoding, &m.data) {
-                    Ok(tf) => frames.add(&tf),
-                    Err(_) => bad_truth += 1,
-                }
+                truth_order += usize::from(on_scans || on_truth);
+                odometry_order += usize::from(on_scans || on_odometry);
             }
         }
+        let sorted = |mut poses: Vec<(i64, usize, Pose)>| {
+            poses.sort_by_key(|p| (p.0, p.1));
+            Truth { poses }
+        };
+        let truth = topics.truth.as_ref().map(|_| sorted(truth_poses));
+        let odometry = topics.odometry.as_ref().map(|_| sorted(odometry_poses));
         // the laser's place, by the frame of the first scan that decodes
         let base_frame = topics.base_frame.clone().unwrap_or_else(|| "base_link".into());
         let mut mount = None;
