@@ -190,22 +190,6 @@ impl SeqSummary {
         s
     }
 
-    /// `other`'s runs added to these: the figures of several runs as one.
-    pub fn add(&mut self, other: &SeqSummary) {
-        self.scans += other.scans;
-        self.starts += other.starts;
-        self.to_first_fix.extend_from_slice(&other.to_first_fix);
-        self.wrong_ok += other.wrong_ok;
-        self.disputed += other.disputed;
-        self.ok += other.ok;
-        self.after_fix += other.after_fix;
-        self.right_after_fix += other.right_after_fix;
-        self.disputed_after_fix += other.disputed_after_fix;
-        self.tracking_micros.extend_from_slice(&other.tracking_micros);
-        self.all_micros.extend_from_slice(&other.all_micros);
-        self.has_truth |= other.has_truth;
-    }
-
     /// The median located scans to a start's first right `ok` (a start with none counts as
     /// never), as printed: a count, `never`, or `-` with no start.
     pub fn median_to_fix(&self) -> String {

@@ -9,6 +9,7 @@
 use super::build_map::{self, BuildArgs};
 use super::Malformed;
 use crate::report::{Outcome, Summary};
+use crate::sequential::{SeqOutcome, SeqSummary};
 use acquire::{write_robotlaser1, CarmenReader, FlaserLayout, LogScan, Scenario, SensorModel, Simulator};
 use anyhow::{bail, Context, Result};
 use clap::Args;
@@ -434,7 +435,8 @@ fn sequential_suite(a: &EvaluateArgs, config: &Gema2Config) -> Result<()> {
             noise.map_or("exact".to_string(), |n| format!("drawn with noise {:?}", n.alphas)),
         );
         let mut table = seq_header(&title);
-        let (mut all, mut walks, mut steady) = (crate::sequential::SeqSummary::default(), 0, 0);
+        // every walk's located scans, one start after another: the total's figures
+        let (mut all, mut walks, mut steady) = (Vec::new(), 0, 0);
         for (name, map) in suite_maps(&a.map_seeds)? {
             let model = Arc::new(MapModel::new(map.clone(), &config.map_corners));
             for step in WALK_STEPS {
@@ -442,14 +444,16 @@ fn sequential_suite(a: &EvaluateArgs, config: &Gema2Config) -> Result<()> {
                     let walk = walked_log(&map, scenario, a.seed, a.scans, step, noise)?;
                     let name = format!("{name} {scenario} {step} m");
                     // the walk's odometry already drifts as asked: located as the log's own
-                    let (row, s) = seq_row(a, &name, &model, config, &walk, None)?;
+                    let (row, outcomes) = seq_row(a, &name, &model, config, &walk, None)?;
                     table += &row;
-                    all.add(&s);
-                    walks += 1;
+                    let s = SeqSummary::of(&outcomes);
                     steady += usize::from(s.right_after_fix_share().is_some_and(|r| r >= STEADY));
+                    all.extend(outcomes);
+                    walks += 1;
                 }
             }
         }
+        let all = SeqSummary::of(&all);
         let total = format!(
             "total: {walks} walks, {} scans, {} starts; fixed within 3: {:.1} %; wrong ok {}; right after fix {}; walks at {:.1} % or more right after fix: {steady} of {walks}; tracking median {} us",
             all.scans,
@@ -496,7 +500,7 @@ fn seq_header(title: &str) -> String {
 /// One log's row of `--sequential`'s table: `scans` located in order by a sequential run on
 /// `model`, with odometry drawn with `noise` (the log's own without), and `--kidnaps`
 /// splices of them. Printed, with the splices that missed a bar; the markdown row and the
-/// run's figures returned.
+/// run's located scans returned.
 fn seq_row(
     a: &EvaluateArgs,
     name: &str,
@@ -504,7 +508,7 @@ fn seq_row(
     config: &Gema2Config,
     scans: &[LogScan],
     noise: Option<laser::motion::OdometryNoise>,
-) -> Result<(String, crate::sequential::SeqSummary)> {
+) -> Result<(String, Vec<SeqOutcome>)> {
     use crate::sequential::{Odometry, SeqRun};
     let mut run = SeqRun::new(Arc::clone(model), config, a.seq.restart_every);
     let mut odometry = Odometry::new(noise, a.seq.odom_seed);
@@ -538,7 +542,7 @@ fn seq_row(
     for m in missed {
         println!("  {m}");
     }
-    Ok((format!("| {} |\n", cells.join(" | ")), s))
+    Ok((format!("| {} |\n", cells.join(" | ")), run.outcomes))
 }
 
 /// A robot walking `step` metres a scan through `map` among `scenario`'s obstacles, its
