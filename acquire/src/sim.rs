@@ -253,9 +253,7 @@ impl Simulator {
     /// From now on, furniture stays where it is put ([`Walk`]): each scan sees the boxes put so
     /// far, and new ones are put only where fewer than [`WALK_BOXES`] are within reach.
     pub fn keep_furniture(&mut self) {
-        if self.kept_boxes.is_none() {
-            self.kept_boxes = Some(Vec::new());
-        }
+        self.kept_boxes.get_or_insert_with(Vec::new);
     }
 
     /// A uniformly drawn pose in the main free space.

@@ -430,7 +430,7 @@ impl Sequential {
                         let cheaper = if b.1.value < a.1.value { b } else { a };
                         // both looks refined to one pose: the near look's word that no rival
                         // lies within the gate holds for it
-                        let one = a.2 && same_pose(&a.0, &b.0, 0.05, 1f64.to_radians());
+                        let one = a.2 && one_pose(&a.0, &b.0);
                         Some((cheaper.0, cheaper.1, cheaper.2 || one))
                     }
                     (a, b) => a.or(b),
@@ -699,7 +699,7 @@ impl Sequential {
         let mut kept = 0;
         for k in 0..self.tracks.len() {
             let t = self.tracks[k];
-            if !self.tracks[..kept].iter().any(|q| same_pose(&q.pose, &t.pose, 0.05, 1f64.to_radians())) {
+            if !self.tracks[..kept].iter().any(|q| one_pose(&q.pose, &t.pose)) {
                 self.tracks[kept] = t;
                 kept += 1;
             }
@@ -808,6 +808,12 @@ impl Sequential {
             (a.pose, a.cost, a.scans, a.track) = (Some(t.pose), Some(t.cost), t.scans, Some(k));
         }
     }
+}
+
+/// Whether two refined poses are one: within 5 cm and 1 degree, where refinement from
+/// different starts ends on the same minimum (tracks that converged, two looks that agree).
+fn one_pose(a: &Pose, b: &Pose) -> bool {
+    same_pose(a, b, 0.05, 1f64.to_radians())
 }
 
 /// What [`cascade_near`] found: a pose, its cost, and whether the cascade was sure of it.
