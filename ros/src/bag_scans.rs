@@ -192,9 +192,9 @@ impl BagScans {
             pose_topic(name, "odometry")?;
         }
         let has_tf = all.iter().any(|t| t.name == TF_STATIC && t.ros_type == msg::TfMessage::TYPE);
-        // one pass through the bag for the truth, the odometry and /tf_static. Each pose keeps
-        // its place among the scans and its own topic's messages: the scans' reading pass
-        // counts the truth's order the same way
+        // one pass through the bag for the truth, the odometry, /tf_static and the laser's
+        // frame. Each pose keeps its place among the scans and its own topic's messages: the
+        // scans' reading pass counts the truth's order the same way
         let mut bad_truth = 0;
         let (mut truth_poses, mut odometry_poses) = (Vec::new(), Vec::new());
         // whose pose the truth is, when its messages say (an Odometry's child frame)
@@ -208,6 +208,8 @@ impl BagScans {
                 pass.push(name);
             }
         }
+        // the first scan that decodes names the laser's frame, for its place on /tf_static
+        let mut laser_frame: Option<String> = None;
         if !pass.is_empty() {
             pass.push(&topic.name);
             let (mut truth_order, mut odometry_order) = (0, 0);
@@ -217,25 +219,25 @@ impl BagScans {
                 let on_truth = topics.truth.as_deref() == Some(&*m.topic);
                 let on_odometry = topics.odometry.as_deref() == Some(&*m.topic);
                 if on_truth || on_odometry {
-                    let pose = stamped_pose(&m.ros_type, m.encoding, &m.data);
-                    for (on, order, poses) in
-                        [(on_truth, truth_order, &mut truth_poses), (on_odometry, odometry_order, &mut odometry_poses)]
-                    {
-                        match (on, &pose) {
-                            (false, _) => {}
-                            (true, Ok((stamp, p, _))) => poses.push((*stamp, order, *p)),
-                            (true, Err(_)) => bad_truth += 1,
+                    match stamped_pose(&m.ros_type, m.encoding, &m.data) {
+                        Ok((stamp, p, frame)) => {
+                            if on_truth {
+                                truth_poses.push((stamp, truth_order, p));
+                                truth_frame = truth_frame.or(frame);
+                            }
+                            if on_odometry {
+                                odometry_poses.push((stamp, odometry_order, p));
+                            }
                         }
+                        Err(_) => bad_truth += usize::from(on_truth) + usize::from(on_odometry),
                     }
-                    if let (true, Ok((_, _, frame))) = (on_truth, &pose) {
-                        truth_frame = truth_frame.or_else(|| frame.clone());
-                    }
-                }
-                if *m.topic == *TF_STATIC && has_tf {
+                } else if *m.topic == *TF_STATIC {
                     match msg::TfMessage::decode_as(m.encoding, &m.data) {
                         Ok(tf) => frames.add(&tf),
                         Err(_) => bad_truth += 1,
                     }
+                } else if on_scans && has_tf && laser_frame.is_none() {
+                    laser_frame = msg::LaserScan::decode_as(m.encoding, &m.data).ok().map(|s| s.header.frame_id);
                 }
                 truth_order += usize::from(on_scans || on_truth);
                 odometry_order += usize::from(on_scans || on_odometry);
@@ -249,15 +251,7 @@ impl BagScans {
         let odometry = topics.odometry.as_ref().map(|_| sorted(odometry_poses));
         // the laser's place, by the frame of the first scan that decodes
         let base_frame = topics.base_frame.clone().unwrap_or_else(|| "base_link".into());
-        let mut mount = None;
-        if !frames.is_empty() {
-            let first = bag.messages(&[&topic.name]).find_map(|m| {
-                let m = m.ok()?;
-                msg::LaserScan::decode_as(m.encoding, &m.data).ok()
-            });
-            mount = first
-                .and_then(|s| Some((s.header.frame_id.clone(), frames.mount_of(&s.header.frame_id, &base_frame)?)));
-        }
+        let mount = laser_frame.and_then(|f| Some((f.clone(), frames.mount_of(&f, &base_frame)?)));
         // the truth is the robot's when an Odometry says so: the laser sits where /tf_static
         // puts it, unless told otherwise
         let of_robot = truth_frame.as_deref().map(|f| f.trim_start_matches('/')) == Some(base_frame.as_str());
