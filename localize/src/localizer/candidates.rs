@@ -117,7 +117,7 @@ impl Offers<'_> {
 
     fn offer(&mut self, pose: Pose, scan_corner: u16, map_corner: u32) {
         if let Some(score) = self.pass.score(&pose, self.order) {
-            hold(self.candidates, Candidate { pose, score, scan_corner, map_corner }, self.keep, self.held);
+            hold(self.candidates, Candidate { pose, score, scan_corner, map_corner, order: 0 }, self.keep, self.held);
         }
     }
 }
@@ -242,7 +242,7 @@ mod tests {
     use proptest::prelude::*;
 
     fn candidate(score: f64) -> Candidate {
-        Candidate { pose: Pose::identity(), score, scan_corner: 0, map_corner: 0 }
+        Candidate { pose: Pose::identity(), score, scan_corner: 0, map_corner: 0, order: 0 }
     }
 
     proptest! {

@@ -39,7 +39,7 @@ use crate::slide::{loose_slide_lines, SlideLine};
 use laser::{Pose, ScanView};
 use map::RayScratch;
 use nalgebra::Point2;
-use screen::{keep_distinct, screen_points, subsample, Screen, ScreenPoint};
+use screen::{keep_distinct, screen_points, sort_by_score, subsample, Screen, ScreenPoint};
 use segment::{ErrorModel, Segmentation};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
@@ -185,7 +185,13 @@ struct Candidate {
     score: f64,
     scan_corner: u16,
     map_corner: u32,
+    /// Its place in the buffer when last sorted ([`screen::sort_by_score`]): what ties keep.
+    /// It lies in the padding after `scan_corner`, so a candidate stays 48 bytes.
+    order: u16,
 }
+
+// a few thousand candidates are most of a localizer's own memory: the order costs none
+const _: () = assert!(std::mem::size_of::<Candidate>() == 48);
 
 /// The localization stage: one scan's segmentation in, ranked pose hypotheses and a status
 /// out ([`Localizer::locate`]). Its buffers are kept from scan to scan.
@@ -402,11 +408,11 @@ impl Localizer {
             let limit = self.best_sums.kth(first_keep);
             if let Some(sum) = screen.sum(p, first_pass, limit) {
                 self.best_sums.offer(sum, first_keep);
-                self.candidates.push(Candidate { pose: *p, score: sum, scan_corner: 0, map_corner: 0 });
+                self.candidates.push(Candidate { pose: *p, score: sum, scan_corner: 0, map_corner: 0, order: 0 });
             }
         }
         if two_passes {
-            self.candidates.sort_by(|a, b| a.score.total_cmp(&b.score));
+            sort_by_score(&mut self.candidates);
             self.candidates.truncate(few);
             self.best_sums.clear();
             let mut kept = 0;
@@ -415,13 +421,13 @@ impl Localizer {
                 let limit = self.best_sums.kth(keep);
                 if let Some(sum) = screen.sum(&pose, &self.screen_pts, limit) {
                     self.best_sums.offer(sum, keep);
-                    self.candidates[kept] = Candidate { pose, score: sum, scan_corner: 0, map_corner: 0 };
+                    self.candidates[kept] = Candidate { pose, score: sum, scan_corner: 0, map_corner: 0, order: 0 };
                     kept += 1;
                 }
             }
             self.candidates.truncate(kept);
         }
-        self.candidates.sort_by(|a, b| a.score.total_cmp(&b.score));
+        sort_by_score(&mut self.candidates);
         self.candidates.truncate(keep);
         let final_cfg = self.final_cost_config();
         for c in &self.candidates {
@@ -659,7 +665,7 @@ impl Localizer {
         self.make_candidates(seg, source, prescreened.max(screened));
         self.out.candidates = self.candidates.len();
         if self.config.record_candidates {
-            self.candidates.sort_by(|a, b| a.score.total_cmp(&b.score));
+            sort_by_score(&mut self.candidates);
             self.out.all_candidates.extend(self.candidates.iter().map(|c| (c.pose, c.score, c.scan_corner)));
         }
         self.keep_best(screened);
