@@ -1,6 +1,8 @@
 //! Mutation fuzzing of every parser that reads what a user or a device hands gema2: CARMEN logs,
-//! URG logs, wall-map JSON, ROS map YAML and PGM images (through to the traced wall map), and
-//! the SCIP 2.0 byte stream of a serial laser.
+//! URG logs, wall-map JSON, ROS map YAML and PGM images (through to the traced wall map), the
+//! SCIP 2.0 byte stream of a serial laser, the ROS 2 messages a DDS peer sends (CDR, through to
+//! the scan a LaserScan becomes), and rosbag2 MCAP files (through to the scans, truth and
+//! odometry read from them).
 //!
 //! Each parser starts from valid seeds and is fed mutants of them (bit flips, cut and repeated
 //! spans, spliced seeds, and the numbers that break arithmetic: `u64::MAX`, `-1`, `nan`,
@@ -326,6 +328,156 @@ fn scip_streams_never_panic_the_driver() {
             for _ in 0..4 {
                 if urg.next_scan().is_err() {
                     break;
+                }
+            }
+        }
+    });
+}
+
+/// Messages as a ROS 2 peer would send them: a LaserScan with REP 117's odd readings, the
+/// poses and odometry the sequential localizer and the evaluation read, and a TF message.
+fn ros_message_seeds() -> Vec<Vec<u8>> {
+    use ros::msg::{self, Header, Time};
+    let header = Header { stamp: Time::from_nanos(1_700_000_000_123_456_789), frame_id: "base_laser".into() };
+    let scan = msg::LaserScan {
+        header: header.clone(),
+        angle_min: -2.0,
+        angle_max: 2.0,
+        angle_increment: 0.5,
+        range_min: 0.05,
+        range_max: 10.0,
+        ranges: vec![1.0, f32::INFINITY, f32::NAN, 20.0, 0.01, 3.5, f32::NEG_INFINITY, 2.0, 9.99],
+        intensities: vec![100.0; 9],
+        ..Default::default()
+    };
+    let pose = msg::Pose::from_planar(1.5, -2.0, 0.7);
+    let odometry = msg::Odometry {
+        header: header.clone(),
+        child_frame_id: "base_link".into(),
+        pose: msg::PoseWithCovariance { pose, ..Default::default() },
+        ..Default::default()
+    };
+    let tf = msg::TfMessage {
+        transforms: vec![msg::TransformStamped {
+            header: header.clone(),
+            child_frame_id: "odom".into(),
+            transform: msg::Transform { translation: [1.0, 2.0, 0.0], rotation: [0.0, 0.0, 0.3, 0.95] },
+        }],
+    };
+    vec![
+        scan.encode(),
+        msg::PoseStamped { header: header.clone(), pose }.encode(),
+        msg::PoseWithCovarianceStamped { header, pose: msg::PoseWithCovariance { pose, ..Default::default() } }
+            .encode(),
+        odometry.encode(),
+        tf.encode(),
+    ]
+}
+
+/// A message off the network is decoded as every type a gema2 node reads; a LaserScan that
+/// decodes is made into a scan, which must hold no reading the stages cannot take.
+#[test]
+fn ros_messages_never_panic_the_decoders() {
+    use ros::msg::{self, Decode};
+    fuzz("ros-message", &ros_message_seeds(), |bytes| {
+        if let Ok(m) = msg::LaserScan::decode(bytes) {
+            if let Ok(scan) = ros::laser_scan(&m) {
+                assert!(scan.geometry.is_well_formed(), "an ill-formed layout was accepted: {:?}", scan.geometry);
+                assert!(scan.ranges.iter().all(|r| r.is_nan() || r.is_finite()), "an infinite range was accepted");
+            }
+        }
+        let _ = msg::PoseStamped::decode(bytes).map(|p| p.pose.planar());
+        let _ = msg::PoseWithCovarianceStamped::decode(bytes);
+        let _ = msg::Odometry::decode(bytes).map(|o| o.pose.pose.planar());
+        let _ = msg::TfMessage::decode(bytes);
+        // a ROS 1 peer's bytes, as a ROS 1 bag holds them
+        let _ = msg::LaserScan::decode_as(ros::cdr::Encoding::Ros1, bytes).map(|m| ros::laser_scan(&m));
+    });
+}
+
+/// An MCAP file of `messages` (topic, type, CDR bytes), chunked and compressed as `compression`
+/// says (no chunks at all with `None`).
+fn mcap_bytes(messages: &[(&str, &str, Vec<u8>)], compression: Option<mcap::Compression>) -> Vec<u8> {
+    let mut out = Vec::new();
+    {
+        let mut w = mcap::WriteOptions::new()
+            .compression(compression)
+            .chunk_size(compression.map(|_| 512))
+            .use_chunks(compression.is_some())
+            .create(Cursor::new(&mut out))
+            .expect("an MCAP writer");
+        let mut channels = std::collections::BTreeMap::new();
+        for (k, (topic, ros_type, data)) in messages.iter().enumerate() {
+            let id = *channels.entry(*topic).or_insert_with(|| {
+                let schema = w.add_schema(ros_type, "ros2msg", b"").expect("a schema");
+                w.add_channel(schema, topic, "cdr", &std::collections::BTreeMap::new()).expect("a channel")
+            });
+            let at = 1_000_000_000 + k as u64 * 100_000_000;
+            let header =
+                mcap::records::MessageHeader { channel_id: id, sequence: k as u32, log_time: at, publish_time: at };
+            w.write_to_known_channel(&header, data).expect("a message");
+        }
+        w.finish().expect("the summary");
+    }
+    out
+}
+
+/// A bag whose file is damaged, cut or hostile (a record claiming exabytes, a chunk that does
+/// not decompress, a message before its channel) is refused or read as far as it goes; it
+/// never panics or aborts the reader, whether it lists the topics or reads scans, truth and
+/// odometry from them.
+#[test]
+fn mcap_bags_never_panic_the_reader() {
+    use ros::msg::{self, Header, Time};
+    let scan = |k: u64| {
+        msg::LaserScan {
+            header: Header { stamp: Time::from_nanos(1_000_000_000 + k * 100_000_000), frame_id: "laser".into() },
+            angle_min: -1.0,
+            angle_max: 1.0,
+            angle_increment: 0.5,
+            range_min: 0.05,
+            range_max: 10.0,
+            ranges: vec![1.0 + k as f32, 2.0, f32::INFINITY, 3.0, 0.5],
+            ..Default::default()
+        }
+        .encode()
+    };
+    let pose = |k: u64| msg::PoseStamped {
+        header: Header { stamp: Time::from_nanos(1_000_000_000 + k * 100_000_000), frame_id: "map".into() },
+        pose: msg::Pose::from_planar(k as f64 * 0.1, 0.0, 0.0),
+    };
+    let odometry = |k: u64| msg::Odometry {
+        header: pose(k).header,
+        child_frame_id: "base_link".into(),
+        pose: msg::PoseWithCovariance { pose: pose(k).pose, ..Default::default() },
+        ..Default::default()
+    };
+    let mut messages = Vec::new();
+    for k in 0..4 {
+        messages.push(("/scan", msg::LaserScan::TYPE, scan(k)));
+        messages.push(("/truth", msg::PoseStamped::TYPE, pose(k).encode()));
+        messages.push(("/odom", msg::Odometry::TYPE, odometry(k).encode()));
+    }
+    let seeds: Vec<Vec<u8>> = [None, Some(mcap::Compression::Zstd), Some(mcap::Compression::Lz4)]
+        .into_iter()
+        .map(|c| mcap_bytes(&messages, c))
+        .collect();
+    let dir = tempfile::tempdir().expect("a scratch folder");
+    let path = dir.path().join("fuzz.mcap");
+    let topics = ros::ScanTopics {
+        scan: Some("/scan".into()),
+        truth: Some("/truth".into()),
+        odometry: Some("/odom".into()),
+        ..Default::default()
+    };
+    fuzz("mcap", &seeds, |bytes| {
+        std::fs::write(&path, bytes).expect("writing the scratch bag");
+        let Ok(bag) = ros::Bag::open(&path) else { return };
+        let _ = bag.topics();
+        for t in [&topics, &ros::ScanTopics::default()] {
+            if let Ok(scans) = ros::BagScans::open(&bag, t) {
+                for s in scans.take(16).flatten() {
+                    assert!(s.scan.geometry.is_well_formed(), "an ill-formed layout was accepted");
                 }
             }
         }

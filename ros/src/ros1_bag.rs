@@ -27,9 +27,8 @@ pub const MAGIC: &[u8] = b"#ROSBAG V2.0\n";
 /// Largest record header read: the fields of a record are a few short values.
 const MAX_HEADER: u32 = 1 << 20;
 
-/// Largest chunk decompressed: rosbag closes a chunk at 768 KB, or at one message larger than
-/// that (a camera frame, a point cloud); a larger declared size is a corrupt or hostile bag.
-const MAX_CHUNK: u64 = 1 << 30;
+/// Largest chunk decompressed ([`crate::stored::MAX_RECORD_BYTES`]).
+const MAX_CHUNK: u64 = crate::stored::MAX_RECORD_BYTES as u64;
 
 /// The record kinds (the `op` field).
 const OP_MESSAGE: u8 = 0x02;

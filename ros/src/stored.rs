@@ -7,6 +7,12 @@ use std::path::PathBuf;
 use std::sync::Arc;
 use thiserror::Error;
 
+/// Largest record or chunk a bag reader takes in, bytes, whatever the storage: a chunk holds
+/// about a megabyte of messages (rosbag closes one at 768 KB), or one message larger than that
+/// (a camera frame, a point cloud); a larger declared size is a corrupt or hostile file,
+/// refused rather than allocated.
+pub const MAX_RECORD_BYTES: usize = 1 << 30;
+
 #[derive(Debug, Error)]
 pub enum BagError {
     // the cause in the message, not chained too: it would print twice
