@@ -110,9 +110,9 @@ struct Topics {
 }
 
 impl Topics {
-    /// Takes in one record; a wanted message is returned.
-    fn take(&mut self, record: mcap::records::Record<'_>) -> Result<Option<BagMessage>, String> {
-        match record {
+    /// Takes in one record (its opcode and body); a wanted message is returned.
+    fn take(&mut self, opcode: u8, body: &[u8]) -> Result<Option<BagMessage>, String> {
+        match mcap::parse_record(opcode, body).map_err(|e| e.to_string())? {
             mcap::records::Record::Schema { header, .. } => {
                 self.schemas.insert(header.id, header.name.into());
             }
@@ -285,13 +285,8 @@ impl McapFile {
                 self.done = true;
                 mcap_error(&self.path, e)
             })? {
-                let taken = mcap::parse_record(opcode, body)
-                    .map_err(|e| e.to_string())
-                    .and_then(|record| self.topics.take(record));
-                match taken {
-                    Ok(Some(m)) => return Ok(Some(m)),
-                    Ok(None) => {}
-                    Err(e) => return Err(self.fail(e)),
+                if let Some(m) = self.topics.take(opcode, body).map_err(|e| self.fail(e))? {
+                    return Ok(Some(m));
                 }
             }
             self.chunk.clear();
@@ -340,13 +335,8 @@ impl McapFile {
                     return Ok(None);
                 }
                 _ => {
-                    let taken = mcap::parse_record(opcode, &body)
-                        .map_err(|e| e.to_string())
-                        .and_then(|record| self.topics.take(record));
-                    match taken {
-                        Ok(Some(m)) => return Ok(Some(m)),
-                        Ok(None) => {}
-                        Err(e) => return Err(self.fail(e)),
+                    if let Some(m) = self.topics.take(opcode, &body).map_err(|e| self.fail(e))? {
+                        return Ok(Some(m));
                     }
                 }
             }
