@@ -691,5 +691,50 @@ mod tests {
             }
             let _ = topics(&path);
         }
+
+        /// A whole bag (chunks plain, bz2 and lz4) with a few bytes changed, a length, a field
+        /// or a compressed byte, is read or refused: never a panic, a hang, or an allocation of
+        /// what a damaged length claims.
+        #[test]
+        fn damaged_bags_are_an_error_or_messages(
+            indexed in any::<bool>(),
+            edits in proptest::collection::vec(
+                (
+                    any::<proptest::sample::Index>(),
+                    prop_oneof![
+                        any::<u8>().prop_map(|b| vec![b]),
+                        any::<u32>().prop_map(|v| v.to_le_bytes().to_vec()),
+                        Just(u32::MAX.to_le_bytes().to_vec()),
+                        Just(0u32.to_le_bytes().to_vec()),
+                    ],
+                ),
+                1..6,
+            ),
+        ) {
+            let dir = tempfile::tempdir().unwrap();
+            let (chunks, index) = three_chunks();
+            let mut b = bag(&chunks, &index, indexed);
+            for (at, bytes) in edits {
+                let at = at.index(b.len());
+                for (k, v) in bytes.into_iter().enumerate() {
+                    if let Some(x) = b.get_mut(at + k) {
+                        *x = v;
+                    }
+                }
+            }
+            let path = write(dir.path(), "f.bag", &b);
+            if let Ok(mut file) = Ros1BagFile::open(&path, Vec::new()) {
+                for _ in 0..64 {
+                    match file.next_message() {
+                        Ok(Some(m)) => {
+                            let _ = LaserScan::decode_as(Encoding::Ros1, &m.data);
+                            let _ = Odometry::decode_as(Encoding::Ros1, &m.data);
+                        }
+                        _ => break,
+                    }
+                }
+            }
+            let _ = topics(&path);
+        }
     }
 }
