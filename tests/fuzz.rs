@@ -1,8 +1,8 @@
 //! Mutation fuzzing of every parser that reads what a user or a device hands gema2: CARMEN logs,
 //! URG logs, wall-map JSON, ROS map YAML and PGM images (through to the traced wall map), the
 //! SCIP 2.0 byte stream of a serial laser, the ROS 2 messages a DDS peer sends (CDR, through to
-//! the scan a LaserScan becomes), and rosbag2 MCAP files (through to the scans, truth and
-//! odometry read from them).
+//! the scan a LaserScan becomes), and rosbag2 bags in MCAP and sqlite3 storage (through to the
+//! scans, truth and odometry read from them).
 //!
 //! Each parser starts from valid seeds and is fed mutants of them (bit flips, cut and repeated
 //! spans, spliced seeds, and the numbers that break arithmetic: `u64::MAX`, `-1`, `nan`,
@@ -422,16 +422,13 @@ fn mcap_bytes(messages: &[(&str, &str, Vec<u8>)], compression: Option<mcap::Comp
     out
 }
 
-/// A bag whose file is damaged, cut or hostile (a record claiming exabytes, a chunk that does
-/// not decompress, a message before its channel) is refused or read as far as it goes; it
-/// never panics or aborts the reader, whether it lists the topics or reads scans, truth and
-/// odometry from them.
-#[test]
-fn mcap_bags_never_panic_the_reader() {
+/// The messages of the bag seeds: four scans, each with a true pose and odometry.
+fn bag_messages() -> Vec<(&'static str, &'static str, Vec<u8>)> {
     use ros::msg::{self, Header, Time};
+    let stamp = |k: u64| Time::from_nanos(1_000_000_000 + k * 100_000_000);
     let scan = |k: u64| {
         msg::LaserScan {
-            header: Header { stamp: Time::from_nanos(1_000_000_000 + k * 100_000_000), frame_id: "laser".into() },
+            header: Header { stamp: stamp(k), frame_id: "laser".into() },
             angle_min: -1.0,
             angle_max: 1.0,
             angle_increment: 0.5,
@@ -443,7 +440,7 @@ fn mcap_bags_never_panic_the_reader() {
         .encode()
     };
     let pose = |k: u64| msg::PoseStamped {
-        header: Header { stamp: Time::from_nanos(1_000_000_000 + k * 100_000_000), frame_id: "map".into() },
+        header: Header { stamp: stamp(k), frame_id: "map".into() },
         pose: msg::Pose::from_planar(k as f64 * 0.1, 0.0, 0.0),
     };
     let odometry = |k: u64| msg::Odometry {
@@ -458,28 +455,86 @@ fn mcap_bags_never_panic_the_reader() {
         messages.push(("/truth", msg::PoseStamped::TYPE, pose(k).encode()));
         messages.push(("/odom", msg::Odometry::TYPE, odometry(k).encode()));
     }
-    let seeds: Vec<Vec<u8>> = [None, Some(mcap::Compression::Zstd), Some(mcap::Compression::Lz4)]
-        .into_iter()
-        .map(|c| mcap_bytes(&messages, c))
-        .collect();
-    let dir = tempfile::tempdir().expect("a scratch folder");
-    let path = dir.path().join("fuzz.mcap");
+    messages
+}
+
+/// Reads the bag at `path` as `locate --bag` does: its topics, then its scans with their truth
+/// and odometry, and with the default topics; what it accepts must be usable.
+fn read_bag(path: &Path) {
+    let Ok(bag) = ros::Bag::open(path) else { return };
+    let _ = bag.topics();
     let topics = ros::ScanTopics {
         scan: Some("/scan".into()),
         truth: Some("/truth".into()),
         odometry: Some("/odom".into()),
         ..Default::default()
     };
-    fuzz("mcap", &seeds, |bytes| {
-        std::fs::write(&path, bytes).expect("writing the scratch bag");
-        let Ok(bag) = ros::Bag::open(&path) else { return };
-        let _ = bag.topics();
-        for t in [&topics, &ros::ScanTopics::default()] {
-            if let Ok(scans) = ros::BagScans::open(&bag, t) {
-                for s in scans.take(16).flatten() {
-                    assert!(s.scan.geometry.is_well_formed(), "an ill-formed layout was accepted");
-                }
+    for t in [&topics, &ros::ScanTopics::default()] {
+        if let Ok(scans) = ros::BagScans::open(&bag, t) {
+            for s in scans.take(16).flatten() {
+                assert!(s.scan.geometry.is_well_formed(), "an ill-formed layout was accepted");
             }
         }
+    }
+}
+
+/// A sqlite3 bag (ROS 2 Humble's default storage) damaged anywhere, its pages, its schema or
+/// its rows, is refused or read as far as it goes; never a panic.
+#[test]
+fn sqlite3_bags_never_panic_the_reader() {
+    let dir = tempfile::tempdir().expect("a scratch folder");
+    let seed = dir.path().join("seed.db3");
+    {
+        let db = rusqlite::Connection::open(&seed).expect("a sqlite3 file");
+        db.execute_batch(
+            "CREATE TABLE topics(id INTEGER PRIMARY KEY, name TEXT NOT NULL, type TEXT NOT NULL, \
+             serialization_format TEXT NOT NULL, offered_qos_profiles TEXT NOT NULL);\
+             CREATE TABLE messages(id INTEGER PRIMARY KEY, topic_id INTEGER NOT NULL, \
+             timestamp INTEGER NOT NULL, data BLOB NOT NULL);",
+        )
+        .expect("the rosbag2 tables");
+        let mut ids = std::collections::BTreeMap::new();
+        for (k, (topic, ros_type, data)) in bag_messages().into_iter().enumerate() {
+            let next = ids.len() as i64 + 1;
+            let id = *ids.entry(topic).or_insert_with(|| {
+                db.execute(
+                    "INSERT INTO topics VALUES (?1, ?2, ?3, 'cdr', '')",
+                    rusqlite::params![next, topic, ros_type],
+                )
+                .expect("a topic");
+                next
+            });
+            let at = 1_000_000_000 + k as i64 * 100_000_000;
+            db.execute(
+                "INSERT INTO messages(topic_id, timestamp, data) VALUES (?1, ?2, ?3)",
+                rusqlite::params![id, at, data],
+            )
+            .expect("a message");
+        }
+    }
+    let seeds = vec![std::fs::read(&seed).expect("the seed's bytes")];
+    let path = dir.path().join("fuzz.db3");
+    fuzz("db3", &seeds, |bytes| {
+        std::fs::write(&path, bytes).expect("writing the scratch bag");
+        read_bag(&path);
+    });
+}
+
+/// A bag whose file is damaged, cut or hostile (a record claiming exabytes, a chunk that does
+/// not decompress, a message before its channel) is refused or read as far as it goes; it
+/// never panics or aborts the reader, whether it lists the topics or reads scans, truth and
+/// odometry from them.
+#[test]
+fn mcap_bags_never_panic_the_reader() {
+    let messages = bag_messages();
+    let seeds: Vec<Vec<u8>> = [None, Some(mcap::Compression::Zstd), Some(mcap::Compression::Lz4)]
+        .into_iter()
+        .map(|c| mcap_bytes(&messages, c))
+        .collect();
+    let dir = tempfile::tempdir().expect("a scratch folder");
+    let path = dir.path().join("fuzz.mcap");
+    fuzz("mcap", &seeds, |bytes| {
+        std::fs::write(&path, bytes).expect("writing the scratch bag");
+        read_bag(&path);
     });
 }
