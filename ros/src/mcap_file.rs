@@ -64,13 +64,23 @@ fn file_summary(path: &Path) -> Result<Option<mcap::Summary>, BagError> {
     let options =
         mcap::sans_io::SummaryReaderOptions::default().with_file_size(size).with_record_length_limit(MAX_RECORD_BYTES);
     let mut reader = SummaryReader::new_with_options(options);
+    // where the file is read: a request past its end is a damaged summary, not a buffer of
+    // the size a damaged length claims
+    let mut at = 0u64;
     while let Some(event) = reader.next_event() {
         match event {
             Ok(SummaryReadEvent::ReadRequest(need)) => {
+                if at.saturating_add(need as u64) > size {
+                    return Ok(None);
+                }
                 let n = file.read(reader.insert(need)).map_err(io)?;
+                at += n as u64;
                 reader.notify_read(n);
             }
-            Ok(SummaryReadEvent::SeekRequest(to)) => reader.notify_seeked(file.seek(to).map_err(io)?),
+            Ok(SummaryReadEvent::SeekRequest(to)) => {
+                at = file.seek(to).map_err(io)?;
+                reader.notify_seeked(at);
+            }
             Err(_) => return Ok(None),
         }
     }
