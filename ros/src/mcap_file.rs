@@ -90,8 +90,8 @@ fn file_summary(path: &Path) -> Result<Option<mcap::Summary>, BagError> {
 /// One MCAP file read from start to end.
 ///
 /// The records are framed here (an opcode, a length, the body) and each chunk is decompressed
-/// here in one call, to exactly the size it declares, and checked against its CRC; the `mcap`
-/// crate parses the records' bodies. The crate's own streaming reader spins for ever on a chunk
+/// here, in a stream capped at the size it declares, then checked for exactly that size and
+/// against its CRC; the `mcap` crate parses the records' bodies. The crate's own streaming reader spins for ever on a chunk
 /// that declares more bytes than its compressed data holds (zstd or LZ4: one damaged length
 /// field), so a bag found on a disk could hang a localizer. A chunk the file ends inside (a
 /// recording killed) gives the whole records it holds, then the error.
@@ -291,10 +291,12 @@ impl McapFile {
     pub fn next_message(&mut self) -> Result<Option<BagMessage>, BagError> {
         loop {
             // the chunk being read first
-            while let Some((opcode, body)) = next_chunk_record(&self.chunk, &mut self.chunk_at).map_err(|e| {
-                self.done = true;
-                mcap_error(&self.path, e)
-            })? {
+            loop {
+                let (opcode, body) = match next_chunk_record(&self.chunk, &mut self.chunk_at) {
+                    Ok(Some(record)) => record,
+                    Ok(None) => break,
+                    Err(e) => return Err(self.fail(e)),
+                };
                 if let Some(m) = self.topics.take(opcode, body).map_err(|e| self.fail(e))? {
                     return Ok(Some(m));
                 }
@@ -414,8 +416,8 @@ mod tests {
         }
     }
 
-    /// A chunk whose records end before the size it declares: the `mcap` crate's own LZ4
-    /// decompression spun for ever on it.
+    /// A chunk whose records end before the size it declares: the `mcap` crate's own
+    /// streaming decompression spun for ever on it, zstd and LZ4 alike.
     #[test]
     fn a_chunk_declaring_more_than_it_holds_is_an_error_not_a_hang() {
         for c in [mcap::Compression::Lz4, mcap::Compression::Zstd] {
