@@ -377,8 +377,13 @@ fn each_ok_scan_without_corners(
 #[test]
 fn tracking_restricts_the_slide_search_to_walls_near_the_last_pose() {
     let map = worlds::office(2024, 3, 8);
-    // every candidate kept by the screen, so `candidates` counts all the poses made
-    let keep_all = LocalizerConfig { prescreened: 1 << 20, ..LocalizerConfig::default() };
+    // every candidate kept by the screen, so `candidates` counts all the poses made; no loose
+    // slide, whose poses `candidates` would count instead when it runs after the slide
+    let keep_all = LocalizerConfig {
+        prescreened: 1 << 20,
+        slide: localize::SlideConfig { loose_lines: 0, ..Default::default() },
+        ..LocalizerConfig::default()
+    };
     let tracking = LocalizerConfig { track_radius: Some(6.0), ..keep_all };
     let mut tracked = gema2(&map, tracking);
     let mut global = gema2(&map, keep_all);
@@ -570,6 +575,39 @@ fn the_first_look_never_settles_a_scan_on_a_map_built_from_scans() {
     assert!(settled_drawn >= n / 2, "the first look settled only {settled_drawn} of {n} on the drawn map");
 }
 
+/// The loose slide runs after the slide only when the answer so far is not `ok`: on a map
+/// built from scans, where a right pose is seldom confirmed, a slid `ok` answer keeps it from
+/// running, and every scan it passes over is `ok` or has no loose line to lay (as the same
+/// scan with nothing slid ever `ok` shows).
+#[test]
+fn the_loose_slide_runs_only_on_answers_the_slide_left_short_of_ok() {
+    let drawn = worlds::apartment();
+    let built = WallMap { sigma: map::APPROXIMATE_MAP, ..drawn.clone() };
+    let never_ok = LocalizerConfig {
+        slide: localize::SlideConfig { min_inliers_ok: 1.0, ..Default::default() },
+        ..LocalizerConfig::default()
+    };
+    let (mut usual, mut always) = (gema2(&built, LocalizerConfig::default()), gema2(&built, never_ok));
+    let mut sim = Simulator::new(&drawn, SensorModel::urg04lx(), Scenario::Furniture, 12);
+    let (mut passed_over, mut ran) = (0, 0);
+    for _ in 0..40 {
+        let scan = sim.next_scan();
+        let (_, a) = usual.process(&scan.view());
+        if !a.times.slide_search() {
+            continue;
+        }
+        let (status, loose) = (a.status, a.times.loose_slide());
+        let (_, b) = always.process(&scan.view());
+        if loose {
+            ran += 1;
+        } else if b.times.loose_slide() {
+            assert_eq!(status, Status::Ok, "the loose slide passed over a scan left {status:?}");
+            passed_over += 1;
+        }
+    }
+    assert!(passed_over > 0 && ran > 0, "passed over {passed_over}, ran on {ran}: the test shows nothing");
+}
+
 /// The thorough search ([`LocalizerConfig::thorough`]) finds poses the default budgets pass
 /// over: in this furnished warehouse scan the boxes hide the corners and the default search
 /// ends on a wrong pose; the wider one finds the true pose, which eq. 7 rates better than
@@ -703,15 +741,18 @@ fn eq7_ranks_the_truth_of_furnished_scans_above_the_wrong_poses_the_plain_cost_p
 
 /// A pose found once the slide search has run is `ok` only when at least
 /// `slide.min_inliers_ok` of its beams agree with the map; below that it stays the answer, as
-/// `ambiguous`. Nothing else changes: the same poses in the same order.
+/// `ambiguous`. Nothing else changes: the same poses in the same order. (Without the loose
+/// slide, which runs only when the slide's answer is not `ok`, so that the rule would also
+/// decide whether it runs.)
 #[test]
 fn a_slid_pose_needs_half_its_beams_to_be_ok() {
     let map = worlds::apartment();
+    let no_loose = localize::SlideConfig { loose_lines: 0, ..Default::default() };
     let lenient_cfg = LocalizerConfig {
-        slide: localize::SlideConfig { min_inliers_ok: 0.0, ..Default::default() },
+        slide: localize::SlideConfig { min_inliers_ok: 0.0, ..no_loose },
         ..LocalizerConfig::default()
     };
-    let strict_cfg = LocalizerConfig::default();
+    let strict_cfg = LocalizerConfig { slide: no_loose, ..LocalizerConfig::default() };
     let mut strict = gema2(&map, strict_cfg);
     let mut lenient = gema2(&map, lenient_cfg);
     let mut sim = Simulator::new(&map, SensorModel::urg04lx(), Scenario::Furniture, 33);

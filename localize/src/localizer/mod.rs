@@ -90,7 +90,8 @@ impl LocateTimes {
         self.ran.contains(Step::Slide)
     }
 
-    /// Whether the loose slide ran: the slide search's best pose was not confirmed either.
+    /// Whether the loose slide ran: the answer after the slide search was not `ok`, and the scan
+    /// had lines of uncertain direction to lay.
     pub fn loose_slide(&self) -> bool {
         self.ran.contains(Step::LooseSlide)
     }
@@ -482,10 +483,7 @@ impl Localizer {
         self.set_screen_points(seg);
         let ran = self.run_cascade(scan, seg);
         if ran.contains(Step::Slide) {
-            let cfg = self.config;
-            if self.out.status == Status::Ok
-                && self.out.hypotheses.first().is_some_and(|h| h.cost.inliers < cfg.slide.min_inliers_ok)
-            {
+            if self.out.status == Status::Ok && self.short_of_the_slides_bar() {
                 self.out.status = Status::Ambiguous;
             }
             // with no corner in view, an equally good pose further along the same wall means the
@@ -502,7 +500,7 @@ impl Localizer {
                 self.out.status = Status::Failed;
             }
         }
-        if self.out.status == Status::Ok && (self.rival_within_misfit() || self.pinned_down_too_little()) {
+        if self.out.status == Status::Ok && self.too_weak_for_ok() {
             self.out.status = Status::Ambiguous;
         }
         self.report();
@@ -527,6 +525,7 @@ impl Localizer {
             }
             let due = match spec.when {
                 When::Unconfirmed => !self.config.first_look.confirms(self.out.status, self.out.hypotheses.first()),
+                When::NotOkAfterSlide => !self.ok_after_the_slide(),
                 When::SeesThroughWalls => self.escalates(),
             };
             if due {

@@ -31,6 +31,25 @@ impl Localizer {
         })
     }
 
+    /// Whether the best hypothesis, found with the slide search's help, explains fewer of the
+    /// scan's beams than a slid `ok` pose must ([`SlideConfig::min_inliers_ok`](crate::slide::SlideConfig)).
+    pub(super) fn short_of_the_slides_bar(&self) -> bool {
+        self.out.hypotheses.first().is_some_and(|h| h.cost.inliers < self.config.slide.min_inliers_ok)
+    }
+
+    /// Whether an `ok` answer is still too weak to stand: a rival within its misfit, or a
+    /// position the scan pins down too little ([`Self::rival_within_misfit`],
+    /// [`Self::pinned_down_too_little`]).
+    pub(super) fn too_weak_for_ok(&self) -> bool {
+        self.rival_within_misfit() || self.pinned_down_too_little()
+    }
+
+    /// Whether, after the slide search, the answer so far is `ok` and stays so through the
+    /// checks [`Localizer::locate`] makes once the cascade ends.
+    pub(super) fn ok_after_the_slide(&self) -> bool {
+        self.out.status == Status::Ok && !self.short_of_the_slides_bar() && !self.too_weak_for_ok()
+    }
+
     /// Whether a distinct hypothesis costs less than [`LocalizerConfig::ambiguity_ratio`] of
     /// the best one's cost more than it: a rival within the best pose's own misfit.
     pub(super) fn rival_within_misfit(&self) -> bool {
