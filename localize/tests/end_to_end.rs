@@ -1,7 +1,7 @@
 //! The algorithm end to end on simulated scans: eqs. 1-7 together.
 
 use acquire::{Scenario, SensorModel, Simulator};
-use laser::{pose, LaserScan, ScanGeometry};
+use laser::{pose, pose_theta, LaserScan, ScanGeometry};
 use localize::cost::cost;
 use localize::refine::{refine, RefineConfig};
 use localize::slide::SlideLine;
@@ -606,6 +606,48 @@ fn the_loose_slide_runs_only_on_answers_the_slide_left_short_of_ok() {
         }
     }
     assert!(passed_over > 0 && ran > 0, "passed over {passed_over}, ran on {ran}: the test shows nothing");
+}
+
+/// On a map built from scans, a wall end is matched only from where its survey saw free
+/// space: no candidate pose of a scan's wall end puts the sensor off limits, though the map
+/// lists the ends the survey saw past and the scans have wall ends to match.
+#[test]
+fn a_built_maps_wall_ends_are_matched_only_from_the_surveyed_free_space() {
+    let drawn = worlds::apartment();
+    let mut sim = Simulator::new(&drawn, SensorModel::urg04lx(), Scenario::Clean, 5);
+    let scans: Vec<LaserScan> = (0..40).map(|_| sim.next_scan()).collect();
+    // the survey: every reading's beam, from the sensor to what it hit
+    let (lo, hi) = drawn.bounds();
+    let mut seen = map::SeenFree::covering(lo, hi, 0.2).expect("a raster over the apartment");
+    for scan in &scans[..30] {
+        let truth = scan.truth.expect("a simulated scan has its truth");
+        let from = nalgebra::Point2::from(truth.translation.vector);
+        for (i, &r) in scan.ranges.iter().enumerate() {
+            if r.is_finite() && r > 0.02 && f64::from(r) < scan.geometry.range_max {
+                let a = pose_theta(&truth) + scan.geometry.angle(i);
+                seen.mark_ray(from, from + nalgebra::Vector2::new(a.cos(), a.sin()) * f64::from(r));
+            }
+        }
+    }
+    let built = WallMap { sigma: map::APPROXIMATE_MAP, seen_free: Some(seen), ..drawn.clone() };
+    let model = model(built.clone());
+    let ends = model.corners.corners().iter().filter(|c| c.inner_angle >= std::f64::consts::TAU).count();
+    assert!(ends > 0, "the survey saw past no wall end");
+    let config = LocalizerConfig { record_candidates: true, ..LocalizerConfig::default() };
+    let mut g = Gema2::new(Arc::clone(&model), SegmenterConfig::default(), config);
+    let mut matched = 0;
+    for scan in &scans[30..] {
+        let (seg, loc) = g.process(&scan.view());
+        for (pose, _, corner) in &loc.all_candidates {
+            let from_an_end =
+                seg.corners.get(usize::from(*corner)).is_some_and(|c| c.inner_angle >= std::f64::consts::TAU);
+            if from_an_end {
+                matched += 1;
+                assert!(!model.off_limits(nalgebra::Point2::from(pose.translation.vector)), "{pose:?}");
+            }
+        }
+    }
+    assert!(matched > 0, "no scan wall end met a map wall end: the test shows nothing");
 }
 
 /// The thorough search ([`LocalizerConfig::thorough`]) finds poses the default budgets pass

@@ -184,12 +184,23 @@ fn faces_standing_space(on_line: Point2<f64>, along: Vector2<f64>, side: Vector2
 /// wedge: straight across first, then turned 45 degrees either way.
 const LOOK_ANGLES: [(f64, f64); 3] = [(0.0, 1.0), (FRAC_1_SQRT_2, FRAC_1_SQRT_2), (-FRAC_1_SQRT_2, FRAC_1_SQRT_2)];
 
+/// How far past a wall's end a map built from scans must have seen free space for the end to
+/// be a corner, metres: past a true end (a door jamb, a pillar) beams went on, past an end
+/// where the survey only stopped seeing the wall they stopped at it.
+pub const SEEN_PAST_END: f64 = 0.3;
+
+/// Whether the survey saw free space [`SEEN_PAST_END`] past wall end `c`, on its wall's line.
+fn seen_past_its_end(c: &MapCorner, seen: &crate::SeenFree) -> bool {
+    seen.contains(c.position - c.arms[0].direction * SEEN_PAST_END)
+}
+
 /// The corners a map offers: built from its straight runs, and only those a sensor can see.
 impl CornerIndex {
     /// The corners of `map`. A map that declares itself approximate (`sigma` of
-    /// [`APPROXIMATE_MAP`](crate::map::APPROXIMATE_MAP) or more: typically built from scans) lists no wall ends: its walls
-    /// end where the survey stopped seeing them, not where the walls do. On maps built from the
-    /// CARMEN logs, wall ends there made 28 % (aces) to 53 % (freiburg-101) of `ok` poses wrong.
+    /// [`APPROXIMATE_MAP`](crate::map::APPROXIMATE_MAP) or more: typically built from scans)
+    /// lists only the wall ends its survey saw free space past ([`SEEN_PAST_END`]), and none
+    /// when it keeps no survey: most of its walls end where the survey stopped seeing them, not
+    /// where the walls do.
     ///
     /// Corners come from the map's straight runs ([`crate::runs`]), not from its walls as
     /// drawn: a wall drawn in pieces is one wall to a scan. With
@@ -201,15 +212,18 @@ impl CornerIndex {
 
     /// [`of_map`](Self::of_map) with the map's straight runs already at hand.
     pub fn of_runs(map: &crate::map::WallMap, runs: &[Wall], cfg: &MapCornerConfig) -> Self {
-        let cfg = MapCornerConfig { wall_ends: cfg.wall_ends && !map.is_approximate(), ..*cfg };
+        let survey = if map.is_approximate() { map.seen_free.as_ref().map(Some) } else { Some(None) };
+        let cfg = MapCornerConfig { wall_ends: cfg.wall_ends && survey.is_some(), ..*cfg };
+        let survey = survey.flatten();
+        let real = |c: &MapCorner| c.inner_angle < TAU || survey.is_none_or(|seen| seen_past_its_end(c, seen));
         let corners = if cfg.only_in_view {
             // as they are found, junction by junction: the looks of one junction's corners are
             // remembered together, and only the corners kept are stored and sorted
             let sight = SightLines::new(runs, LOOK);
             let mut looks = Looks::new(&sight);
-            crate::corners::extract_map_corners_where(runs, &cfg, |c| looks.in_view(c))
+            crate::corners::extract_map_corners_where(runs, &cfg, |c| real(c) && looks.in_view(c))
         } else {
-            crate::corners::extract_map_corners(runs, &cfg)
+            crate::corners::extract_map_corners_where(runs, &cfg, real)
         };
         Self::new(corners)
     }
@@ -233,6 +247,39 @@ mod tests {
     fn all_corners(map: &WallMap) -> Vec<MapCorner> {
         let cfg = MapCornerConfig { only_in_view: false, ..MapCornerConfig::default() };
         CornerIndex::of_map(map, &cfg).corners().to_vec()
+    }
+
+    /// A map built from scans lists the wall ends its survey saw free space past (the door's
+    /// jambs), not those it did not (where the partition meets the outer wall, and the outer
+    /// walls' ends at the building's corners); without a survey it lists none. Its junctions
+    /// stay as they are.
+    #[test]
+    fn a_built_map_lists_the_wall_ends_its_survey_saw_past() {
+        let drawn = two_rooms();
+        let mut seen = crate::SeenFree::covering(Point2::new(-1.0, -1.0), Point2::new(7.0, 5.0), 0.2).unwrap();
+        // beams across each room, and through the door
+        for k in 1..40 {
+            let y = 0.1 * f64::from(k);
+            seen.mark_ray(Point2::new(0.05, y), Point2::new(2.95, y));
+            seen.mark_ray(Point2::new(3.05, y), Point2::new(5.95, y));
+        }
+        seen.mark_ray(Point2::new(2.0, 1.95), Point2::new(4.0, 1.95));
+        let surveyed = WallMap { sigma: crate::APPROXIMATE_MAP, seen_free: Some(seen), ..drawn.clone() };
+        let unsurveyed = WallMap { seen_free: None, ..surveyed.clone() };
+        let ends = |map: &WallMap| {
+            let mut ends: Vec<(i64, i64)> = all_corners(map)
+                .iter()
+                .filter(|c| c.inner_angle >= TAU)
+                .map(|c| ((c.position.x * 10.0).round() as i64, (c.position.y * 10.0).round() as i64))
+                .collect();
+            ends.sort_unstable();
+            ends
+        };
+        assert_eq!(ends(&surveyed), [(30, 15), (30, 24)], "the door's jambs");
+        assert!(ends(&unsurveyed).is_empty());
+        assert!(ends(&drawn).len() > 2, "a drawn map lists every end");
+        let junctions = |map: &WallMap| all_corners(map).iter().filter(|c| c.inner_angle < TAU).count();
+        assert_eq!(junctions(&surveyed), junctions(&drawn));
     }
 
     #[test]
