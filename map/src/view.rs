@@ -212,9 +212,10 @@ impl CornerIndex {
 
     /// [`of_map`](Self::of_map) with the map's straight runs already at hand.
     pub fn of_runs(map: &crate::map::WallMap, runs: &[Wall], cfg: &MapCornerConfig) -> Self {
-        let survey = if map.is_approximate() { map.seen_free.as_ref().map(Some) } else { Some(None) };
-        let cfg = MapCornerConfig { wall_ends: cfg.wall_ends && survey.is_some(), ..*cfg };
-        let survey = survey.flatten();
+        // a built map's wall ends are the ends its survey saw past; without a survey, none
+        let survey = map.seen_free.as_ref().filter(|_| map.is_approximate());
+        let wall_ends = cfg.wall_ends && (!map.is_approximate() || survey.is_some());
+        let cfg = MapCornerConfig { wall_ends, ..*cfg };
         let real = |c: &MapCorner| c.inner_angle < TAU || survey.is_none_or(|seen| seen_past_its_end(c, seen));
         let corners = if cfg.only_in_view {
             // as they are found, junction by junction: the looks of one junction's corners are
