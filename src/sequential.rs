@@ -285,6 +285,55 @@ impl SeqSummary {
     }
 }
 
+/// What a run's table row leaves out, a line each, to look into: the starts with no right `ok`
+/// within `within` located scans, by the log line of the start's first scan and the located
+/// scans to its first right `ok`; and the wrong `ok` answers, by log line, with how far off
+/// they were (`*`: at a disputed truth). `lines[k]` is the log line of `outcomes[k]`'s scan.
+/// Nothing for a run without truth.
+pub fn to_look_into(outcomes: &[SeqOutcome], lines: &[usize], within: usize) -> Vec<String> {
+    let (mut slow, mut wrong) = (Vec::new(), Vec::new());
+    let mut start: Option<(usize, Option<usize>)> = None;
+    let mut close = |start: Option<(usize, Option<usize>)>| {
+        if let Some((line, fix)) = start.filter(|(_, fix)| fix.is_none_or(|n| n > within)) {
+            slow.push(format!("{line}: {}", fix.map_or("never".to_string(), |n| n.to_string())));
+        }
+    };
+    for (o, &line) in outcomes.iter().zip(lines) {
+        if !o.outcome.has_truth {
+            return Vec::new();
+        }
+        if o.in_start == 1 {
+            close(start.take());
+            start = Some((line, None));
+        }
+        let right = o.outcome.success();
+        if o.answer.status != Status::Ok {
+            continue;
+        }
+        if let Some((_, fix @ None)) = start.as_mut() {
+            if right {
+                *fix = Some(o.in_start);
+            }
+        }
+        if !right {
+            let off = o.outcome.error.map_or("no pose".to_string(), |(m, deg)| format!("{m:.2} m {deg:.1} deg"));
+            wrong.push(format!("{line}{}: {off}", if o.outcome.disputed { "*" } else { "" }));
+        }
+    }
+    close(start);
+    let mut said = Vec::new();
+    if !slow.is_empty() {
+        said.push(format!(
+            "starts with no right ok within {within} scans (log line of the first scan: scans to the first right ok): {}",
+            slow.join(", ")
+        ));
+    }
+    if !wrong.is_empty() {
+        said.push(format!("wrong ok (log line: how far off; * at a disputed truth): {}", wrong.join(", ")));
+    }
+    said
+}
+
 /// How one kidnapping went: the robot located along one stretch, then carried elsewhere with
 /// no odometry across the cut.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -326,6 +375,40 @@ impl Kidnap {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    fn outcome(in_start: usize, status: Status, error: Option<(f64, f64)>) -> SeqOutcome {
+        let mut outcome = Outcome::of(status, None, None, 1.0);
+        (outcome.error, outcome.has_truth) = (error, true);
+        let answer =
+            SequentialAnswer { status, pose: None, cost: None, scans: 1, global: true, tracks: 1, track: None };
+        SeqOutcome { outcome, in_start, answer }
+    }
+
+    /// The starts that miss the bar and the wrong `ok` answers are named by log line; a start
+    /// fixed in time and a right `ok` are not.
+    #[test]
+    fn what_to_look_into_names_the_slow_starts_and_the_wrong_oks() {
+        let right = Some((0.05, 1.0));
+        let far = Some((12.5, 90.0));
+        let outcomes = [
+            // fixed on its second scan
+            outcome(1, Status::Ambiguous, far),
+            outcome(2, Status::Ok, right),
+            // a wrong ok, then fixed on the fourth scan
+            outcome(1, Status::Ok, far),
+            outcome(2, Status::Ambiguous, right),
+            outcome(3, Status::Ambiguous, right),
+            outcome(4, Status::Ok, right),
+            // never fixed
+            outcome(1, Status::Ambiguous, right),
+        ];
+        let lines = [10, 12, 14, 16, 18, 20, 22];
+        let said = to_look_into(&outcomes, &lines, 3);
+        assert_eq!(said.len(), 2, "{said:?}");
+        assert!(said[0].ends_with("14: 4, 22: never"), "{}", said[0]);
+        assert!(said[1].ends_with("14: 12.50 m 90.0 deg"), "{}", said[1]);
+        assert!(to_look_into(&outcomes[..2], &lines[..2], 3).is_empty());
+    }
 
     /// `--set`'s sequential keys (the odometry's alphas) reach the localizer a run makes.
     #[test]

@@ -539,7 +539,8 @@ fn seq_row(
         kidnaps,
     ];
     println!("{}", cells.join(" | "));
-    for m in missed {
+    let lines: Vec<usize> = scans.iter().map(|item| item.line).collect();
+    for m in crate::sequential::to_look_into(&run.outcomes, &lines, 3).into_iter().chain(missed) {
         println!("  {m}");
     }
     Ok((format!("| {} |\n", cells.join(" | ")), run.outcomes))
