@@ -291,7 +291,7 @@ mod tests {
         let odom: Vec<Pose> = truth.iter().map(|t| odometry.next(t, false)).collect();
         let mut motions: Vec<_> = (1..truth.len()).map(|k| (truth[k - 1], truth[k], odom[k - 1], odom[k])).collect();
         // a glitch of the truth: 2 m and a right angle off for one scan
-        motions[100].1 = motions[100].1 * pose(2.0, 0.0, 1.5);
+        motions[100].1 *= pose(2.0, 0.0, 1.5);
         let fit = OdometryNoise::fit(&motions).expect("enough motions");
         for (k, (&got, &want)) in fit.noise.alphas.iter().zip(&alphas).enumerate() {
             assert!((got / want - 1.0).abs() < 0.25, "alpha{}: {got} against {want}", k + 1);
