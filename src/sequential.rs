@@ -286,41 +286,29 @@ impl SeqSummary {
 }
 
 /// What a run's table row leaves out, a line each, to look into: the starts with no right `ok`
-/// within `within` located scans, by the log line of the start's first scan and the located
-/// scans to its first right `ok`; and the wrong `ok` answers, by log line, with how far off
-/// they were (`*`: at a disputed truth). `lines[k]` is the log line of `outcomes[k]`'s scan.
-/// Nothing for a run without truth.
-pub fn to_look_into(outcomes: &[SeqOutcome], lines: &[usize], within: usize) -> Vec<String> {
-    let (mut slow, mut wrong) = (Vec::new(), Vec::new());
-    let mut start: Option<(usize, Option<usize>)> = None;
-    let mut close = |start: Option<(usize, Option<usize>)>| {
-        if let Some((line, fix)) = start.filter(|(_, fix)| fix.is_none_or(|n| n > within)) {
-            slow.push(format!("{line}: {}", fix.map_or("never".to_string(), |n| n.to_string())));
-        }
-    };
-    for (o, &line) in outcomes.iter().zip(lines) {
-        if !o.outcome.has_truth {
-            return Vec::new();
-        }
-        if o.in_start == 1 {
-            close(start.take());
-            start = Some((line, None));
-        }
-        let right = o.outcome.success();
-        if o.answer.status != Status::Ok {
-            continue;
-        }
-        if let Some((_, fix @ None)) = start.as_mut() {
-            if right {
-                *fix = Some(o.in_start);
-            }
-        }
-        if !right {
-            let off = o.outcome.error.map_or("no pose".to_string(), |(m, deg)| format!("{m:.2} m {deg:.1} deg"));
-            wrong.push(format!("{line}{}: {off}", if o.outcome.disputed { "*" } else { "" }));
-        }
+/// within `within` located scans ([`SeqSummary::to_first_fix`]), by the log line of the
+/// start's first scan and the located scans to its first right `ok`; and the wrong `ok`
+/// answers, by log line, with how far off they were (`*`: at a disputed truth). `summary` is
+/// [`SeqSummary::of`] `outcomes`, and `lines[k]` the log line of `outcomes[k]`'s scan. Nothing
+/// for a run without truth.
+pub fn to_look_into(summary: &SeqSummary, outcomes: &[SeqOutcome], lines: &[usize], within: usize) -> Vec<String> {
+    if !summary.has_truth {
+        return Vec::new();
     }
-    close(start);
+    let located = || outcomes.iter().zip(lines);
+    let firsts = located().filter(|(o, _)| o.in_start == 1).map(|(_, &line)| line);
+    let slow: Vec<String> = firsts
+        .zip(&summary.to_first_fix)
+        .filter(|(_, fix)| fix.is_none_or(|n| n > within))
+        .map(|(line, fix)| format!("{line}: {}", fix.map_or("never".to_string(), |n| n.to_string())))
+        .collect();
+    let wrong: Vec<String> = located()
+        .filter(|(o, _)| o.answer.status == Status::Ok && o.outcome.has_truth && !o.outcome.success())
+        .map(|(o, line)| {
+            let off = o.outcome.error.map_or("no pose".to_string(), |(m, deg)| format!("{m:.2} m {deg:.1} deg"));
+            format!("{line}{}: {off}", if o.outcome.disputed { "*" } else { "" })
+        })
+        .collect();
     let mut said = Vec::new();
     if !slow.is_empty() {
         said.push(format!(
@@ -403,11 +391,11 @@ mod tests {
             outcome(1, Status::Ambiguous, right),
         ];
         let lines = [10, 12, 14, 16, 18, 20, 22];
-        let said = to_look_into(&outcomes, &lines, 3);
+        let said = to_look_into(&SeqSummary::of(&outcomes), &outcomes, &lines, 3);
         assert_eq!(said.len(), 2, "{said:?}");
         assert!(said[0].ends_with("14: 4, 22: never"), "{}", said[0]);
         assert!(said[1].ends_with("14: 12.50 m 90.0 deg"), "{}", said[1]);
-        assert!(to_look_into(&outcomes[..2], &lines[..2], 3).is_empty());
+        assert!(to_look_into(&SeqSummary::of(&outcomes[..2]), &outcomes[..2], &lines[..2], 3).is_empty());
     }
 
     /// `--set`'s sequential keys (the odometry's alphas) reach the localizer a run makes.

@@ -540,7 +540,7 @@ fn seq_row(
     ];
     println!("{}", cells.join(" | "));
     let lines: Vec<usize> = scans.iter().map(|item| item.line).collect();
-    for m in crate::sequential::to_look_into(&run.outcomes, &lines, 3).into_iter().chain(missed) {
+    for m in crate::sequential::to_look_into(&s, &run.outcomes, &lines, 3).into_iter().chain(missed) {
         println!("  {m}");
     }
     Ok((format!("| {} |\n", cells.join(" | ")), run.outcomes))
