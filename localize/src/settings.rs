@@ -104,6 +104,13 @@ impl LocalizerConfig {
         ),
         setting!(
             LocalizerConfig,
+            "screened_approximate",
+            Range::Count,
+            "on a map built from scans, the most hypotheses any search keeps for the coarse cost",
+            screened_approximate
+        ),
+        setting!(
+            LocalizerConfig,
             "refined",
             Range::Count,
             "hypotheses kept by the coarse cost, refined and costed in full (eq. 7)",

@@ -1101,3 +1101,33 @@ fn a_pose_pinned_along_a_built_corridor_by_one_point_is_not_ok() {
     assert_eq!(status_on(&built, 0.0), Status::Ok);
     assert_eq!(status_on(&built, least), Status::Ambiguous);
 }
+
+/// On a map built from scans, every search of the cascade keeps at most
+/// `screened_approximate` hypotheses for the coarse cost: with that cap at 8 the answers are
+/// those of budgets of 8 written out with no cap, and not those of the uncapped budgets. A
+/// drawn map keeps its budgets whatever the cap.
+#[test]
+fn a_built_map_caps_what_each_search_keeps_for_the_coarse_cost() {
+    let drawn = worlds::apartment();
+    let built = WallMap { sigma: map::APPROXIMATE_MAP, ..drawn.clone() };
+    let uncapped = LocalizerConfig { screened_approximate: usize::MAX, ..LocalizerConfig::default() };
+    let capped = LocalizerConfig { screened_approximate: 8, ..uncapped };
+    let written_out = LocalizerConfig {
+        screened: 8,
+        slide: localize::SlideConfig { screened: 8, loose_screened: 8, ..uncapped.slide },
+        ..uncapped
+    };
+    let answer = |loc: &localize::Localization| {
+        (loc.status, loc.hypotheses.iter().map(|h| (h.pose.translation.vector, h.cost.value)).collect::<Vec<_>>())
+    };
+    let mut sim = Simulator::new(&drawn, SensorModel::urg04lx(), Scenario::Furniture, 8);
+    let scans: Vec<LaserScan> = (0..20).map(|_| sim.next_scan()).collect();
+    let on = |map: &WallMap, config: LocalizerConfig| {
+        let mut g = gema2(map, config);
+        scans.iter().map(|scan| answer(g.process(&scan.view()).1)).collect::<Vec<_>>()
+    };
+    let built_capped = on(&built, capped);
+    assert_eq!(built_capped, on(&built, written_out), "the cap is not the budgets it caps");
+    assert_ne!(built_capped, on(&built, uncapped), "a cap of 8 changed no answer: the test shows nothing");
+    assert_eq!(on(&drawn, capped), on(&drawn, uncapped), "a drawn map's budgets were capped");
+}

@@ -570,6 +570,9 @@ impl Localizer {
     /// found nothing to search (the loose slide with no loose line).
     fn run_step(&mut self, step: Step, scan: &ScanView<'_>, seg: &Segmentation) -> bool {
         let cfg = self.config;
+        let approximate = self.model.map.is_approximate();
+        // what a search keeps for the coarse cost (LocalizerConfig::screened_approximate)
+        let screened = |budget: usize| if approximate { budget.min(cfg.screened_approximate) } else { budget };
         match step {
             Step::FirstLook => {
                 let first = cfg.first_look;
@@ -587,11 +590,12 @@ impl Localizer {
                 }
             }
             Step::FullSearch => {
-                self.search(scan, seg, Source::Corners(cfg.corners_tried), cfg.prescreened, cfg.screened, cfg.refined);
+                let screened = screened(cfg.screened);
+                self.search(scan, seg, Source::Corners(cfg.corners_tried), cfg.prescreened, screened, cfg.refined);
                 self.rank();
             }
             Step::Slide => {
-                self.search(scan, seg, Source::Slides, cfg.prescreened, cfg.slide.screened, cfg.refined);
+                self.search(scan, seg, Source::Slides, cfg.prescreened, screened(cfg.slide.screened), cfg.refined);
                 self.rank();
             }
             Step::LooseSlide => {
@@ -599,7 +603,8 @@ impl Localizer {
                 if self.slide_lines.is_empty() {
                     return false;
                 }
-                self.search(scan, seg, Source::LooseSlides, cfg.prescreened, cfg.slide.loose_screened, cfg.refined);
+                let screened = screened(cfg.slide.loose_screened);
+                self.search(scan, seg, Source::LooseSlides, cfg.prescreened, screened, cfg.refined);
                 self.rank();
             }
             Step::WiderSlide => {
