@@ -106,7 +106,7 @@ impl LocalizerConfig {
             LocalizerConfig,
             "screened_approximate",
             Range::Count,
-            "on a map built from scans, the most hypotheses any search keeps for the coarse cost",
+            "on a map built from scans, the most hypotheses any search keeps for the coarse cost (0: no cap)",
             screened_approximate
         ),
         setting!(

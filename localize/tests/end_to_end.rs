@@ -1104,13 +1104,13 @@ fn a_pose_pinned_along_a_built_corridor_by_one_point_is_not_ok() {
 
 /// On a map built from scans, every search of the cascade keeps at most
 /// `screened_approximate` hypotheses for the coarse cost: with that cap at 8 the answers are
-/// those of budgets of 8 written out with no cap, and not those of the uncapped budgets. A
+/// those of budgets of 8 written out with no cap (0), and not those of the uncapped budgets. A
 /// drawn map keeps its budgets whatever the cap.
 #[test]
 fn a_built_map_caps_what_each_search_keeps_for_the_coarse_cost() {
     let drawn = worlds::apartment();
     let built = WallMap { sigma: map::APPROXIMATE_MAP, ..drawn.clone() };
-    let uncapped = LocalizerConfig { screened_approximate: usize::MAX, ..LocalizerConfig::default() };
+    let uncapped = LocalizerConfig { screened_approximate: 0, ..LocalizerConfig::default() };
     let capped = LocalizerConfig { screened_approximate: 8, ..uncapped };
     let written_out = LocalizerConfig {
         screened: 8,

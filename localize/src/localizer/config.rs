@@ -67,7 +67,7 @@ pub struct LocalizerConfig {
     /// successes fewer of 9071 (8052 to 8048), `ok`
     /// 3846 to 3838 and wrong `ok` 8 to 6; 128 took it 36 % lower for 14 fewer. On drawn maps
     /// the same cut had added wrong `ok` answers on the simulated suite, so they keep the
-    /// budgets.
+    /// budgets. 0 sets no cap.
     pub screened_approximate: usize,
     /// Beams of the coarse cost, and its noise floor (metres).
     pub coarse_beams: usize,
@@ -347,7 +347,7 @@ impl LocalizerConfig {
     pub fn thorough(self) -> Self {
         LocalizerConfig {
             prescreened: 100_000,
-            screened_approximate: 100_000,
+            screened_approximate: 0,
             sparse_kept: 2000,
             refined: 40,
             slide: SlideConfig {

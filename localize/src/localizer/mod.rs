@@ -570,9 +570,9 @@ impl Localizer {
     /// found nothing to search (the loose slide with no loose line).
     fn run_step(&mut self, step: Step, scan: &ScanView<'_>, seg: &Segmentation) -> bool {
         let cfg = self.config;
-        let approximate = self.model.map.is_approximate();
+        let cap = self.model.map.is_approximate() && cfg.screened_approximate > 0;
         // what a search keeps for the coarse cost (LocalizerConfig::screened_approximate)
-        let screened = |budget: usize| if approximate { budget.min(cfg.screened_approximate) } else { budget };
+        let screened = |budget: usize| if cap { budget.min(cfg.screened_approximate) } else { budget };
         match step {
             Step::FirstLook => {
                 let first = cfg.first_look;
