@@ -63,11 +63,10 @@ pub struct LocalizerConfig {
     /// map's walls to within their spread, so the hypotheses it ranks past the first few
     /// hundred are seldom the truth, and the coarse cost of 1024 slid poses is most of a real
     /// scan's time. On the seven CARMEN logs both ways, 256 instead of 1024 / 512 / 384 took
-    /// the mean of the medians 25-29 % lower (two pairs of runs side by side) for 4
-    /// successes fewer of 9071 (8052 to 8048), `ok`
-    /// 3846 to 3838 and wrong `ok` 8 to 6; 128 took it 36 % lower for 14 fewer. On drawn maps
-    /// the same cut had added wrong `ok` answers on the simulated suite, so they keep the
-    /// budgets. 0 sets no cap.
+    /// the mean of the medians 25-29 % lower (two pairs of runs side by side) for 4 successes
+    /// fewer of 9071 (8052 to 8048), `ok` 3846 to 3838 and wrong `ok` 8 to 6; 128 took it 36 %
+    /// lower for 14 fewer. On drawn maps the same cut had added wrong `ok` answers on the
+    /// simulated suite, so they keep the budgets. 0 sets no cap.
     pub screened_approximate: usize,
     /// Beams of the coarse cost, and its noise floor (metres).
     pub coarse_beams: usize,
