@@ -86,6 +86,13 @@ pub struct SeqOutcome {
     pub answer: SequentialAnswer,
 }
 
+impl SeqOutcome {
+    /// An `ok` answer the truth shows wrong.
+    pub fn wrong_ok(&self) -> bool {
+        self.answer.status == Status::Ok && self.outcome.has_truth && !self.outcome.success()
+    }
+}
+
 /// A sequential run over scans, with its restarts.
 pub struct SeqRun {
     segmenter: Box<dyn Segmenter>,
@@ -170,7 +177,7 @@ impl SeqSummary {
             let ok = o.answer.status == Status::Ok;
             s.has_truth |= o.outcome.has_truth;
             s.ok += usize::from(ok);
-            s.wrong_ok += usize::from(ok && o.outcome.has_truth && !right);
+            s.wrong_ok += usize::from(o.wrong_ok());
             s.disputed += usize::from(o.outcome.disputed_ok());
             if fixed {
                 s.after_fix += 1;
@@ -303,7 +310,7 @@ pub fn to_look_into(summary: &SeqSummary, outcomes: &[SeqOutcome], lines: &[usiz
         .map(|(line, fix)| format!("{line}: {}", fix.map_or("never".to_string(), |n| n.to_string())))
         .collect();
     let wrong: Vec<String> = located()
-        .filter(|(o, _)| o.answer.status == Status::Ok && o.outcome.has_truth && !o.outcome.success())
+        .filter(|(o, _)| o.wrong_ok())
         .map(|(o, line)| {
             let off = o.outcome.error.map_or("no pose".to_string(), |(m, deg)| format!("{m:.2} m {deg:.1} deg"));
             format!("{line}{}: {off}", if o.outcome.disputed { "*" } else { "" })
