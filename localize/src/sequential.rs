@@ -252,9 +252,8 @@ pub struct Sequential {
     relook: Vec<(Pose, Cost)>,
     /// This scan's gate about a predicted pose (position, heading).
     gate: (f64, f64),
-    /// The steps of the last window searched about a track, and the poses of one.
+    /// The steps of the last window searched about a track.
     window: Window,
-    starts: Vec<Pose>,
 }
 
 /// The steps (k, i, j) of the grid a track is searched over ([`SequentialConfig::grid_starts`]),
@@ -305,7 +304,6 @@ impl Sequential {
             relook: Vec::new(),
             gate: (0.0, 0.0),
             window: Window::default(),
-            starts: Vec::new(),
         }
     }
 
@@ -441,8 +439,7 @@ impl Sequential {
         let window_short = shifts > cfg.max_position_sides;
         let shifts = shifts.min(cfg.max_position_sides);
         let steps = self.window.take(turns, shifts);
-        // the window's poses, kept from scan to scan as the steps are
-        let mut starts = std::mem::take(&mut self.starts);
+        let mut starts = Vec::with_capacity(steps.len());
         // per track: where odometry puts it, and the best pose found about there
         let mut found = Vec::with_capacity(self.tracks.len());
         let mut shadow = None;
@@ -504,7 +501,6 @@ impl Sequential {
             found.push((predicted, self.scored.first().copied().unwrap_or(fallback), relooked));
         }
         self.window.give_back(steps);
-        self.starts = starts;
         let min_inliers = self.config.min_inliers_held;
         for (track, &(predicted, (refined, cost), relooked)) in self.tracks.iter_mut().zip(&found) {
             track.relooked = false;
