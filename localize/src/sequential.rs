@@ -8,9 +8,12 @@
 //! the sum, over the scans it lived through, of its per-beam cost less the best's. It says `ok`
 //! when one track is ahead of every distinct rival by [`SequentialConfig::margin`] on that sum,
 //! and the scan tells its pose from poses at the edge of what `ok` promises
-//! ([`Sequential::withstands_probes`]). A scan the single-scan search is `ok` on is `ok` at that
-//! held track with the same probes, though a twin leads on the sum: the lead was earned where
-//! the two could not be told apart.
+//! ([`Sequential::withstands_probes`]); on a drawn map, as for a single scan, not while the
+//! pose sees through more of its walls than
+//! [`max_through_ok`](crate::LocalizerConfig::max_through_ok) allows
+//! ([`Localizer::sees_through_drawn_walls`]). A scan the single-scan search is `ok` on is `ok`
+//! at that held track with the same probes, though a twin leads on the sum: the lead was earned
+//! where the two could not be told apart.
 //!
 //! While no track is sure, every scan also runs the global search of [`Localizer::locate`] and
 //! its hypotheses join the tracks (a global pose that lands on a track refreshes it). Once
@@ -217,7 +220,7 @@ pub struct Track {
     /// Whether this scan's second look moved it ([`SequentialConfig::second_look_jump`]).
     pub relooked: bool,
     /// A pose the look along or the near look found for it on the last scan
-    /// ([`Sequential::look_along`], [`Sequential::look_near`]), to be weighed against it again
+    /// (`Sequential::look_along`, `Sequential::look_near`), to be weighed against it again
     /// on this one.
     pub shadow: Option<Pose>,
 }
@@ -818,11 +821,14 @@ impl Sequential {
         a
     }
 
-    /// Whether `track` passes what every `ok` must of the scan: the beams agreeing, a place the
-    /// robot can be, the position's constraint across the direction the scan pins down least,
+    /// Whether `track` passes what every `ok` must of the scan: the beams agreeing, on a drawn
+    /// map few beams through its walls, a place the robot can be, the position's constraint across the direction the scan pins down least,
     /// and the probes along it (the last two cost most, so they run last).
     fn meets_ok_bar(&mut self, scan: &ScanView<'_>, track: &Track) -> bool {
-        if track.cost.inliers < self.config.min_inliers_ok || self.localizer.off_limits(&track.pose) {
+        if track.cost.inliers < self.config.min_inliers_ok
+            || self.localizer.sees_through_drawn_walls(&track.cost)
+            || self.localizer.off_limits(&track.pose)
+        {
             return false;
         }
         let (constraint, along) = self.localizer.weakest_direction(&track.pose);

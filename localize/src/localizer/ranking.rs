@@ -4,6 +4,7 @@
 //! many walls to be trusted, `failed` when no pose explains it.
 
 use super::{rival_gap, same_pose, Localizer, Status};
+use crate::cost::Cost;
 use crate::model::MapModel;
 use crate::slide::FROM_SLIDE;
 use laser::{angle_diff, pose_theta, Pose};
@@ -72,8 +73,15 @@ impl Localizer {
     /// may ([`LocalizerConfig::max_through_ok`]); never for a map that declares itself
     /// approximate, whose right poses see through walls that are no longer there.
     pub(super) fn sees_through_walls(&self) -> bool {
-        !self.model.map.is_approximate()
-            && self.out.hypotheses.first().is_some_and(|h| h.cost.through > self.config.max_through_ok)
+        self.out.hypotheses.first().is_some_and(|h| self.sees_through_drawn_walls(&h.cost))
+    }
+
+    /// Whether a pose of `cost` sees through more of a drawn map's walls than an `ok` pose may
+    /// ([`max_through_ok`](crate::LocalizerConfig::max_through_ok)): a drawn map has no walls that are not there, so
+    /// a right pose sees through none of them but for noise. Never on a map that declares
+    /// itself approximate, whose right poses see through walls that are no longer there.
+    pub fn sees_through_drawn_walls(&self, cost: &Cost) -> bool {
+        !self.model.map.is_approximate() && cost.through > self.config.max_through_ok
     }
 
     /// Sorts hypotheses, merges those that converged to the same pose, and sets the status.
