@@ -491,7 +491,12 @@ impl Sequential {
                     let moved = !same_pose(&pose, &first, cfg.second_look_jump, cfg.second_look_turn);
                     // far cheaper than the window's: the window's pose was far off
                     let lead = cost.value < self.scored[0].1.value - cfg.near_look_lead;
-                    if agrees || !moved || sure || lead {
+                    // on a drawn map, a window's pose that sees through the walls (a local
+                    // minimum after a sharp turn, half a metre off) is no pose to hold against a
+                    // cheaper one that does not
+                    let sees_through = self.localizer.sees_through_drawn_walls(&self.scored[0].1)
+                        && !self.localizer.sees_through_drawn_walls(&cost);
+                    if agrees || !moved || sure || lead || sees_through {
                         self.scored.clear();
                         self.scored.push((pose, cost));
                         relooked |= moved;
