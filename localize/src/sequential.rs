@@ -491,11 +491,11 @@ impl Sequential {
                     let moved = !same_pose(&pose, &first, cfg.second_look_jump, cfg.second_look_turn);
                     // far cheaper than the window's: the window's pose was far off
                     let lead = cost.value < self.scored[0].1.value - cfg.near_look_lead;
-                    // on a drawn map, a window's pose that sees through the walls (a local
+                    // on an exact plan, a window's pose that sees through the walls (a local
                     // minimum after a sharp turn, half a metre off) is no pose to hold against a
                     // cheaper one that does not
-                    let sees_through = self.localizer.sees_through_drawn_walls(&self.scored[0].1)
-                        && !self.localizer.sees_through_drawn_walls(&cost);
+                    let sees_through = self.localizer.sees_through_exact_walls(&self.scored[0].1)
+                        && !self.localizer.sees_through_exact_walls(&cost);
                     if agrees || !moved || sure || lead || sees_through {
                         self.scored.clear();
                         self.scored.push((pose, cost));
@@ -600,7 +600,8 @@ impl Sequential {
     /// other shelves, screened best after the robot spun, and the right pose's start was not
     /// among those refined (eq. 7: 3.46 per beam against the truth's 0.60). Corner matching
     /// does not go by the screen, and costs a track only when its window's pose explains the
-    /// scan much worse than the track explained its last.
+    /// scan much worse than the track explained its last, or, on an exact plan, sees through
+    /// its walls ([`Localizer::sees_through_exact_walls`]: the single scan's escalation).
     ///
     /// Returns, when it looked, what the cascade found ([`cascade_near`]), and that pose again
     /// when it costs less than the window's; `self.scored` is left as it was.
@@ -614,7 +615,11 @@ impl Sequential {
     ) -> Option<(Found, Found)> {
         let cfg = self.config;
         let &(_, first_cost) = self.scored.first()?;
-        if cfg.near_look_jump < 0.0 || (first_cost.value <= before + cfg.near_look_jump && !pending) {
+        if cfg.near_look_jump < 0.0
+            || (first_cost.value <= before + cfg.near_look_jump
+                && !pending
+                && !self.localizer.sees_through_exact_walls(&first_cost))
+        {
             return None;
         }
         let found = cascade_near(&mut self.localizer, scan, seg, predicted, (gate, gate_heading));

@@ -624,13 +624,9 @@ impl Localizer {
     /// [`LocalizerConfig::escalate_through`] and [`LocalizerConfig::escalate_min_beams`] allow,
     /// on a map that states no error (on one that does, right poses see through its errors).
     fn escalates(&self) -> bool {
-        let through = self.config.escalate_through;
         self.model.map.sigma <= 0.0
             && (self.out.status == Status::Failed
-                || self.out.hypotheses.first().is_none_or(|h| {
-                    let beams_through = (h.cost.through * h.cost.beams as f64).round() as usize;
-                    h.cost.through > through && beams_through >= self.config.escalate_min_beams
-                }))
+                || self.out.hypotheses.first().is_none_or(|h| self.sees_through_exact_walls(&h.cost)))
     }
 
     /// [`search`](Self::search) with the budgets of [`LocalizerConfig::escalated`] (the search

@@ -80,6 +80,18 @@ impl Localizer {
     /// ([`max_through_ok`](crate::LocalizerConfig::max_through_ok)): a drawn map has no walls that are not there, so
     /// a right pose sees through none of them but for noise. Never on a map that declares
     /// itself approximate, whose right poses see through walls that are no longer there.
+    /// Whether a pose of `cost` sees through more walls of a map that states no error (an
+    /// exact plan, `sigma` 0) than [`escalate_through`](crate::LocalizerConfig::escalate_through)
+    /// and [`escalate_min_beams`](crate::LocalizerConfig::escalate_min_beams) allow: what makes
+    /// a single scan's search look wider, and a track's look near its prediction
+    /// ([`crate::Sequential`]). On a map that states an error, right poses see through it.
+    pub fn sees_through_exact_walls(&self, cost: &Cost) -> bool {
+        let beams_through = (cost.through * cost.beams as f64).round() as usize;
+        self.model.map.sigma <= 0.0
+            && cost.through > self.config.escalate_through
+            && beams_through >= self.config.escalate_min_beams
+    }
+
     pub fn sees_through_drawn_walls(&self, cost: &Cost) -> bool {
         !self.model.map.is_approximate() && cost.through > self.config.max_through_ok
     }
