@@ -832,8 +832,9 @@ impl Sequential {
     }
 
     /// Whether `track` passes what every `ok` must of the scan: the beams agreeing, on a drawn
-    /// map few beams through its walls, a place the robot can be, the position's constraint across the direction the scan pins down least,
-    /// and the probes along it (the last two cost most, so they run last).
+    /// map few beams through its walls, a place the robot can be, the position's constraint
+    /// across the direction the scan pins down least, and the probes along it (the last two
+    /// cost most, so they run last).
     fn meets_ok_bar(&mut self, scan: &ScanView<'_>, track: &Track) -> bool {
         if track.cost.inliers < self.config.min_inliers_ok
             || self.localizer.sees_through_drawn_walls(&track.cost)

@@ -77,9 +77,14 @@ impl Localizer {
     }
 
     /// Whether a pose of `cost` sees through more of a drawn map's walls than an `ok` pose may
-    /// ([`max_through_ok`](crate::LocalizerConfig::max_through_ok)): a drawn map has no walls that are not there, so
-    /// a right pose sees through none of them but for noise. Never on a map that declares
-    /// itself approximate, whose right poses see through walls that are no longer there.
+    /// ([`max_through_ok`](crate::LocalizerConfig::max_through_ok)): a drawn map has no walls
+    /// that are not there, so a right pose sees through none of them but for noise. Never on a
+    /// map that declares itself approximate, whose right poses see through walls that are no
+    /// longer there.
+    pub fn sees_through_drawn_walls(&self, cost: &Cost) -> bool {
+        !self.model.map.is_approximate() && cost.through > self.config.max_through_ok
+    }
+
     /// Whether a pose of `cost` sees through more walls of a map that states no error (an
     /// exact plan, `sigma` 0) than [`escalate_through`](crate::LocalizerConfig::escalate_through)
     /// and [`escalate_min_beams`](crate::LocalizerConfig::escalate_min_beams) allow: what makes
@@ -90,10 +95,6 @@ impl Localizer {
         self.model.map.sigma <= 0.0
             && cost.through > self.config.escalate_through
             && beams_through >= self.config.escalate_min_beams
-    }
-
-    pub fn sees_through_drawn_walls(&self, cost: &Cost) -> bool {
-        !self.model.map.is_approximate() && cost.through > self.config.max_through_ok
     }
 
     /// Sorts hypotheses, merges those that converged to the same pose, and sets the status.
