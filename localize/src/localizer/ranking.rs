@@ -357,4 +357,28 @@ mod tests {
         assert!(!model.off_limits(Point2::new(5.0, 2.25)));
         assert!(model.off_limits(Point2::new(5.0, 3.0)));
     }
+
+    /// Which maps hold a pose to the walls it sees through: an exact plan (`sigma` 0) to the
+    /// escalation rule (over 1 % and at least 7 beams) and to `max_through_ok`; a map that
+    /// states an error under 5 cm (a ROS grid made into walls) to `max_through_ok` only; a
+    /// map built from scans to neither.
+    #[test]
+    fn the_see_through_tests_follow_what_the_map_states_of_its_error() {
+        let config = LocalizerConfig::default();
+        let walls = vec![map::Wall::new(0.0, 0.0, 20.0, 0.0)];
+        let tests = |sigma: f64, through: f64, beams: u32| {
+            let map = map::WallMap { sigma, ..map::WallMap::new(walls.clone()) };
+            let localizer = Localizer::new(Arc::new(MapModel::new(map, &map::MapCornerConfig::default())), config);
+            let cost = Cost { value: 1.0, inliers: 0.8, through, beams };
+            (localizer.sees_through_exact_walls(&cost), localizer.sees_through_drawn_walls(&cost))
+        };
+        let (some, many) = (0.02, config.max_through_ok + 0.01);
+        assert_eq!(tests(0.0, some, 680), (true, false));
+        assert_eq!(tests(0.0, many, 680), (true, true));
+        assert_eq!(tests(0.0, config.escalate_through, 680), (false, false));
+        // too few beams through to say so, though the share is over
+        assert_eq!(tests(0.0, some, 100), (false, false));
+        assert_eq!(tests(0.025, many, 680), (false, true));
+        assert_eq!(tests(0.1, many, 680), (false, false));
+    }
 }
