@@ -449,7 +449,7 @@ impl Sequential {
         // the near look's cascade about the best track's prediction, when it ran
         let mut cascade = None;
         for n in 0..self.tracks.len() {
-            let predicted = self.tracks[n].pose * delta;
+            let mut predicted = self.tracks[n].pose * delta;
             let c = predicted.translation.vector;
             cfg.grid_starts(steps.iter().copied(), &predicted, &mut starts);
             self.localizer.search_around(scan, seg, &starts, cfg.refined, &mut self.scored);
@@ -500,6 +500,12 @@ impl Sequential {
                         self.scored.clear();
                         self.scored.push((pose, cost));
                         relooked |= moved;
+                        // two scans agree on a pose odometry's prediction no longer reaches
+                        // (the track slipped on the last): it is held from where the last
+                        // scan's look put the robot
+                        if let Some(p) = earlier.filter(|_| agrees && !within(&pose, &predicted, gate, gate_heading)) {
+                            predicted = p;
+                        }
                     } else if cost.value < self.scored[0].1.value - cfg.along_look_margin {
                         shadow = Some(pose);
                     }
@@ -513,8 +519,7 @@ impl Sequential {
         for (track, &(predicted, (refined, cost), relooked)) in self.tracks.iter_mut().zip(&found) {
             track.relooked = false;
             track.shadow = None;
-            let held = (refined.translation.vector - predicted.translation.vector).norm() <= gate
-                && angle_diff(pose_theta(&refined), pose_theta(&predicted)).abs() <= gate_heading
+            let held = within(&refined, &predicted, gate, gate_heading)
                 && cost.value.is_finite()
                 && cost.inliers >= min_inliers;
             if held {
@@ -868,6 +873,12 @@ impl Sequential {
             (a.pose, a.cost, a.scans, a.track) = (Some(t.pose), Some(t.cost), t.scans, Some(k));
         }
     }
+}
+
+/// Whether `pose` lies within `gate` metres and `gate_heading` of `predicted`.
+fn within(pose: &Pose, predicted: &Pose, gate: f64, gate_heading: f64) -> bool {
+    (pose.translation.vector - predicted.translation.vector).norm() <= gate
+        && angle_diff(pose_theta(pose), pose_theta(predicted)).abs() <= gate_heading
 }
 
 /// Whether two refined poses are one: within 5 cm and 1 degree, where refinement from
