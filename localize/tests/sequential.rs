@@ -384,14 +384,14 @@ fn corridor_with_alcoves() -> Vec<map::Wall> {
 fn a_drive_odometry_reports_short_is_found_along_the_corridor() {
     let map = map::WallMap::new(corridor_with_alcoves());
     let seeing_through = LocalizerConfig { escalate_through: 1.0, ..LocalizerConfig::default() };
-    let (mut rig, mut odometry, mut truth, a) = short_drive(&map, seeing_through);
+    let (mut rig, mut odometry, mut truth, a) = short_drive(&map, SequentialConfig::default(), seeing_through);
     the_look_along_kept_the_truth(&rig, &a, &truth);
     odometry *= pose(1.0, 0.0, 0.0);
     truth *= pose(1.0, 0.0, 0.0);
     let a = rig.locate(&truth, Some(odometry));
     assert!(right(&a, &truth), "{a:?} for {truth:?}");
     let exact = LocalizerConfig::default();
-    let (_, _, truth, a) = short_drive(&map, exact);
+    let (_, _, truth, a) = short_drive(&map, SequentialConfig::default(), exact);
     assert!(a.cost.is_some_and(|c| c.through <= exact.escalate_through), "{a:?}");
     assert!(right(&a, &truth), "the window's pose stood though it sees through walls: {a:?} for {truth:?}");
 }
@@ -405,7 +405,7 @@ fn a_drive_odometry_reports_short_is_found_along_the_corridor() {
 fn a_pose_two_scans_agree_on_is_held_beyond_odometrys_gate() {
     let map = map::WallMap::new(corridor_with_alcoves());
     let localizer = LocalizerConfig { escalate_through: 1.0, ..LocalizerConfig::default() };
-    let (mut rig, mut odometry, mut truth, a) = short_drive(&map, localizer);
+    let (mut rig, mut odometry, mut truth, a) = short_drive(&map, SequentialConfig::default(), localizer);
     the_look_along_kept_the_truth(&rig, &a, &truth);
     odometry *= pose(0.6, 0.0, 0.0);
     truth *= pose(1.0, 0.0, 0.0);
@@ -414,11 +414,31 @@ fn a_pose_two_scans_agree_on_is_held_beyond_odometrys_gate() {
     assert_eq!(rig.sequential.tracks().first().map(|t| t.misses), Some(0), "the track was lost");
 }
 
+/// The look's pose of [`a_drive_odometry_reports_short_is_found_along_the_corridor`] is the
+/// scan's answer only within `look_answer_sigmas` of odometry's spreads of the prediction: a
+/// place the scan fits much better but odometry cannot reach is no answer before the next
+/// scan agrees.
+#[test]
+fn a_look_pose_beyond_odometrys_reach_is_no_answer() {
+    let map = map::WallMap::new(corridor_with_alcoves());
+    let localizer = LocalizerConfig { escalate_through: 1.0, ..LocalizerConfig::default() };
+    let config = SequentialConfig { look_answer_sigmas: 1.0, ..SequentialConfig::default() };
+    let (rig, _, truth, a) = short_drive(&map, config, localizer);
+    let shadow = rig.sequential.tracks().first().and_then(|t| t.shadow);
+    assert!(shadow.is_some_and(|p| same_pose(&p, &truth, 0.1, 2f64.to_radians())), "the look along found {shadow:?}");
+    assert!(!right(&a, &truth), "{a:?}");
+    assert_eq!(a.pose, rig.sequential.tracks().first().map(|t| t.pose));
+}
+
 /// Sure of the pose at the west end of [`corridor_with_alcoves`] (driving 0.3 m a scan with
 /// exact odometry), then a drive of 2.6 m that odometry reports as 1.5 m: the rig, odometry,
 /// the truth, and the answer after it.
-fn short_drive(map: &map::WallMap, localizer: LocalizerConfig) -> (Rig, Pose, Pose, localize::SequentialAnswer) {
-    let mut rig = Rig::with(map, 2, SequentialConfig::default(), localizer);
+fn short_drive(
+    map: &map::WallMap,
+    config: SequentialConfig,
+    localizer: LocalizerConfig,
+) -> (Rig, Pose, Pose, localize::SequentialAnswer) {
+    let mut rig = Rig::with(map, 2, config, localizer);
     let mut truth = pose(2.0, 1.0, 0.0);
     let mut sure = false;
     for _ in 0..8 {
@@ -433,12 +453,18 @@ fn short_drive(map: &map::WallMap, localizer: LocalizerConfig) -> (Rig, Pose, Po
     (rig, odometry, truth, a)
 }
 
-/// The window left the answer short of the truth, and the look along kept the truth as the
-/// best track's shadow.
+/// The window left the best track short of the truth, and the look along kept the truth as
+/// its shadow; the scan fits the look's pose so much better, about where odometry puts the
+/// robot, that it is this scan's answer, though not `ok` and not yet the track's.
 fn the_look_along_kept_the_truth(rig: &Rig, a: &localize::SequentialAnswer, truth: &Pose) {
-    assert!(!right(a, truth), "the window alone found the truth: {a:?}");
-    let shadow = rig.sequential.tracks().first().and_then(|t| t.shadow);
+    let track = rig.sequential.tracks().first();
+    assert!(
+        track.is_some_and(|t| !same_pose(&t.pose, truth, 0.3, 5f64.to_radians())),
+        "the window alone found the truth"
+    );
+    let shadow = track.and_then(|t| t.shadow);
     assert!(shadow.is_some_and(|p| same_pose(&p, truth, 0.1, 2f64.to_radians())), "the look along found {shadow:?}");
+    assert!(right(a, truth) && a.status == Status::Ambiguous, "not the look's pose: {a:?} for {truth:?}");
 }
 
 /// A square room, 6 m a side, with a bay 3 m wide and 1.5 m deep in the middle of one wall and
