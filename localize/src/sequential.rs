@@ -245,7 +245,8 @@ pub struct Track {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SequentialAnswer {
     pub status: Status,
-    /// The best track's pose and cost; none when `failed`.
+    /// The best track's pose and cost, or, when `ambiguous`, a look's that the scan fits much
+    /// better ([`SequentialConfig::look_answer_lead`]); none when `failed`.
     pub pose: Option<Pose>,
     pub cost: Option<Cost>,
     /// How many scans the answer rests on (the best track's).
