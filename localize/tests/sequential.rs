@@ -466,6 +466,9 @@ fn the_look_along_kept_the_truth(rig: &Rig, a: &localize::SequentialAnswer, trut
     let shadow = track.and_then(|t| t.shadow);
     assert!(shadow.is_some_and(|p| same_pose(&p, truth, 0.1, 2f64.to_radians())), "the look along found {shadow:?}");
     assert!(right(a, truth) && a.status == Status::Ambiguous, "not the look's pose: {a:?} for {truth:?}");
+    // what a pipeline publishes first
+    let first = rig.sequential.hypotheses(a).next();
+    assert_eq!(first.map(|h| (h.pose, h.cost)), a.pose.zip(a.cost));
 }
 
 /// A square room, 6 m a side, with a bay 3 m wide and 1.5 m deep in the middle of one wall and
