@@ -506,10 +506,8 @@ impl Sequential {
                     // (within the gate's floor and one spread: the whole gate spans corridor
                     // twins, 2.2 m apart on csail): two scans agree on it, where one alone may
                     // see an imperfect map's flaw
-                    let agrees = earlier.is_some_and(|p| {
-                        (p.translation.vector - pose.translation.vector).norm() <= cfg.gate_position + spread
-                            && angle_diff(pose_theta(&p), pose_theta(&pose)).abs() <= gate_heading
-                    });
+                    let agrees =
+                        earlier.is_some_and(|p| same_pose(&p, &pose, cfg.gate_position + spread, gate_heading));
                     let first = self.scored[0].0;
                     let moved = !same_pose(&pose, &first, cfg.second_look_jump, cfg.second_look_turn);
                     // far cheaper than the window's: the window's pose was far off
@@ -526,7 +524,8 @@ impl Sequential {
                         // two scans agree on a pose odometry's prediction no longer reaches
                         // (the track slipped on the last): it is held from where the last
                         // scan's look put the robot
-                        if let Some(p) = earlier.filter(|_| agrees && !within(&pose, &predicted, gate, gate_heading)) {
+                        if let Some(p) = earlier.filter(|_| agrees && !same_pose(&pose, &predicted, gate, gate_heading))
+                        {
                             predicted = p;
                         }
                     } else if cost.value < self.scored[0].1.value - cfg.along_look_margin {
@@ -547,7 +546,7 @@ impl Sequential {
         for (track, &(predicted, (refined, cost), relooked)) in self.tracks.iter_mut().zip(&found) {
             track.relooked = false;
             track.shadow = None;
-            let held = within(&refined, &predicted, gate, gate_heading)
+            let held = same_pose(&refined, &predicted, gate, gate_heading)
                 && cost.value.is_finite()
                 && cost.inliers >= min_inliers;
             if held {
@@ -904,12 +903,6 @@ impl Sequential {
             (a.pose, a.cost, a.scans, a.track) = (Some(t.pose), Some(t.cost), t.scans, Some(k));
         }
     }
-}
-
-/// Whether `pose` lies within `gate` metres and `gate_heading` of `predicted`.
-fn within(pose: &Pose, predicted: &Pose, gate: f64, gate_heading: f64) -> bool {
-    (pose.translation.vector - predicted.translation.vector).norm() <= gate
-        && angle_diff(pose_theta(pose), pose_theta(predicted)).abs() <= gate_heading
 }
 
 /// Whether two refined poses are one: within 5 cm and 1 degree, where refinement from

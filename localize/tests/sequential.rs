@@ -376,8 +376,9 @@ fn corridor_with_alcoves() -> Vec<map::Wall> {
 /// short of 2.6 m, inside its spread): every start of the window lies where eq. 7 is flat
 /// along the corridor, so refinement leaves the pose short of the truth. The look along the
 /// corridor finds the truth by the alcoves in view, but one scan's word does not move the
-/// pose (on a map built from a log it may be a flaw of the map's); on the next scan, found
-/// again where odometry moved it, it is the answer. That holds where a pose may see through
+/// track (on a map built from a log it may be a flaw of the map's): the look's pose is that
+/// scan's answer, `ambiguous`, and on the next scan, found again where odometry moved it, it
+/// is the track's. That holds where a pose may see through
 /// walls (`escalate_through` 1, as on a map that states an error); on this exact plan the
 /// window's pose sees through the alcoves' walls, and the look's pose is the answer at once.
 #[test]
