@@ -65,7 +65,9 @@ pub fn laser_scan(m: &msg::LaserScan) -> Result<LaserScan, ScanError> {
             beams: n,
         });
     }
-    let (lo, hi) = (m.range_min, m.range_max);
+    // the bounds the geometry holds: a `range_min` below 0, -inf or NaN reads as 0, so that no
+    // -inf reading passes as within range
+    let (lo, hi) = (m.range_min.max(0.0), m.range_max);
     let ranges = m
         .ranges
         .iter()
@@ -105,6 +107,17 @@ mod tests {
         assert!(kinds[2..6].iter().all(|k| *k == Reading::Unknown), "{kinds:?}");
         assert_eq!(kinds[6], Reading::NoReturn, "a reading at the maximum range");
         assert_eq!(kinds[7], Reading::Unknown);
+    }
+
+    #[test]
+    fn a_range_min_below_zero_lets_no_infinite_reading_through() {
+        for range_min in [f32::NEG_INFINITY, -1.0, f32::NAN] {
+            let mut m = message(vec![1.0, f32::NEG_INFINITY, -0.5, 0.0]);
+            m.range_min = range_min;
+            let s = laser_scan(&m).unwrap();
+            assert_eq!(s.ranges[0], 1.0);
+            assert!(s.ranges[1..3].iter().all(|r| r.is_nan()), "range_min {range_min}: {:?}", s.ranges);
+        }
     }
 
     #[test]
