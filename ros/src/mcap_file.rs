@@ -91,9 +91,10 @@ fn file_summary(path: &Path) -> Result<Option<mcap::Summary>, BagError> {
 ///
 /// The records are framed here (an opcode, a length, the body) and each chunk is decompressed
 /// here, in a stream capped at the size it declares, then checked for exactly that size and
-/// against its CRC; the `mcap` crate parses the records' bodies. The crate's own streaming reader spins for ever on a chunk
-/// that declares more bytes than its compressed data holds (zstd or LZ4: one damaged length
-/// field), so a bag found on a disk could hang a localizer. A chunk the file ends inside (a
+/// against its CRC; the `mcap` crate parses the records' bodies. Its own streaming reader spun
+/// for ever on a chunk that declares more bytes than its compressed data holds (zstd or LZ4:
+/// one damaged length field; fixed in mcap 0.26, whose summary reader `file_summary` uses),
+/// and framing here keeps what is taken in within [`MAX_RECORD_BYTES`]. A chunk the file ends inside (a
 /// recording killed) gives the whole records it holds, then the error.
 pub struct McapFile {
     path: PathBuf,
@@ -429,6 +430,36 @@ mod tests {
             let (n, e) = read(&bytes);
             assert_eq!(n, 0, "{c:?}");
             assert!(e.as_deref().is_some_and(|e| e.contains("declares")), "{c:?}: {e:?}");
+        }
+    }
+
+    /// The same damaged chunk where the footer says the summary starts: the `mcap` crate's
+    /// summary reader decompressed it and spun for ever (mcap 0.25, found by the fuzzer).
+    /// Listing the topics is an error, within a bound.
+    #[test]
+    fn a_summary_at_a_chunk_declaring_more_than_it_holds_is_an_error_not_a_hang() {
+        for c in [mcap::Compression::Lz4, mcap::Compression::Zstd] {
+            let mut bytes = file(Some(c), 20);
+            let chunk = first_chunk(&bytes);
+            let size_at = chunk + 9 + 16;
+            let size = u64::from_le_bytes(bytes[size_at..size_at + 8].try_into().unwrap());
+            bytes[size_at..size_at + 8].copy_from_slice(&(size + 64).to_le_bytes());
+            // the footer, before the closing magic: opcode, length, summary start, summary
+            // offset start, summary CRC (0: none)
+            let footer = bytes.len() - 8 - 29;
+            assert_eq!(bytes[footer], mcap::records::op::FOOTER);
+            bytes[footer + 9..footer + 17].copy_from_slice(&(chunk as u64).to_le_bytes());
+            bytes[footer + 17..footer + 29].fill(0);
+            let dir = tempfile::tempdir().expect("a scratch folder");
+            let path = dir.path().join("t.mcap");
+            std::fs::write(&path, &bytes).expect("written");
+            let (tx, rx) = std::sync::mpsc::channel();
+            std::thread::spawn(move || {
+                let _ = tx.send(topics(&path).map(|t| t.len()));
+                drop(dir);
+            });
+            let listed = rx.recv_timeout(std::time::Duration::from_secs(30));
+            assert!(matches!(listed, Ok(Err(_))), "{c:?}: {listed:?}");
         }
     }
 
