@@ -10,11 +10,15 @@
 //! budget, `GEMA2_FUZZ_SECONDS` (default 4 s), so CI runs a bounded fuzz on every build and a
 //! longer one is `GEMA2_FUZZ_SECONDS=600 cargo test --release --test fuzz`. The random stream
 //! is seeded from `GEMA2_FUZZ_SEED` (default: the clock, printed on a failure), and an input
-//! that panics is written to `target/fuzz-failures/` to be replayed.
+//! that panics is written to `target/fuzz-failures/` to be replayed. An input a parser is still
+//! on after `GEMA2_FUZZ_HANG_SECONDS` (default 60 s) is a hang: it is written there too, and the
+//! test process exits with a failure instead of spinning until CI's time runs out.
 
 use std::io::Cursor;
 use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 /// xorshift64*: a small, seedable random stream.
@@ -113,23 +117,74 @@ fn failures() -> PathBuf {
     Path::new(env!("CARGO_TARGET_TMPDIR")).join("fuzz-failures")
 }
 
+/// How long one input may take before it is a hang.
+fn hang_limit() -> Duration {
+    let seconds = std::env::var("GEMA2_FUZZ_HANG_SECONDS").ok().and_then(|s| s.parse::<f64>().ok()).unwrap_or(60.0);
+    Duration::from_secs_f64(seconds.max(1.0))
+}
+
+/// The run's inputs in order: the seeds, then mutants drawn from `rng`. The stream depends on
+/// the seed alone, so input `k` can be made again.
+fn next_input(rng: &mut Rng, seeds: &[Vec<u8>], k: usize) -> Vec<u8> {
+    match seeds.get(k) {
+        Some(s) => s.clone(),
+        None => {
+            let parent = rng.below(seeds.len());
+            mutate(rng, &seeds[parent], seeds)
+        }
+    }
+}
+
+/// Watches a fuzz run from its own thread: when the input in hand (`started`, counted from 1)
+/// has not changed for [`hang_limit`], makes that input again from the seed, keeps it, and
+/// ends the test process with a failure, since a spinning parser cannot be stopped from here.
+fn watch_for_hangs(name: &str, seed: u64, seeds: &[Vec<u8>], started: Arc<AtomicUsize>, done: Arc<AtomicBool>) {
+    let (name, seeds) = (name.to_owned(), seeds.to_vec());
+    std::thread::spawn(move || {
+        let (mut last, mut since) = (0, Instant::now());
+        while !done.load(Ordering::Relaxed) {
+            std::thread::sleep(Duration::from_millis(250));
+            let now = started.load(Ordering::Relaxed);
+            if now != last {
+                (last, since) = (now, Instant::now());
+                continue;
+            }
+            if now == 0 || since.elapsed() < hang_limit() || done.load(Ordering::Relaxed) {
+                continue;
+            }
+            let mut rng = Rng(seed);
+            let input = (0..now).map(|k| next_input(&mut rng, &seeds, k)).last().unwrap_or_default();
+            let _ = std::fs::create_dir_all(failures());
+            let file = failures().join(format!("{name}-{seed}-hang.bin"));
+            let _ = std::fs::write(&file, &input);
+            use std::io::Write;
+            let _ = writeln!(
+                std::io::stderr(),
+                "{name}: input {now} has run for {:.0} s, a hang; kept as {} (GEMA2_FUZZ_SEED={seed}): {:?}",
+                since.elapsed().as_secs_f64(),
+                file.display(),
+                String::from_utf8_lossy(&input[..input.len().min(400)])
+            );
+            std::process::exit(101);
+        }
+    });
+}
+
 /// Feeds `parse` the seeds, then mutants of them until the budget is spent; panics naming the
-/// input file of the first input that made `parse` panic. Returns how many inputs it ran.
+/// input file of the first input that made `parse` panic, and ends the process naming the one
+/// that hung it ([`watch_for_hangs`]). Returns how many inputs it ran.
 fn fuzz(name: &str, seeds: &[Vec<u8>], parse: impl Fn(&[u8])) -> usize {
     let seed = seed_of_run();
     let mut rng = Rng(seed);
+    let (in_hand, done) = (Arc::new(AtomicUsize::new(0)), Arc::new(AtomicBool::new(false)));
+    watch_for_hangs(name, seed, seeds, Arc::clone(&in_hand), Arc::clone(&done));
     let started = Instant::now();
     let mut runs = 0;
     let mut failed = None;
     while failed.is_none() && (runs < seeds.len() || started.elapsed() < budget()) {
-        let input = match seeds.get(runs) {
-            Some(s) => s.clone(),
-            None => {
-                let parent = rng.below(seeds.len());
-                mutate(&mut rng, &seeds[parent], seeds)
-            }
-        };
+        let input = next_input(&mut rng, seeds, runs);
         runs += 1;
+        in_hand.store(runs, Ordering::Relaxed);
         if let Err(panic) = catch_unwind(AssertUnwindSafe(|| parse(&input))) {
             let why = panic
                 .downcast_ref::<String>()
@@ -139,6 +194,7 @@ fn fuzz(name: &str, seeds: &[Vec<u8>], parse: impl Fn(&[u8])) -> usize {
             failed = Some((input, why));
         }
     }
+    done.store(true, Ordering::Relaxed);
     if let Some((input, why)) = failed {
         let _ = std::fs::create_dir_all(failures());
         let file = failures().join(format!("{name}-{seed}.bin"));
