@@ -20,7 +20,7 @@ use messages::iceoryx2::prelude::*;
 use messages::iceoryx2::sample::Sample;
 use messages::{
     monotonic_ns, open_model_topic, CornersMsg, Freshness, HypothesisMsg, Inlet, Look, ModelHeader, Outlet, PoseMsg,
-    PoseMsgXyt, Stage, Topic, MAX_HYPOTHESES, STATUS_AMBIGUOUS, STATUS_FAILED, STATUS_OK,
+    PoseMsgXyt, Refused, Stage, Topic, MAX_HYPOTHESES, STATUS_AMBIGUOUS, STATUS_FAILED, STATUS_OK,
 };
 use segment::noise::usable_scale;
 use segment::sample::build_samples;
@@ -223,6 +223,8 @@ struct Located {
     held: Option<Sample<ipc::Service, CornersMsg, ()>>,
     seg: Segmentation,
     fresh: Freshness,
+    /// Scans dropped for a stamp ahead of the clock ([`Refused::Ahead`]).
+    ahead: u64,
     waiting_for_map: u64,
     found_by_poll: u64,
     /// When the stage started, until its first pose is published (then said, with the time).
@@ -239,6 +241,7 @@ impl Located {
             held: None,
             seg: Segmentation::default(),
             fresh: Freshness::default(),
+            ahead: 0,
             waiting_for_map: 0,
             found_by_poll: 0,
             started: Some(std::time::Instant::now()),
@@ -410,11 +413,27 @@ impl Located {
     }
 
     /// Whether the scan `msg` carries is one to locate: not one seen before (a resend, or a
-    /// second segmenter during a hot swap), and not one before any map (counted, and said now
-    /// and then).
+    /// second segmenter during a hot swap), not one stamped ahead of the clock (a damaged
+    /// message, or a source stamping with another clock), and not one before any map. The last
+    /// two are counted, and said now and then.
     fn admit(&mut self, msg: &CornersMsg) -> bool {
-        if !self.fresh.admit(&msg.scan.header) {
-            return false;
+        let header = &msg.scan.header;
+        match self.fresh.check(header, monotonic_ns()) {
+            Ok(()) => {}
+            Err(Refused::Seen) => return false,
+            Err(Refused::Ahead { by_ns }) => {
+                self.ahead += 1;
+                if self.ahead == 1 || self.ahead.is_multiple_of(100) {
+                    messages::say!(
+                        "localize: dropped scan {}: stamped {:.3} s ahead of this machine's monotonic clock, which \
+                         every stage stamps with ({} so far)",
+                        header.seq,
+                        by_ns as f64 / 1e9,
+                        self.ahead
+                    );
+                }
+                return false;
+            }
         }
         if self.localizer.is_none() {
             self.skipped_for_want_of_a_map();

@@ -29,7 +29,7 @@ pub const WIRE_VERSION: u32 = 4;
 
 pub use inlet::{run_stage, Inlet, WaitError, MAX_LISTENERS};
 pub use model::{open_model_topic, ModelHeader, ModelOutlet, ModelPorts, MODEL_ALIGN, MODEL_HELD};
-pub use outlet::{Freshness, Outlet, SendError, CONNECT_PATIENCE, LOOK, WARM_UP};
+pub use outlet::{Freshness, Outlet, Refused, SendError, AHEAD_SLACK_NS, CONNECT_PATIENCE, LOOK, WARM_UP};
 pub use payload::*;
 pub use placement::pin_to_cpu;
 pub use publish::{publish, zeroed_box, PublishError, Zeroable};

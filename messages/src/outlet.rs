@@ -237,19 +237,47 @@ impl<T: Debug + ZeroCopySend + Zeroable + 'static> Outlet<T> {
 /// seen: a resend by an [`Outlet`], or the same scan from two segmenters during a hot swap.
 /// Stamps come from one monotonic clock, so a restarted source (which numbers its scans from
 /// the start again) is still admitted.
+///
+/// A stamp ahead of that clock (by more than [`AHEAD_SLACK_NS`]) is no stamp of it: a damaged
+/// message, or a publisher stamping with another clock (wall time, a ROS time). It is refused
+/// and not remembered; remembered, it would make every later message look old, and one bad
+/// message would stop a stage for good.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct Freshness {
     last_stamp_ns: Option<u64>,
 }
 
+/// How far ahead of the reader's clock a stamp may lie and still be taken as one of the
+/// machine's monotonic clock: processes read the same clock, so only a process in another
+/// time namespace comes near.
+pub const AHEAD_SLACK_NS: u64 = 1_000_000_000;
+
+/// Why [`Freshness`] did not admit a message.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Refused {
+    /// Stamped no later than a message admitted before: a copy, or an older scan.
+    Seen,
+    /// Stamped this far ahead of the reader's monotonic clock.
+    Ahead { by_ns: u64 },
+}
+
 impl Freshness {
-    /// True for a message newer than every message admitted before; remembers it.
+    /// True for a message newer than every message admitted before and not ahead of the
+    /// monotonic clock; remembers it.
     pub fn admit(&mut self, header: &Header) -> bool {
+        self.check(header, crate::monotonic_ns()).is_ok()
+    }
+
+    /// [`admit`](Self::admit) with the clock read as `now_ns`, and why a message is refused.
+    pub fn check(&mut self, header: &Header, now_ns: u64) -> Result<(), Refused> {
+        if header.stamp_ns > now_ns.saturating_add(AHEAD_SLACK_NS) {
+            return Err(Refused::Ahead { by_ns: header.stamp_ns - now_ns });
+        }
         if self.last_stamp_ns.is_some_and(|last| header.stamp_ns <= last) {
-            return false;
+            return Err(Refused::Seen);
         }
         self.last_stamp_ns = Some(header.stamp_ns);
-        true
+        Ok(())
     }
 }
 
@@ -266,5 +294,23 @@ mod tests {
         assert!(!f.admit(&Header::new(0, 150)), "older than the last one");
         // a restarted source numbers from 0 again, later on the same clock
         assert!(f.admit(&Header::new(0, 300)));
+    }
+
+    /// One message stamped ahead of the clock is refused, and does not make the next ones look
+    /// old.
+    #[test]
+    fn a_stamp_ahead_of_the_clock_is_refused_and_forgotten() {
+        let mut f = Freshness::default();
+        let now = 5_000_000_000;
+        assert_eq!(f.check(&Header::new(0, now - 10), now), Ok(()));
+        assert_eq!(f.check(&Header::new(1, u64::MAX), now), Err(Refused::Ahead { by_ns: u64::MAX - now }));
+        assert_eq!(
+            f.check(&Header::new(2, now + 2 * AHEAD_SLACK_NS), now),
+            Err(Refused::Ahead { by_ns: 2 * AHEAD_SLACK_NS })
+        );
+        assert_eq!(f.check(&Header::new(3, now - 5), now), Ok(()), "a scan after them");
+        // within the slack: taken as the machine's clock
+        assert_eq!(f.check(&Header::new(4, now + AHEAD_SLACK_NS / 2), now), Ok(()));
+        assert_eq!(f.check(&Header::new(4, now - 1), now), Err(Refused::Seen));
     }
 }
