@@ -680,6 +680,14 @@ impl StageChild {
         self.0.as_mut().unwrap()
     }
 
+    /// SIGTERM, then what the stage printed, however it ended.
+    fn terminated(mut self) -> Output {
+        let child = self.0.take().unwrap();
+        // SAFETY: kill(2) on a child of this test.
+        unsafe { libc::kill(child.id() as i32, libc::SIGTERM) };
+        child.wait_with_output().unwrap()
+    }
+
     /// SIGTERM, then what the stage printed; asserts that it stopped cleanly.
     fn stop(mut self) -> Output {
         let child = self.0.take().unwrap();
@@ -1449,4 +1457,110 @@ fn bench_memory_reads_a_second_localizers_own_memory() {
     assert!(!out.status.success());
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("cannot read the log"), "{err}");
+}
+
+/// Hostile scans on the wire cost those scans only. A publisher that is not gema2's (a driver
+/// with a bug, a process writing garbage) sends scans with a count past the array, layouts of
+/// NaN, zero or infinite numbers, readings that are all NaN, infinite or huge, NaN odometry
+/// and truth, stamps at the ends of time, and frames of random bytes. Segment and localize
+/// take or drop each without dying, and the good scan after them is located.
+#[test]
+fn hostile_scans_cost_only_themselves() {
+    use messages::ScanMsg;
+    let p = prefix("hostile");
+    let map = StageChild::spawn(
+        Command::new(exe()).args(["stage", "mapserver", "--map", "apartment", "--prefix", &p]).stderr(Stdio::null()),
+    );
+    let mut seg =
+        StageChild::spawn(Command::new(exe()).args(["stage", "segment", "--prefix", &p]).stderr(Stdio::piped()));
+    let mut loc =
+        StageChild::spawn(Command::new(exe()).args(["stage", "localize", "--prefix", &p]).stderr(Stdio::piped()));
+    let node = messages::create_node("hostiletest").unwrap();
+    let mut scans = scan_outlet(&node, &p);
+    let poses = messages::open_topic::<messages::PoseMsg>(&node, &p, messages::Topic::Pose).unwrap();
+    let pose_in = poses.data.subscriber_builder().create().unwrap();
+    let located = |seq: u64| {
+        let mut seen = false;
+        while let Some(m) = pose_in.receive().unwrap() {
+            seen |= m.header.seq == seq;
+        }
+        seen
+    };
+    wait_for("a pose for a good scan", Duration::from_secs(60), || {
+        scans.send(flat_scan(1)).unwrap();
+        located(1)
+    });
+    type Damage = fn(&mut ScanMsg);
+    let damages: [Damage; 14] = [
+        |m| m.count = u32::MAX,
+        |m| m.count = messages::MAX_BEAMS as u32 + 1,
+        |m| m.angle_increment = f64::NAN,
+        |m| m.angle_increment = 0.0,
+        |m| (m.angle_min, m.angle_increment) = (f64::INFINITY, 1e-300),
+        |m| m.range_max = f64::INFINITY,
+        |m| {
+            m.range_min = f64::NEG_INFINITY;
+            m.ranges.fill(f32::NEG_INFINITY);
+        },
+        |m| m.ranges.fill(f32::NAN),
+        |m| m.ranges.fill(f32::INFINITY),
+        |m| m.ranges.iter_mut().enumerate().for_each(|(k, r)| *r = if k % 2 == 0 { 1e30 } else { -1e30 }),
+        |m| {
+            m.has_odometry = 1;
+            m.odometry = messages::PoseMsgXyt { x: f64::NAN, y: f64::INFINITY, theta: -f64::INFINITY };
+        },
+        |m| {
+            m.has_truth = 1;
+            m.truth = messages::PoseMsgXyt { x: f64::NAN, y: 1e308, theta: f64::NAN };
+        },
+        |m| m.header.stamp_ns = u64::MAX,
+        |m| m.header.stamp_ns = 0,
+    ];
+    // frames of random bytes, every field any value
+    let mut state = 0x9E37_79B9_7F4A_7C15u64;
+    let mut random = |m: &mut ScanMsg| {
+        // SAFETY: a ScanMsg is integers and floats alone (repr(C), its padding spelled out as
+        // fields), so any bytes make one.
+        let bytes =
+            unsafe { std::slice::from_raw_parts_mut(m as *mut ScanMsg as *mut u8, std::mem::size_of::<ScanMsg>()) };
+        for b in bytes.iter_mut() {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            *b = state as u8;
+        }
+    };
+    // after each bad scan a good one is located: the bad one cost itself only
+    let (start, mut after) = (Instant::now(), 0);
+    for k in 0..damages.len() + 20 {
+        let bad = flat_scan(100 + k as u64);
+        scans
+            .send(|m| match damages.get(k) {
+                Some(damage) => {
+                    bad(m);
+                    damage(m);
+                }
+                None => random(m),
+            })
+            .unwrap();
+        std::thread::sleep(Duration::from_millis(20));
+        let good = 1000 + k as u64;
+        let since = Instant::now();
+        while !located(good) && since.elapsed() < Duration::from_secs(30) {
+            scans.send(flat_scan(good)).unwrap();
+            std::thread::sleep(Duration::from_millis(50));
+        }
+        if since.elapsed() >= Duration::from_secs(30) {
+            break;
+        }
+        after += 1;
+    }
+    eprintln!("{after} bad scans, each followed by a good one located, in {:.1} s", start.elapsed().as_secs_f64());
+    let alive = [seg.child().try_wait().unwrap().is_none(), loc.child().try_wait().unwrap().is_none()];
+    let [seg_said, loc_said] = [seg, loc].map(|s| String::from_utf8_lossy(&s.terminated().stderr).into_owned());
+    let said = format!("segment said:\n{seg_said}\nlocalize said:\n{loc_said}");
+    assert!(alive == [true, true], "a stage died (segment, localize alive: {alive:?}); {said}");
+    assert_eq!(after, damages.len() + 20, "no good scan was located after bad scan {after}; {said}");
+    assert!(seg_said.contains("dropped scan"), "the segment stage did not say what it dropped; {said}");
+    map.stop();
 }
