@@ -1564,3 +1564,140 @@ fn hostile_scans_cost_only_themselves() {
     assert!(seg_said.contains("dropped scan"), "the segment stage did not say what it dropped; {said}");
     map.stop();
 }
+
+/// Hostile segmentations on the wire cost those scans only. A publisher on the corners topic
+/// that is not gema2's segment stage sends corner and line counts past their arrays, corners
+/// and lines of NaN or of huge numbers, noise scales of any value, and frames of random bytes
+/// around a good scan; after each, the localizer still locates a good scan, and lives.
+#[test]
+fn hostile_segmentations_cost_only_themselves() {
+    use messages::{CornersMsg, ScanMsg};
+    let p = prefix("hostileseg");
+    let map = StageChild::spawn(
+        Command::new(exe()).args(["stage", "mapserver", "--map", "apartment", "--prefix", &p]).stderr(Stdio::null()),
+    );
+    let mut loc =
+        StageChild::spawn(Command::new(exe()).args(["stage", "localize", "--prefix", &p]).stderr(Stdio::piped()));
+    let node = messages::create_node("hostilesegtest").unwrap();
+    let drop_when_full = messages::iceoryx2::prelude::BackpressureStrategy::DiscardData;
+    let mut out = messages::Outlet::<CornersMsg>::open(&node, &p, messages::Topic::Corners, drop_when_full).unwrap();
+    let poses = messages::open_topic::<messages::PoseMsg>(&node, &p, messages::Topic::Pose).unwrap();
+    let pose_in = poses.data.subscriber_builder().create().unwrap();
+    let answered = std::cell::RefCell::new(std::collections::BTreeSet::new());
+    let located = |seq: u64| {
+        while let Some(m) = pose_in.receive().unwrap() {
+            answered.borrow_mut().insert(m.header.seq);
+        }
+        answered.borrow().contains(&seq)
+    };
+    // a good segmentation: the flat scan, no corners, no lines
+    let good = |seq: u64| {
+        move |m: &mut CornersMsg| {
+            flat_scan(seq)(&mut m.scan);
+            (m.count, m.line_count, m.noise_scale) = (0, 0, 1.0);
+        }
+    };
+    let corner = |v: f64| messages::CornerMsg {
+        position: [v, v],
+        inner_angle: v,
+        orientation: v,
+        quality: v,
+        arms: [messages::ArmMsg {
+            direction: [v, v],
+            gap: v,
+            length: v,
+            samples: v,
+            direction_sigma: v,
+            line: u32::MAX,
+            _pad: 0,
+        }; 2],
+    };
+    let line = |a: f64, b: f64| messages::LineMsg {
+        start: [a, a],
+        end: [b, -b],
+        direction_sigma: 0.01,
+        samples: u32::MAX,
+        _pad: 0,
+    };
+    let state = std::cell::Cell::new(0x2545_F491_4F6C_DD1Du64);
+    type Damage<'a> = Box<dyn Fn(&mut CornersMsg) + 'a>;
+    let mut damages: Vec<Damage<'_>> = vec![
+        Box::new(|m| m.count = u32::MAX),
+        Box::new(|m| m.line_count = u32::MAX),
+        Box::new(|m| m.noise_scale = f64::NAN),
+        Box::new(|m| m.noise_scale = 1e300),
+        Box::new(|m| m.noise_scale = -5.0),
+    ];
+    for v in [f64::NAN, f64::INFINITY, 1e300, -1e300, 0.0] {
+        damages.push(Box::new(move |m| {
+            m.count = messages::MAX_CORNERS as u32;
+            m.corners.fill(corner(v));
+        }));
+    }
+    for (a, b) in [(f64::NAN, 1.0), (-1e300, 1e300), (-1e6, 1e6), (0.0, 0.0), (1.0, f64::INFINITY)] {
+        damages.push(Box::new(move |m| {
+            m.line_count = messages::MAX_LINES as u32;
+            m.lines.fill(line(a, b));
+        }));
+    }
+    // frames of random bytes, every other one around a good scan
+    for k in 0..20 {
+        let (state, seq) = (&state, 100 + damages.len() as u64);
+        let random = move |m: &mut CornersMsg| {
+            // SAFETY: a CornersMsg is integers and floats alone (repr(C), its padding spelled
+            // out as fields), so any bytes make one.
+            let bytes = unsafe {
+                std::slice::from_raw_parts_mut(m as *mut CornersMsg as *mut u8, std::mem::size_of::<CornersMsg>())
+            };
+            let mut s = state.get();
+            for b in bytes.iter_mut() {
+                s ^= s << 13;
+                s ^= s >> 7;
+                s ^= s << 17;
+                *b = s as u8;
+            }
+            state.set(s);
+            if k % 2 == 0 {
+                let scan: &mut ScanMsg = &mut m.scan;
+                flat_scan(seq)(scan);
+            }
+        };
+        damages.push(Box::new(random));
+    }
+    wait_for("a pose for a good segmentation", Duration::from_secs(60), || {
+        out.send(good(1)).unwrap();
+        located(1)
+    });
+    let (start, mut after) = (Instant::now(), 0);
+    for (k, damage) in damages.iter().enumerate() {
+        let bad = good(100 + k as u64);
+        out.send(|m| {
+            bad(m);
+            damage(m);
+        })
+        .unwrap();
+        std::thread::sleep(Duration::from_millis(20));
+        let seq = 1000 + k as u64;
+        let since = Instant::now();
+        while !located(seq) && since.elapsed() < Duration::from_secs(30) {
+            out.send(good(seq)).unwrap();
+            std::thread::sleep(Duration::from_millis(50));
+        }
+        if since.elapsed() >= Duration::from_secs(30) {
+            break;
+        }
+        after += 1;
+    }
+    eprintln!(
+        "{after} bad segmentations, each followed by a good one located, in {:.1} s",
+        start.elapsed().as_secs_f64()
+    );
+    let alive = loc.child().try_wait().unwrap().is_none();
+    let said = String::from_utf8_lossy(&loc.terminated().stderr).into_owned();
+    assert!(alive, "the localize stage died; it said:\n{said}");
+    assert_eq!(after, damages.len(), "no good scan was located after bad segmentation {after}; it said:\n{said}");
+    // each bad one around a good scan was located too, not skipped: the test tried them
+    let tried = (0..damages.len() as u64).filter(|k| answered.borrow().contains(&(100 + k))).count();
+    assert!(tried >= 25, "only {tried} bad segmentations around a good scan were answered");
+    map.stop();
+}
