@@ -141,6 +141,7 @@ pub fn run(a: Ros2Args) -> Result<()> {
         published: 0,
         fresh: Freshness::default(),
         unstamped: 0,
+        unusable: 0,
         unmounted_said: false,
         latency_us: Vec::new(),
     };
@@ -185,9 +186,25 @@ pub fn run(a: Ros2Args) -> Result<()> {
     if out.unstamped > 0 {
         messages::say!("ros2: {} poses whose scan's stamp was no longer known were stamped when sent", out.unstamped);
     }
+    if out.unusable > 0 {
+        messages::say!("ros2: {} pose messages whose best hypothesis was not finite were not sent", out.unusable);
+    }
     waited?;
     scanned?;
     failure.map_or(Ok(()), Err).context("ros2")
+}
+
+/// The robot's poses and costs of a pose message's `hypotheses`, best first (`inverse`: the
+/// laser's place on the robot, inverted); `None` when the best is not a finite pose and cost,
+/// as in a damaged message. Alternatives that are not are left out: a pose that is not a
+/// number would go out to ROS, and could seed AMCL there.
+fn robot_hypotheses(hypotheses: &[messages::HypothesisMsg], inverse: &Pose) -> Option<Vec<(Pose, f64)>> {
+    let finite =
+        |h: &&messages::HypothesisMsg| [h.pose.x, h.pose.y, h.pose.theta, h.cost].iter().all(|v| v.is_finite());
+    if !hypotheses.first().is_some_and(|h| finite(&h)) {
+        return None;
+    }
+    Some(hypotheses.iter().filter(finite).map(|h| (pose(h.pose.x, h.pose.y, h.pose.theta) * inverse, h.cost)).collect())
 }
 
 /// The main thread's side: poses from the pipeline to ROS.
@@ -202,6 +219,8 @@ struct PosesOut {
     /// one handed the latest scan again, each publish one.
     fresh: Freshness,
     unstamped: u64,
+    /// Pose messages whose best hypothesis is not a finite pose and cost (a damaged message).
+    unusable: u64,
     unmounted_said: bool,
     /// Microseconds from each scan taken off DDS to its pose handed to DDS (the latest
     /// [`LATENCIES_KEPT`]).
@@ -221,8 +240,16 @@ impl PosesOut {
         let (header, mount) = self.scan_header(m.header.seq);
         let Some(mount) = mount.or_else(|| self.unmounted(&header.frame_id)) else { return Ok(()) };
         let inverse = mount.inverse();
-        let robot: Vec<(Pose, f64)> =
-            m.hypotheses[..count].iter().map(|h| (pose(h.pose.x, h.pose.y, h.pose.theta) * inverse, h.cost)).collect();
+        let Some(robot) = robot_hypotheses(&m.hypotheses[..count], &inverse) else {
+            self.unusable += 1;
+            if self.unusable == 1 {
+                messages::say!(
+                    "ros2: pose message {}: its best hypothesis is not a finite pose; not sent",
+                    m.header.seq
+                );
+            }
+            return Ok(());
+        };
         let best = robot[0].0;
         let message = msg::PoseWithCovarianceStamped {
             header: msg::Header { stamp: header.stamp, frame_id: self.a.map_frame.clone() },
@@ -430,4 +457,27 @@ fn scans_in(context: &Context, a: &Ros2Args, shared: &Mutex<Shared>, stop: &Atom
         if bad > 0 { format!(", {bad} dropped") } else { String::new() }
     );
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn hypothesis(x: f64, cost: f64) -> messages::HypothesisMsg {
+        messages::HypothesisMsg { pose: messages::PoseMsgXyt { x, y: 2.0, theta: 0.0 }, cost, ..Default::default() }
+    }
+
+    /// A damaged pose message never goes out as a pose that is not a number.
+    #[test]
+    fn a_pose_message_whose_best_is_not_finite_is_not_sent() {
+        let inverse = pose(0.2, 0.0, 0.0).inverse();
+        assert!(robot_hypotheses(&[hypothesis(f64::NAN, 0.1), hypothesis(1.0, 0.2)], &inverse).is_none());
+        assert!(robot_hypotheses(&[hypothesis(1.0, f64::INFINITY)], &inverse).is_none());
+        assert!(robot_hypotheses(&[], &inverse).is_none());
+        let kept = robot_hypotheses(&[hypothesis(1.0, 0.1), hypothesis(f64::NAN, 0.2), hypothesis(3.0, 0.3)], &inverse)
+            .expect("a finite best");
+        assert_eq!(kept.len(), 2, "the alternative that is not a number is left out");
+        // the laser 0.2 m ahead of the robot's centre, facing the map's x axis
+        assert!((kept[0].0.translation.x - 0.8).abs() < 1e-9 && kept[1].1 == 0.3, "{kept:?}");
+    }
 }
