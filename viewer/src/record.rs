@@ -7,8 +7,8 @@ use laser::ScanGeometry;
 use map::{CornerIndex, MapCornerConfig, SeenFree};
 use mapserver::wire::map_from_msg;
 use messages::{
-    status_name, CornersMsg, Freshness, Header, HypothesisMsg, LinesMsg, MapMsg, PoseMsg, PoseMsgXyt, ScanMsg, Topic,
-    MAX_BEAMS, MAX_CORNERS, MAX_HYPOTHESES, MAX_LINES, STATUS_AMBIGUOUS, STATUS_OK,
+    status_name, CornersMsg, Freshness, Header, HypothesisMsg, LinesMsg, MapMsg, PoseMsg, PoseMsgXyt, Refused, ScanMsg,
+    Topic, MAX_BEAMS, MAX_CORNERS, MAX_HYPOTHESES, MAX_LINES, STATUS_AMBIGUOUS, STATUS_OK,
 };
 use rerun::components::TextLogLevel;
 use rerun::datatypes::Rgba32;
@@ -42,7 +42,8 @@ pub struct TopicCount {
     /// Messages seen twice (two producers during a hot swap, a resend to a late-connecting
     /// subscriber), not recorded again.
     pub duplicates: u64,
-    /// Messages refused as malformed (logged as errors in the recording).
+    /// Messages refused as malformed (logged as errors in the recording), and those stamped
+    /// ahead of the monotonic clock (counted only).
     pub malformed: u64,
     pub first_seq: Option<u64>,
     pub last_seq: Option<u64>,
@@ -56,9 +57,17 @@ impl TopicCount {
     /// it recorded). A copy is told by its stamp, not its number, so the scans of a restarted
     /// source are recorded although their numbers were seen before.
     fn accept(&mut self, header: &Header) -> bool {
-        if !self.fresh.admit(header) {
-            self.duplicates += 1;
-            return false;
+        match self.fresh.check(header, messages::monotonic_ns()) {
+            Ok(()) => {}
+            Err(Refused::Seen) => {
+                self.duplicates += 1;
+                return false;
+            }
+            // stamped with no clock of this machine's: a damaged message
+            Err(Refused::Ahead { .. }) => {
+                self.malformed += 1;
+                return false;
+            }
         }
         let seq = header.seq;
         match self.last_seq {

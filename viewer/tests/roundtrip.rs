@@ -277,3 +277,20 @@ fn a_restarted_source_is_recorded_and_a_copy_is_not() {
     let c = counts.scan;
     assert_eq!((c.recorded, c.duplicates, c.missed), (4, 2, 1), "{c:?}");
 }
+
+/// A scan stamped ahead of the machine's monotonic clock (a damaged message) is counted as
+/// malformed, not as the newest: the scans after it are recorded.
+#[test]
+fn a_scan_stamped_ahead_of_the_clock_is_malformed_and_the_next_ones_are_recorded() {
+    let dir = tempfile::tempdir().unwrap();
+    let output = Output::open(OutputSpec { file: Some(dir.path().join("run.rrd")), ..Default::default() }).unwrap();
+    let mut r = Recorder::new(output);
+    r.scan(&scan(0, 300)).unwrap();
+    let mut ahead = scan(1, 300);
+    ahead.header.stamp_ns = u64::MAX;
+    r.scan(&ahead).unwrap();
+    r.scan(&scan(2, 300)).unwrap();
+    let (counts, _) = r.finish().unwrap();
+    let c = counts.scan;
+    assert_eq!((c.recorded, c.duplicates, c.malformed), (2, 0, 1), "{c:?}");
+}
