@@ -117,6 +117,19 @@ fn failures() -> PathBuf {
     Path::new(env!("CARGO_TARGET_TMPDIR")).join("fuzz-failures")
 }
 
+/// Keeps `input` as `file` in [`failures`] to be replayed, and says where, with the seed that
+/// makes it again and its first bytes.
+fn kept(file: &str, seed: u64, input: &[u8]) -> String {
+    let _ = std::fs::create_dir_all(failures());
+    let file = failures().join(file);
+    let _ = std::fs::write(&file, input);
+    format!(
+        "kept as {} (GEMA2_FUZZ_SEED={seed}): {:?}",
+        file.display(),
+        String::from_utf8_lossy(&input[..input.len().min(400)])
+    )
+}
+
 /// How long one input may take before it is a hang.
 fn hang_limit() -> Duration {
     let seconds = std::env::var("GEMA2_FUZZ_HANG_SECONDS").ok().and_then(|s| s.parse::<f64>().ok()).unwrap_or(60.0);
@@ -135,16 +148,16 @@ fn next_input(rng: &mut Rng, seeds: &[Vec<u8>], k: usize) -> Vec<u8> {
     }
 }
 
-/// Watches a fuzz run from its own thread: when the input in hand (`started`, counted from 1)
+/// Watches a fuzz run from its own thread: when the input in hand (`in_hand`, counted from 1)
 /// has not changed for [`hang_limit`], makes that input again from the seed, keeps it, and
 /// ends the test process with a failure, since a spinning parser cannot be stopped from here.
-fn watch_for_hangs(name: &str, seed: u64, seeds: &[Vec<u8>], started: Arc<AtomicUsize>, done: Arc<AtomicBool>) {
+fn watch_for_hangs(name: &str, seed: u64, seeds: &[Vec<u8>], in_hand: Arc<AtomicUsize>, done: Arc<AtomicBool>) {
     let (name, seeds) = (name.to_owned(), seeds.to_vec());
     std::thread::spawn(move || {
         let (mut last, mut since) = (0, Instant::now());
         while !done.load(Ordering::Relaxed) {
             std::thread::sleep(Duration::from_millis(250));
-            let now = started.load(Ordering::Relaxed);
+            let now = in_hand.load(Ordering::Relaxed);
             if now != last {
                 (last, since) = (now, Instant::now());
                 continue;
@@ -154,16 +167,12 @@ fn watch_for_hangs(name: &str, seed: u64, seeds: &[Vec<u8>], started: Arc<Atomic
             }
             let mut rng = Rng(seed);
             let input = (0..now).map(|k| next_input(&mut rng, &seeds, k)).last().unwrap_or_default();
-            let _ = std::fs::create_dir_all(failures());
-            let file = failures().join(format!("{name}-{seed}-hang.bin"));
-            let _ = std::fs::write(&file, &input);
+            let kept = kept(&format!("{name}-{seed}-hang.bin"), seed, &input);
             use std::io::Write;
             let _ = writeln!(
                 std::io::stderr(),
-                "{name}: input {now} has run for {:.0} s, a hang; kept as {} (GEMA2_FUZZ_SEED={seed}): {:?}",
-                since.elapsed().as_secs_f64(),
-                file.display(),
-                String::from_utf8_lossy(&input[..input.len().min(400)])
+                "{name}: input {now} has run for {:.0} s, a hang; {kept}",
+                since.elapsed().as_secs_f64()
             );
             std::process::exit(101);
         }
@@ -196,14 +205,7 @@ fn fuzz(name: &str, seeds: &[Vec<u8>], parse: impl Fn(&[u8])) -> usize {
     }
     done.store(true, Ordering::Relaxed);
     if let Some((input, why)) = failed {
-        let _ = std::fs::create_dir_all(failures());
-        let file = failures().join(format!("{name}-{seed}.bin"));
-        let _ = std::fs::write(&file, &input);
-        panic!(
-            "{name}: an input panicked the parser ({why}); kept as {} (GEMA2_FUZZ_SEED={seed}): {:?}",
-            file.display(),
-            String::from_utf8_lossy(&input[..input.len().min(400)])
-        );
+        panic!("{name}: an input panicked the parser ({why}); {}", kept(&format!("{name}-{seed}.bin"), seed, &input));
     }
     assert!(runs > seeds.len() || budget().is_zero(), "{name}: no mutant ran");
     // straight to the terminal, past the harness's capture: how much fuzzing CI did
