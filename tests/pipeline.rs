@@ -559,11 +559,7 @@ fn sighup_reloads_the_map_and_the_map_server_carries_on() {
     let map = dir.path().join("map.json");
     std::fs::write(&map, include_str!("../maps/apartment.json")).unwrap();
     let p = prefix("hup");
-    let mut server = StageChild::spawn(
-        Command::new(exe())
-            .args(["stage", "mapserver", "--map", map.to_str().unwrap(), "--prefix", &p])
-            .stderr(Stdio::piped()),
-    );
+    let mut server = StageChild::stage(&["mapserver", "--map", map.to_str().unwrap()], &p, Stdio::piped());
     let mut lines = BufReader::new(server.child().stderr.take().unwrap()).lines();
     assert!(lines.next().and_then(Result::ok).unwrap_or_default().contains("as version 1"));
     for version in [2, 3] {
@@ -642,9 +638,7 @@ fn a_killed_reader_leaves_every_stage_upstream_running() {
 #[test]
 fn map_corners_asks_the_running_map_server() {
     let p = prefix("corners");
-    let mut server = StageChild::spawn(
-        Command::new(exe()).args(["stage", "mapserver", "--map", "office", "--prefix", &p]).stderr(Stdio::piped()),
-    );
+    let mut server = StageChild::stage(&["mapserver", "--map", "office"], &p, Stdio::piped());
     let first = BufReader::new(server.child().stderr.take().unwrap()).lines().next();
     assert!(first.and_then(Result::ok).unwrap_or_default().contains("as version 1"));
     let ask = |extra: &[&str]| gema2(&[&["map", "corners", "--prefix", &p][..], extra].concat());
@@ -674,6 +668,11 @@ struct StageChild(Option<Child>);
 impl StageChild {
     fn spawn(cmd: &mut Command) -> Self {
         StageChild(Some(cmd.spawn().unwrap()))
+    }
+
+    /// `gema2 stage` with `args` (the stage's kind first) under `prefix`, its stderr to `stderr`.
+    fn stage(args: &[&str], prefix: &str, stderr: Stdio) -> Self {
+        Self::spawn(Command::new(exe()).arg("stage").args(args).args(["--prefix", prefix]).stderr(stderr))
     }
 
     fn child(&mut self) -> &mut Child {
@@ -744,12 +743,9 @@ fn a_hot_swap_of_segment_then_localize_loses_at_most_two_scans() {
 #[test]
 fn a_localizer_started_late_receives_the_map() {
     let p = prefix("late");
-    let map = StageChild::spawn(
-        Command::new(exe()).args(["stage", "mapserver", "--map", "apartment", "--prefix", &p]).stderr(Stdio::null()),
-    );
+    let map = StageChild::stage(&["mapserver", "--map", "apartment"], &p, Stdio::null());
     std::thread::sleep(Duration::from_millis(1500));
-    let mut loc =
-        StageChild::spawn(Command::new(exe()).args(["stage", "localize", "--prefix", &p]).stderr(Stdio::piped()));
+    let mut loc = StageChild::stage(&["localize"], &p, Stdio::piped());
     let mut lines = BufReader::new(loc.child().stderr.take().unwrap()).lines();
     let got = lines.next().and_then(Result::ok).unwrap_or_default();
     assert!(got.contains("map version 1 (38 walls,") && got.contains("read in place"), "{got}");
@@ -855,18 +851,10 @@ fn a_second_localizer_reads_the_model_in_place_and_adds_no_copy_of_it() {
     let made = gema2(&["map", "generate", "office-1500", "--seed", "3", "--out", big.to_str().unwrap()]);
     assert!(made.status.success());
     let (p, small_p) = (prefix("inplace"), prefix("inplace-small"));
-    let mut server = StageChild::spawn(
-        Command::new(exe())
-            .args(["stage", "mapserver", "--map", big.to_str().unwrap(), "--prefix", &p])
-            .stderr(Stdio::piped()),
-    );
+    let mut server = StageChild::stage(&["mapserver", "--map", big.to_str().unwrap()], &p, Stdio::piped());
     let said = BufReader::new(server.child().stderr.take().unwrap()).lines().next().and_then(Result::ok);
     assert!(said.unwrap_or_default().contains("as version 1"));
-    let small_server = StageChild::spawn(
-        Command::new(exe())
-            .args(["stage", "mapserver", "--map", "apartment", "--prefix", &small_p])
-            .stderr(Stdio::null()),
-    );
+    let small_server = StageChild::stage(&["mapserver", "--map", "apartment"], &small_p, Stdio::null());
     std::thread::sleep(Duration::from_millis(500));
     let (first, mb) = localizer_with_model(&p, &[]);
     let (mut second, mb_again) = localizer_with_model(&p, &[]);
@@ -907,9 +895,7 @@ fn a_model_built_for_other_corner_settings_is_refused() {
 #[test]
 fn a_payload_type_mismatch_across_processes_names_the_service() {
     let p = prefix("types");
-    let map = StageChild::spawn(
-        Command::new(exe()).args(["stage", "mapserver", "--map", "apartment", "--prefix", &p]).stderr(Stdio::null()),
-    );
+    let map = StageChild::stage(&["mapserver", "--map", "apartment"], &p, Stdio::null());
     std::thread::sleep(Duration::from_millis(1500));
     let node = messages::create_node("typetest").unwrap();
     let err = messages::open_pubsub::<messages::ScanMsg>(&node, &format!("{p}/map"), messages::Topic::Map.settings())
@@ -1059,7 +1045,7 @@ fn flat_scan(seq: u64) -> impl Fn(&mut messages::ScanMsg) + Copy {
 #[test]
 fn a_stage_finds_a_scan_that_came_without_a_wake_up() {
     let p = prefix("nowake");
-    let seg = StageChild::spawn(Command::new(exe()).args(["stage", "segment", "--prefix", &p]).stderr(Stdio::piped()));
+    let seg = StageChild::stage(&["segment"], &p, Stdio::piped());
     let node = messages::create_node("nowaketest").unwrap();
     let scans = messages::open_topic::<messages::ScanMsg>(&node, &p, messages::Topic::Scan).unwrap();
     let corners = messages::open_topic::<messages::CornersMsg>(&node, &p, messages::Topic::Corners).unwrap();
@@ -1095,10 +1081,8 @@ fn a_stage_finds_a_scan_that_came_without_a_wake_up() {
 #[test]
 fn a_localizer_started_after_the_last_scan_locates_that_scan() {
     let p = prefix("history");
-    let map = StageChild::spawn(
-        Command::new(exe()).args(["stage", "mapserver", "--map", "apartment", "--prefix", &p]).stderr(Stdio::null()),
-    );
-    let seg = StageChild::spawn(Command::new(exe()).args(["stage", "segment", "--prefix", &p]).stderr(Stdio::null()));
+    let map = StageChild::stage(&["mapserver", "--map", "apartment"], &p, Stdio::null());
+    let seg = StageChild::stage(&["segment"], &p, Stdio::null());
     let node = messages::create_node("historytest").unwrap();
     let mut scans = scan_outlet(&node, &p);
     let corners = messages::open_topic::<messages::CornersMsg>(&node, &p, messages::Topic::Corners).unwrap();
@@ -1109,7 +1093,7 @@ fn a_localizer_started_after_the_last_scan_locates_that_scan() {
     // no scan comes after this one
     let poses = messages::open_topic::<messages::PoseMsg>(&node, &p, messages::Topic::Pose).unwrap();
     let pose_in = poses.data.subscriber_builder().create().unwrap();
-    let loc = StageChild::spawn(Command::new(exe()).args(["stage", "localize", "--prefix", &p]).stderr(Stdio::piped()));
+    let loc = StageChild::stage(&["localize"], &p, Stdio::piped());
     let mut seq = None;
     wait_for("the pose of the scan before the localizer started", Duration::from_secs(30), || {
         seq = pose_in.receive().unwrap().map(|m| m.header.seq);
@@ -1132,7 +1116,7 @@ fn a_segment_stage_that_cannot_listen_for_readiness_still_segments() {
     let node = messages::create_node("noreadytest").unwrap();
     let taken: Vec<_> = std::iter::from_fn(|| messages::ready_listener(&node, &p).ok()).take(64).collect();
     assert!(taken.len() < 64, "the readiness event has no limit on listeners");
-    let seg = StageChild::spawn(Command::new(exe()).args(["stage", "segment", "--prefix", &p]).stderr(Stdio::piped()));
+    let seg = StageChild::stage(&["segment"], &p, Stdio::piped());
     let mut scans = scan_outlet(&node, &p);
     let corners = messages::open_topic::<messages::CornersMsg>(&node, &p, messages::Topic::Corners).unwrap();
     let corners_in = corners.data.subscriber_builder().create().unwrap();
@@ -1149,8 +1133,8 @@ fn a_segment_stage_that_cannot_listen_for_readiness_still_segments() {
 #[test]
 fn a_warm_up_passes_down_the_pipeline_without_a_message() {
     let p = prefix("warm");
-    let seg = StageChild::spawn(Command::new(exe()).args(["stage", "segment", "--prefix", &p]).stderr(Stdio::null()));
-    let loc = StageChild::spawn(Command::new(exe()).args(["stage", "localize", "--prefix", &p]).stderr(Stdio::null()));
+    let seg = StageChild::stage(&["segment"], &p, Stdio::null());
+    let loc = StageChild::stage(&["localize"], &p, Stdio::null());
     let node = messages::create_node("warmtest").unwrap();
     let scans = scan_outlet(&node, &p);
     let poses = messages::open_topic::<messages::PoseMsg>(&node, &p, messages::Topic::Pose).unwrap();
@@ -1548,13 +1532,9 @@ fn bad_then_good<T: std::fmt::Debug + messages::iceoryx2::prelude::ZeroCopySend 
 fn hostile_scans_cost_only_themselves() {
     use messages::ScanMsg;
     let p = prefix("hostile");
-    let map = StageChild::spawn(
-        Command::new(exe()).args(["stage", "mapserver", "--map", "apartment", "--prefix", &p]).stderr(Stdio::null()),
-    );
-    let mut seg =
-        StageChild::spawn(Command::new(exe()).args(["stage", "segment", "--prefix", &p]).stderr(Stdio::piped()));
-    let mut loc =
-        StageChild::spawn(Command::new(exe()).args(["stage", "localize", "--prefix", &p]).stderr(Stdio::piped()));
+    let map = StageChild::stage(&["mapserver", "--map", "apartment"], &p, Stdio::null());
+    let mut seg = StageChild::stage(&["segment"], &p, Stdio::piped());
+    let mut loc = StageChild::stage(&["localize"], &p, Stdio::piped());
     let node = messages::create_node("hostiletest").unwrap();
     let mut scans = scan_outlet(&node, &p);
     let mut answers = Answers::open(&node, &p);
@@ -1612,11 +1592,8 @@ fn hostile_scans_cost_only_themselves() {
 fn hostile_segmentations_cost_only_themselves() {
     use messages::CornersMsg;
     let p = prefix("hostileseg");
-    let map = StageChild::spawn(
-        Command::new(exe()).args(["stage", "mapserver", "--map", "apartment", "--prefix", &p]).stderr(Stdio::null()),
-    );
-    let mut loc =
-        StageChild::spawn(Command::new(exe()).args(["stage", "localize", "--prefix", &p]).stderr(Stdio::piped()));
+    let map = StageChild::stage(&["mapserver", "--map", "apartment"], &p, Stdio::null());
+    let mut loc = StageChild::stage(&["localize"], &p, Stdio::piped());
     let node = messages::create_node("hostilesegtest").unwrap();
     let drop_when_full = messages::iceoryx2::prelude::BackpressureStrategy::DiscardData;
     let mut out = messages::Outlet::<CornersMsg>::open(&node, &p, messages::Topic::Corners, drop_when_full).unwrap();
