@@ -94,8 +94,8 @@ fn file_summary(path: &Path) -> Result<Option<mcap::Summary>, BagError> {
 /// against its CRC; the `mcap` crate parses the records' bodies. Its own streaming reader spun
 /// for ever on a chunk that declares more bytes than its compressed data holds (zstd or LZ4:
 /// one damaged length field; fixed in mcap 0.26, whose summary reader `file_summary` uses),
-/// and framing here keeps what is taken in within [`MAX_RECORD_BYTES`]. A chunk the file ends inside (a
-/// recording killed) gives the whole records it holds, then the error.
+/// and framing here keeps what is taken in within [`MAX_RECORD_BYTES`]. A chunk the file ends
+/// inside (a recording killed) gives the whole records it holds, then the error.
 pub struct McapFile {
     path: PathBuf,
     file: BufReader<File>,
@@ -410,6 +410,18 @@ mod tests {
         at
     }
 
+    /// A file of 20 messages whose first chunk, compressed as `c`, declares 64 bytes more than
+    /// its records hold (one damaged length field), and where that chunk starts.
+    fn declaring_more(c: mcap::Compression) -> (Vec<u8>, usize) {
+        let mut bytes = file(Some(c), 20);
+        // the chunk's body: start time, end time, then the uncompressed size
+        let chunk = first_chunk(&bytes);
+        let size_at = chunk + 9 + 16;
+        let size = u64::from_le_bytes(bytes[size_at..size_at + 8].try_into().unwrap());
+        bytes[size_at..size_at + 8].copy_from_slice(&(size + 64).to_le_bytes());
+        (bytes, chunk)
+    }
+
     #[test]
     fn every_compression_reads_back_every_message() {
         for c in [None, Some(mcap::Compression::Zstd), Some(mcap::Compression::Lz4)] {
@@ -422,12 +434,7 @@ mod tests {
     #[test]
     fn a_chunk_declaring_more_than_it_holds_is_an_error_not_a_hang() {
         for c in [mcap::Compression::Lz4, mcap::Compression::Zstd] {
-            let mut bytes = file(Some(c), 20);
-            // the chunk's body: start time, end time, then the uncompressed size
-            let size_at = first_chunk(&bytes) + 9 + 16;
-            let size = u64::from_le_bytes(bytes[size_at..size_at + 8].try_into().unwrap());
-            bytes[size_at..size_at + 8].copy_from_slice(&(size + 64).to_le_bytes());
-            let (n, e) = read(&bytes);
+            let (n, e) = read(&declaring_more(c).0);
             assert_eq!(n, 0, "{c:?}");
             assert!(e.as_deref().is_some_and(|e| e.contains("declares")), "{c:?}: {e:?}");
         }
@@ -439,11 +446,7 @@ mod tests {
     #[test]
     fn a_summary_at_a_chunk_declaring_more_than_it_holds_is_an_error_not_a_hang() {
         for c in [mcap::Compression::Lz4, mcap::Compression::Zstd] {
-            let mut bytes = file(Some(c), 20);
-            let chunk = first_chunk(&bytes);
-            let size_at = chunk + 9 + 16;
-            let size = u64::from_le_bytes(bytes[size_at..size_at + 8].try_into().unwrap());
-            bytes[size_at..size_at + 8].copy_from_slice(&(size + 64).to_le_bytes());
+            let (mut bytes, chunk) = declaring_more(c);
             // the footer, before the closing magic: opcode, length, summary start, summary
             // offset start, summary CRC (0: none)
             let footer = bytes.len() - 8 - 29;
