@@ -378,9 +378,9 @@ fn corridor_with_alcoves() -> Vec<map::Wall> {
 /// corridor finds the truth by the alcoves in view, but one scan's word does not move the
 /// track (on a map built from a log it may be a flaw of the map's): the look's pose is that
 /// scan's answer, `ambiguous`, and on the next scan, found again where odometry moved it, it
-/// is the track's. That holds where a pose may see through
-/// walls (`escalate_through` 1, as on a map that states an error); on this exact plan the
-/// window's pose sees through the alcoves' walls, and the look's pose is the answer at once.
+/// is the track's. That holds where a pose may see through walls (`escalate_through` 1, as
+/// on a map that states an error); on this exact plan the window's pose sees through the
+/// alcoves' walls, and the look's pose is the answer at once.
 #[test]
 fn a_drive_odometry_reports_short_is_found_along_the_corridor() {
     short_drive_then(1.0);
