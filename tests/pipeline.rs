@@ -1580,6 +1580,10 @@ fn hostile_scans_cost_only_themselves() {
     assert!(alive == [true, true], "a stage died (segment, localize alive: {alive:?}); {said}");
     assert_eq!(after, damages.len(), "no good scan was located after bad scan {after}; {said}");
     assert!(seg_said.contains("dropped scan"), "the segment stage did not say what it dropped; {said}");
+    assert!(
+        seg_said.contains("ahead of this machine's monotonic clock"),
+        "no word of the scan from the future; {said}"
+    );
     map.stop();
 }
 

@@ -421,16 +421,10 @@ impl Located {
         match self.fresh.check(header, monotonic_ns()) {
             Ok(()) => {}
             Err(Refused::Seen) => return false,
-            Err(Refused::Ahead { by_ns }) => {
+            Err(refused) => {
                 self.ahead += 1;
                 if self.ahead == 1 || self.ahead.is_multiple_of(100) {
-                    messages::say!(
-                        "localize: dropped scan {}: stamped {:.3} s ahead of this machine's monotonic clock, which \
-                         every stage stamps with ({} so far)",
-                        header.seq,
-                        by_ns as f64 / 1e9,
-                        self.ahead
-                    );
+                    messages::say!("localize: dropped scan {}: {refused} ({} so far)", header.seq, self.ahead);
                 }
                 return false;
             }

@@ -262,6 +262,19 @@ pub enum Refused {
     Ahead { by_ns: u64 },
 }
 
+impl std::fmt::Display for Refused {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Refused::Seen => write!(f, "stamped no later than a message taken before"),
+            Refused::Ahead { by_ns } => write!(
+                f,
+                "stamped {:.3} s ahead of this machine's monotonic clock, which every stage stamps with",
+                *by_ns as f64 / 1e9
+            ),
+        }
+    }
+}
+
 impl Freshness {
     /// True for a message newer than every message admitted before and not ahead of the
     /// monotonic clock; remembers it.

@@ -13,8 +13,8 @@ use anyhow::{anyhow, Context, Result};
 use clap::Args;
 use messages::iceoryx2::prelude::*;
 use messages::{
-    monotonic_ns, CornersMsg, Freshness, Header, Inlet, LinesMsg, Look, Outlet, ScanMsg, Stage, Topic, MAX_CORNERS,
-    MAX_LINES,
+    monotonic_ns, CornersMsg, Freshness, Header, Inlet, LinesMsg, Look, Outlet, Refused, ScanMsg, Stage, Topic,
+    MAX_CORNERS, MAX_LINES,
 };
 
 /// What the stage is, for its `--help` (its own program's and `gema2 stage segment`'s).
@@ -110,10 +110,17 @@ struct Segmenting {
 
 impl Segmenting {
     /// Segments `scan`, taken at `enter` in `look`, and publishes its lines and corners. A copy
-    /// of a scan already segmented is skipped; one that cannot be read is dropped with a notice.
+    /// of a scan already segmented is skipped; one that cannot be read, or is stamped ahead of
+    /// the clock, is dropped with a notice.
     fn take<const N: usize>(&mut self, scan: &ScanMsg, enter: u64, look: &mut Look<'_, N>) -> Result<()> {
-        if !self.fresh.admit(&scan.header) {
-            return Ok(());
+        match self.fresh.check(&scan.header, monotonic_ns()) {
+            Ok(()) => {}
+            Err(Refused::Seen) => return Ok(()),
+            Err(refused) => {
+                self.bad_scans += 1;
+                messages::say!("segment: dropped scan {}: {refused} ({} so far)", scan.header.seq, self.bad_scans);
+                return Ok(());
+            }
         }
         self.found_by_poll += u64::from(look.found_by_poll());
         let view = match scan_view(scan) {
