@@ -239,6 +239,10 @@ pub struct Track {
     /// (`Sequential::look_along`, `Sequential::look_near`), to be weighed against it again
     /// on this one.
     pub shadow: Option<Pose>,
+    /// A look's pose and cost that answer this scan in the track's place when it is the best
+    /// and not `ok` ([`SequentialConfig::look_answer_lead`]). Kept on the track the look was
+    /// about, so that another track that the global search puts first never answers with it.
+    pub look_answer: Option<(Pose, Cost)>,
 }
 
 /// One scan's answer.
@@ -274,9 +278,6 @@ pub struct Sequential {
     gate: (f64, f64),
     /// The steps of the last window searched about a track.
     window: Window,
-    /// This scan's answer in place of the best track's pose, when a look found one
-    /// ([`SequentialConfig::look_answer_lead`]): the pose and its cost.
-    look_answer: Option<(Pose, Cost)>,
 }
 
 /// The steps (k, i, j) of the grid a track is searched over ([`SequentialConfig::grid_starts`]),
@@ -327,7 +328,6 @@ impl Sequential {
             relook: Vec::new(),
             gate: (0.0, 0.0),
             window: Window::default(),
-            look_answer: None,
         }
     }
 
@@ -401,7 +401,6 @@ impl Sequential {
             self.tracks.clear();
         }
         self.gate = (0.0, 0.0);
-        self.look_answer = None;
         let mut missed_best = false;
         if let Some((delta, a, b)) = moved {
             missed_best = self.follow(scan, seg, &delta, &a, &b);
@@ -469,6 +468,7 @@ impl Sequential {
         // per track: where odometry puts it, and the best pose found about there
         let mut found = Vec::with_capacity(self.tracks.len());
         let mut shadow = None;
+        let mut look_answer = None;
         // the near look's cascade about the best track's prediction, when it ran
         let mut cascade = None;
         for n in 0..self.tracks.len() {
@@ -533,7 +533,7 @@ impl Sequential {
                         let near = (pose.translation.vector - predicted.translation.vector).norm()
                             <= cfg.look_answer_sigmas * spread;
                         if near && cost.value < self.scored[0].1.value - cfg.look_answer_lead {
-                            self.look_answer = Some((pose, cost));
+                            look_answer = Some((pose, cost));
                         }
                     }
                 }
@@ -546,6 +546,7 @@ impl Sequential {
         for (track, &(predicted, (refined, cost), relooked)) in self.tracks.iter_mut().zip(&found) {
             track.relooked = false;
             track.shadow = None;
+            track.look_answer = None;
             let held = same_pose(&refined, &predicted, gate, gate_heading)
                 && cost.value.is_finite()
                 && cost.inliers >= min_inliers;
@@ -566,8 +567,9 @@ impl Sequential {
                 track.misses += 1;
             }
         }
-        if let Some(best) = self.tracks.first_mut().filter(|t| t.misses == 0) {
-            best.shadow = shadow;
+        if let Some(best) = self.tracks.first_mut() {
+            best.look_answer = look_answer;
+            best.shadow = shadow.filter(|_| best.misses == 0);
         }
         // the best track (the first: the tracks are sorted by lag) lost by its search: look
         // for it within the odometry's spread with the cascade, before taking it for lost
@@ -757,6 +759,7 @@ impl Sequential {
                     late: had_tracks,
                     relooked: false,
                     shadow: None,
+                    look_answer: None,
                 }),
             }
         }
@@ -857,7 +860,7 @@ impl Sequential {
         };
         let sure = leads && vouched && !best.relooked && self.meets_ok_bar(scan, &best);
         a.status = if sure { Status::Ok } else { Status::Ambiguous };
-        if let Some((pose, cost)) = self.look_answer.filter(|_| !sure) {
+        if let Some((pose, cost)) = best.look_answer.filter(|_| !sure) {
             (a.pose, a.cost) = (Some(pose), Some(cost));
         }
         if !sure {
@@ -1019,5 +1022,40 @@ mod tests {
         let (refined, predicted) = (pose(1.0, 0.0, 0.3), pose(0.0, 0.5, 0.1));
         let fused = fuse_along(&refined, &predicted, 1.0 / 0.04, nalgebra::Vector2::new(1.0, 0.0), 0.2);
         assert!((fused.translation.vector - nalgebra::Vector2::new(0.5, 0.0)).norm() < 1e-12, "{fused:?}");
+    }
+
+    /// A look's pose answers for the track it was found about while that track is the best,
+    /// and never for another track that the scan's global search put first.
+    #[test]
+    fn a_looks_answer_stays_with_its_track() {
+        let room = [(0.0, 0.0, 8.0, 0.0), (8.0, 0.0, 8.0, 4.0), (8.0, 4.0, 0.0, 4.0), (0.0, 4.0, 0.0, 0.0)];
+        let walls = room.iter().map(|&(ax, ay, bx, by)| map::Wall::new(ax, ay, bx, by)).collect();
+        let model = crate::model::MapModel::new(map::WallMap::new(walls), &map::MapCornerConfig::default());
+        let localizer = Localizer::new(std::sync::Arc::new(model), crate::LocalizerConfig::default());
+        let mut sequential = Sequential::new(localizer, SequentialConfig::default());
+        let cost = |value| Cost { value, inliers: 0.9, through: 0.0, beams: 100 };
+        let track = |x| Track {
+            pose: pose(x, 2.0, 0.0),
+            cost: cost(1.0),
+            behind: 0.0,
+            scans: 5,
+            misses: 0,
+            late: false,
+            relooked: false,
+            shadow: None,
+            look_answer: None,
+        };
+        let look = (pose(5.5, 2.0, 0.0), cost(0.2));
+        // level, so neither leads and the answer is `ambiguous` without reading the scan
+        let (found_for, other) = (Track { look_answer: Some(look), ..track(5.0) }, track(2.0));
+        let ranges = [1.0f32; 8];
+        let geometry = laser::ScanGeometry::urg04lx_decimated(96);
+        let scan = ScanView { geometry, ranges: &ranges };
+        sequential.tracks = vec![other, found_for];
+        let a = sequential.answer(&scan, None);
+        assert_eq!((a.status, a.pose, a.track), (Status::Ambiguous, Some(other.pose), Some(0)));
+        sequential.tracks = vec![found_for, other];
+        let a = sequential.answer(&scan, None);
+        assert_eq!((a.status, a.pose, a.cost), (Status::Ambiguous, Some(look.0), Some(look.1)));
     }
 }
