@@ -290,6 +290,30 @@ fn a_killed_stage_is_restarted_and_nothing_else_restarts() {
     assert!(seqs.len() >= 150, "only {} poses", seqs.len());
 }
 
+/// The map server killed outright (SIGKILL) while scans flow: the localizer goes on reading the
+/// model it holds (the shared memory outlives its dead publisher, and the supervisor's clean-up
+/// of the dead node takes nothing from under it), the supervisor starts a new map server, and
+/// no scan is lost.
+#[test]
+fn a_killed_map_server_costs_no_scan() {
+    let Running { _dir, csv, prefix: p, run } = start_running("mapkill", 240, "40", Duration::from_secs(1));
+    let (segment, localize, mapserver) =
+        (stage_pids("segment", &p), stage_pids("localize", &p), stage_pids("mapserver", &p));
+    assert_eq!((segment.len(), localize.len(), mapserver.len()), (1, 1, 1));
+    // SAFETY: kill(2) on a process this test started (through the supervisor).
+    unsafe { libc::kill(mapserver[0] as i32, libc::SIGKILL) };
+    wait_for("a new map server", Duration::from_secs(10), || {
+        stage_pids("mapserver", &p).iter().any(|&q| q != mapserver[0])
+    });
+    assert_eq!(stage_pids("localize", &p), localize, "localize was restarted");
+    assert_eq!(stage_pids("segment", &p), segment, "segment was restarted");
+    let out = run.wait_with_output().unwrap();
+    let report = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(report.contains("stage mapserver restarted 1 times"), "{report}");
+    assert_every_pose_once(&csv, 240);
+}
+
 /// A stage that dies and may not restart (`restart = "never"`) fails the run, after its report:
 /// the run went on to the log's end and exited 0, with 38 poses of 100, as though all was well.
 #[test]
