@@ -269,21 +269,33 @@ fn the_main_job_runs_the_pipeline_and_reports_hops_and_success() {
     assert!(text.contains("next:") && text.contains("gema2 locate"), "{text}");
 }
 
-#[test]
-fn a_killed_stage_is_restarted_and_nothing_else_restarts() {
-    let Running { _dir, csv, prefix: p, run } = start_running("kill", 240, "40", Duration::from_secs(1));
-    let (segment, localize, mapserver) =
-        (stage_pids("segment", &p), stage_pids("localize", &p), stage_pids("mapserver", &p));
-    assert_eq!((segment.len(), localize.len(), mapserver.len()), (1, 1, 1));
+/// A pipeline of 240 scans at 40 Hz under a prefix of `test`, whose `victim` stage (segment,
+/// localize or mapserver, one of each running) is SIGKILLed a second in. Checked: the supervisor
+/// starts a new one and no other of the three, the run succeeds, and its report counts the
+/// restart. Returns the run's directory (kept while it lives) and its poses' CSV.
+fn run_with_a_stage_killed(test: &str, victim: &str) -> (tempfile::TempDir, PathBuf) {
+    let Running { _dir, csv, prefix: p, run } = start_running(test, 240, "40", Duration::from_secs(1));
+    let kinds = ["segment", "localize", "mapserver"];
+    let before: Vec<Vec<u32>> = kinds.iter().map(|k| stage_pids(k, &p)).collect();
+    assert!(before.iter().all(|pids| pids.len() == 1), "{kinds:?}: {before:?}");
+    let Some(k) = kinds.iter().position(|&k| k == victim) else { panic!("no stage kind {victim}") };
+    let old = before[k][0];
     // SAFETY: kill(2) on a process this test started (through the supervisor).
-    unsafe { libc::kill(segment[0] as i32, libc::SIGKILL) };
-    wait_for("a new segment", Duration::from_secs(10), || stage_pids("segment", &p).iter().any(|&q| q != segment[0]));
-    assert_eq!(stage_pids("localize", &p), localize, "localize was restarted");
-    assert_eq!(stage_pids("mapserver", &p), mapserver, "mapserver was restarted");
+    unsafe { libc::kill(old as i32, libc::SIGKILL) };
+    wait_for(&format!("a new {victim}"), Duration::from_secs(10), || stage_pids(victim, &p).iter().any(|&q| q != old));
+    for (kind, pids) in kinds.iter().zip(&before).filter(|(&kind, _)| kind != victim) {
+        assert_eq!(&stage_pids(kind, &p), pids, "{kind} was restarted");
+    }
     let out = run.wait_with_output().unwrap();
     let report = String::from_utf8_lossy(&out.stdout);
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-    assert!(report.contains("stage segment restarted 1 times"), "{report}");
+    assert!(report.contains(&format!("stage {victim} restarted 1 times")), "{report}");
+    (_dir, csv)
+}
+
+#[test]
+fn a_killed_stage_is_restarted_and_nothing_else_restarts() {
+    let (_dir, csv) = run_with_a_stage_killed("kill", "segment");
     // poses kept coming after the restart, up to the end of the log
     let seqs: Vec<u64> = rows(&csv).iter().map(|r| r[0].parse().unwrap()).collect();
     assert!(seqs.iter().max().copied().unwrap_or(0) >= 230, "{seqs:?}");
@@ -296,21 +308,7 @@ fn a_killed_stage_is_restarted_and_nothing_else_restarts() {
 /// no scan is lost.
 #[test]
 fn a_killed_map_server_costs_no_scan() {
-    let Running { _dir, csv, prefix: p, run } = start_running("mapkill", 240, "40", Duration::from_secs(1));
-    let (segment, localize, mapserver) =
-        (stage_pids("segment", &p), stage_pids("localize", &p), stage_pids("mapserver", &p));
-    assert_eq!((segment.len(), localize.len(), mapserver.len()), (1, 1, 1));
-    // SAFETY: kill(2) on a process this test started (through the supervisor).
-    unsafe { libc::kill(mapserver[0] as i32, libc::SIGKILL) };
-    wait_for("a new map server", Duration::from_secs(10), || {
-        stage_pids("mapserver", &p).iter().any(|&q| q != mapserver[0])
-    });
-    assert_eq!(stage_pids("localize", &p), localize, "localize was restarted");
-    assert_eq!(stage_pids("segment", &p), segment, "segment was restarted");
-    let out = run.wait_with_output().unwrap();
-    let report = String::from_utf8_lossy(&out.stdout);
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-    assert!(report.contains("stage mapserver restarted 1 times"), "{report}");
+    let (_dir, csv) = run_with_a_stage_killed("mapkill", "mapserver");
     assert_every_pose_once(&csv, 240);
 }
 
