@@ -1695,3 +1695,81 @@ fn hostile_segmentations_cost_only_themselves() {
     assert!(tried >= 25, "only {tried} bad segmentations around a good scan were answered");
     map.stop();
 }
+
+/// Hostile model blocks on the wire cost no scan. A publisher on the model topic that is not
+/// gema2's map server sends, as new map versions, a block of another layout, a block of this
+/// layout that is random bytes, the served block cut to half, and an empty block. The localizer
+/// refuses each and says why, locates a good scan with the model it holds after each, and then
+/// takes a good block sent as the next version.
+#[test]
+fn hostile_model_blocks_are_refused_and_the_held_model_kept() {
+    let p = prefix("hostilemodel");
+    let map = StageChild::stage(&["mapserver", "--map", "apartment"], &p, Stdio::null());
+    let mut loc = StageChild::stage(&["localize"], &p, Stdio::piped());
+    let node = messages::create_node("hostilemodeltest").unwrap();
+    let mut answers = Answers::open(&node, &p);
+    // the localizer reads the corners topic: a scan with no corners is still located
+    let mut corners = messages::Outlet::<messages::CornersMsg>::open(
+        &node,
+        &p,
+        messages::Topic::Corners,
+        messages::iceoryx2::prelude::BackpressureStrategy::DiscardData,
+    )
+    .unwrap();
+    let mut located = |seq: u64| {
+        let since = Instant::now();
+        while !answers.has(seq) {
+            if since.elapsed() > Duration::from_secs(60) {
+                return false;
+            }
+            corners.send(|m| flat_scan(seq)(&mut m.scan)).unwrap();
+            std::thread::sleep(Duration::from_millis(50));
+        }
+        true
+    };
+    assert!(located(1), "no pose for the first scan");
+    let ports = messages::open_model_topic(&node, &p).unwrap();
+    let served = {
+        let reader = ports.subscriber().unwrap();
+        let since = Instant::now();
+        loop {
+            if let Some(s) = reader.receive().unwrap() {
+                break s.payload().to_vec();
+            }
+            assert!(since.elapsed() < Duration::from_secs(10), "the served model never came");
+            std::thread::sleep(Duration::from_millis(20));
+        }
+    };
+    let notifier = ports.event.notifier_builder().create().unwrap();
+    let mut outlet = messages::ModelOutlet::new(&ports, served.len()).unwrap();
+    let layout = map::model::MODEL_LAYOUT;
+    let mut state = 0x2545_F491_4F6C_DD1Du64;
+    let random: Vec<u8> = (0..served.len())
+        .map(|_| {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            state as u8
+        })
+        .collect();
+    let bad: [(u32, u64, &[u8]); 4] = [
+        (100, layout + 1, &served),
+        (101, layout, &random),
+        (102, layout, &served[..served.len() / 2]),
+        (103, layout, &[]),
+    ];
+    for (k, &(version, layout, block)) in bad.iter().enumerate() {
+        outlet.publish(&ports, &notifier, version, layout, block).unwrap();
+        assert!(located(10 + k as u64), "no good scan was located after model version {version}");
+    }
+    outlet.publish(&ports, &notifier, 104, layout, &served).unwrap();
+    assert!(located(20), "no good scan was located after the good model version 104");
+    let alive = loc.child().try_wait().unwrap().is_none();
+    let said = String::from_utf8_lossy(&loc.terminated().stderr).into_owned();
+    assert!(alive, "the localizer died; it said:\n{said}");
+    for (version, ..) in bad {
+        assert!(said.contains(&format!("refused version {version}:")), "version {version} not refused:\n{said}");
+    }
+    assert!(said.contains("localize: map version 104 ("), "the good version 104 was not taken:\n{said}");
+    map.stop();
+}
