@@ -1609,6 +1609,37 @@ fn hostile_scans_cost_only_themselves() {
     map.stop();
 }
 
+/// A map server on the apartment and a localize stage under a prefix of a test's name, fed
+/// segmentations by the test itself in place of a segment stage: the stages, the test's node,
+/// its outlet on the corners topic and its reader of the poses.
+struct CornersRig {
+    prefix: String,
+    map: StageChild,
+    loc: StageChild,
+    _node: messages::iceoryx2::prelude::Node<messages::iceoryx2::prelude::ipc::Service>,
+    out: messages::Outlet<messages::CornersMsg>,
+    answers: Answers,
+}
+
+impl CornersRig {
+    fn start(test: &str) -> Self {
+        let p = prefix(test);
+        let map = StageChild::stage(&["mapserver", "--map", "apartment"], &p, Stdio::null());
+        let loc = StageChild::stage(&["localize"], &p, Stdio::piped());
+        let node = messages::create_node(&format!("{test}test")).unwrap();
+        let drop_when_full = messages::iceoryx2::prelude::BackpressureStrategy::DiscardData;
+        let out = messages::Outlet::open(&node, &p, messages::Topic::Corners, drop_when_full).unwrap();
+        let answers = Answers::open(&node, &p);
+        CornersRig { prefix: p, map, loc, _node: node, out, answers }
+    }
+}
+
+/// A good segmentation of scan `seq`: the flat scan, no corners, no lines.
+fn good_segmentation(seq: u64, m: &mut messages::CornersMsg) {
+    flat_scan(seq)(&mut m.scan);
+    (m.count, m.line_count, m.noise_scale) = (0, 0, 1.0);
+}
+
 /// Hostile segmentations on the wire cost those scans only. A publisher on the corners topic
 /// that is not gema2's segment stage sends corner and line counts past their arrays, corners
 /// and lines of NaN or of huge numbers, noise scales of any value, and frames of random bytes,
@@ -1617,18 +1648,8 @@ fn hostile_scans_cost_only_themselves() {
 #[test]
 fn hostile_segmentations_cost_only_themselves() {
     use messages::CornersMsg;
-    let p = prefix("hostileseg");
-    let map = StageChild::stage(&["mapserver", "--map", "apartment"], &p, Stdio::null());
-    let mut loc = StageChild::stage(&["localize"], &p, Stdio::piped());
-    let node = messages::create_node("hostilesegtest").unwrap();
-    let drop_when_full = messages::iceoryx2::prelude::BackpressureStrategy::DiscardData;
-    let mut out = messages::Outlet::<CornersMsg>::open(&node, &p, messages::Topic::Corners, drop_when_full).unwrap();
-    let mut answers = Answers::open(&node, &p);
-    // a good segmentation: the flat scan, no corners, no lines
-    let good = |seq: u64, m: &mut CornersMsg| {
-        flat_scan(seq)(&mut m.scan);
-        (m.count, m.line_count, m.noise_scale) = (0, 0, 1.0);
-    };
+    let CornersRig { map, mut loc, _node, mut out, mut answers, .. } = CornersRig::start("hostileseg");
+    let good = good_segmentation;
     wait_for("a pose for a good segmentation", Duration::from_secs(60), || {
         out.send(|m| good(1, m)).unwrap();
         answers.has(1)
@@ -1703,26 +1724,15 @@ fn hostile_segmentations_cost_only_themselves() {
 /// takes a good block sent as the next version.
 #[test]
 fn hostile_model_blocks_are_refused_and_the_held_model_kept() {
-    let p = prefix("hostilemodel");
-    let map = StageChild::stage(&["mapserver", "--map", "apartment"], &p, Stdio::null());
-    let mut loc = StageChild::stage(&["localize"], &p, Stdio::piped());
-    let node = messages::create_node("hostilemodeltest").unwrap();
-    let mut answers = Answers::open(&node, &p);
-    // the localizer reads the corners topic: a scan with no corners is still located
-    let mut corners = messages::Outlet::<messages::CornersMsg>::open(
-        &node,
-        &p,
-        messages::Topic::Corners,
-        messages::iceoryx2::prelude::BackpressureStrategy::DiscardData,
-    )
-    .unwrap();
+    let CornersRig { prefix: p, map, mut loc, _node: node, out: mut corners, mut answers } =
+        CornersRig::start("hostilemodel");
     let mut located = |seq: u64| {
         let since = Instant::now();
         while !answers.has(seq) {
             if since.elapsed() > Duration::from_secs(60) {
                 return false;
             }
-            corners.send(|m| flat_scan(seq)(&mut m.scan)).unwrap();
+            corners.send(|m| good_segmentation(seq, m)).unwrap();
             std::thread::sleep(Duration::from_millis(50));
         }
         true
