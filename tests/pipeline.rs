@@ -1721,7 +1721,8 @@ fn hostile_segmentations_cost_only_themselves() {
 /// gema2's map server sends, as new map versions, a block of another layout, a block of this
 /// layout that is random bytes, the served block cut to half, and an empty block. The localizer
 /// refuses each and says why, locates a good scan with the model it holds after each, and then
-/// takes a good block sent as the next version.
+/// takes a good block sent as the next version. A localizer that starts with no model to go
+/// on with, the newest block a bad one, waits for a good one.
 #[test]
 fn hostile_model_blocks_are_refused_and_the_held_model_kept() {
     let CornersRig { prefix: p, map, mut loc, _node: node, out: mut corners, mut answers } =
@@ -1781,5 +1782,22 @@ fn hostile_model_blocks_are_refused_and_the_held_model_kept() {
         assert!(said.contains(&format!("refused version {version}:")), "version {version} not refused:\n{said}");
     }
     assert!(said.contains("localize: map version 104 ("), "the good version 104 was not taken:\n{said}");
+    // a localizer that starts while the newest block on the topic is random bytes, and none
+    // other is there (the map server gone): it waits, and takes the next good one
     map.stop();
+    outlet.publish(&ports, &notifier, 105, layout, &random).unwrap();
+    let mut late = StageChild::stage(&["localize"], &p, Stdio::piped());
+    let since = Instant::now();
+    while since.elapsed() < Duration::from_secs(2) {
+        // hands the newest block (the history) to the localizer that joined
+        outlet.update_connections(&ports).unwrap();
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    outlet.publish(&ports, &notifier, 106, layout, &served).unwrap();
+    assert!(located(30), "no scan was located by the localizer that started on a bad block");
+    let alive = late.child().try_wait().unwrap().is_none();
+    let said = String::from_utf8_lossy(&late.terminated().stderr).into_owned();
+    assert!(alive, "the localizer that started on a bad block died; it said:\n{said}");
+    assert!(said.contains("no map yet: refused version 105:"), "version 105 not refused:\n{said}");
+    assert!(said.contains("localize: map version 106 ("), "the good version 106 was not taken:\n{said}");
 }

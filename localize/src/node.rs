@@ -14,7 +14,7 @@ use crate::{Gema2Config, Localization, Localizer, MapModel, Status};
 use anyhow::{anyhow, bail, Context, Result};
 use clap::Args;
 use laser::{pose_theta, ScanView};
-use map::flat::FlatReader;
+use map::flat::{FlatError, FlatReader};
 use map::model::MODEL_LAYOUT;
 use messages::iceoryx2::prelude::*;
 use messages::iceoryx2::sample::Sample;
@@ -250,8 +250,9 @@ impl Located {
 
     /// Takes a model block from the map server: reads the model in place and locates with it
     /// from the next scan on. Returns whether this was the first model, so the stage is now
-    /// ready. A model of another layout or built for other corner settings is refused: an error
-    /// when there is no model to go on with, reported and skipped when there is.
+    /// ready. A block that is no readable model is refused, said and skipped. A model of another
+    /// layout or built for other corner settings is refused too: an error when there is no
+    /// model to go on with, said and skipped when there is.
     fn take_model(&mut self, sample: Sample<ipc::Service, [u8], ModelHeader>) -> Result<bool> {
         let header = *sample.user_header();
         if self.localizer.as_ref().is_some_and(|(_, v)| *v == header.map_version) {
@@ -268,6 +269,13 @@ impl Located {
                     self.version(),
                     header.map_version
                 );
+                return Ok(false);
+            }
+            // a block that is no readable model (damaged, or none at all: a faulty or hostile
+            // publisher on the topic) is no reason to stop: the map server's model may come
+            // after it; a model of another layout or settings is this pipeline's own mistake
+            Err(e) if e.downcast_ref::<FlatError>().is_some() => {
+                messages::say!("localize: no map yet: refused version {}: {e:#}", header.map_version);
                 return Ok(false);
             }
             Err(e) => return Err(e.context(format!("map version {}", header.map_version))),
