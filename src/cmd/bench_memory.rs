@@ -69,6 +69,19 @@ pub fn model_mb(line: &str) -> Option<f64> {
 enum Said {
     Model(f64),
     FirstPose,
+    /// Anything else it said.
+    Other(String),
+}
+
+/// The last `n` lines of what stages said, without backtraces (RUST_BACKTRACE).
+fn last_said(said: &str, n: usize) -> String {
+    let last: Vec<&str> = said
+        .lines()
+        .filter(|l| !l.starts_with(' ') && !l.is_empty() && *l != "Stack backtrace:")
+        .rev()
+        .take(n)
+        .collect();
+    last.into_iter().rev().collect::<Vec<_>>().join("\n")
 }
 
 pub fn bench_memory(a: &BenchArgs) -> Result<()> {
@@ -89,17 +102,9 @@ pub fn bench_memory(a: &BenchArgs) -> Result<()> {
     run.args(["--timeout", &format!("{timeout}")]).stdout(Stdio::null()).stderr(said);
     let mut pipeline = KilledOnDrop(run.spawn().context("starting the pipeline")?);
     std::thread::sleep(PIPELINE_LEAD);
+    let pipeline_said = || last_said(&std::fs::read_to_string(&said_path).unwrap_or_default(), 4);
     if let Some(status) = pipeline.0.try_wait()? {
-        let said = std::fs::read_to_string(&said_path).unwrap_or_default();
-        // what the stages said, without backtraces (RUST_BACKTRACE)
-        let last: Vec<&str> = said
-            .lines()
-            .filter(|l| !l.starts_with(' ') && !l.is_empty() && *l != "Stack backtrace:")
-            .rev()
-            .take(4)
-            .collect();
-        let last: Vec<&str> = last.into_iter().rev().collect();
-        bail!("the pipeline ended before the second localizer started ({status}):\n{}", last.join("\n"));
+        bail!("the pipeline ended before the second localizer started ({status}):\n{}", pipeline_said());
     }
     let mut second = KilledOnDrop(
         Command::new(&exe)
@@ -116,24 +121,33 @@ pub fn bench_memory(a: &BenchArgs) -> Result<()> {
     std::thread::spawn(move || {
         for line in BufReader::new(stderr).lines().map_while(Result::ok) {
             let said = match model_mb(&line) {
-                Some(mb) => Some(Said::Model(mb)),
-                None => line.contains("first pose").then_some(Said::FirstPose),
+                Some(mb) => Said::Model(mb),
+                None if line.contains("first pose") => Said::FirstPose,
+                None => Said::Other(line),
             };
-            if let Some(said) = said {
-                if tx.send(said).is_err() {
-                    break;
-                }
+            if tx.send(said).is_err() {
+                break;
             }
         }
     });
     let started = Instant::now();
-    let (mut mb, mut posed) = (None, false);
+    let (mut mb, mut posed, mut other) = (None, false, String::new());
     while mb.is_none() || !posed {
         let left = READY_PATIENCE.checked_sub(started.elapsed()).unwrap_or_default();
         match rx.recv_timeout(left) {
             Ok(Said::Model(m)) => mb = Some(m),
             Ok(Said::FirstPose) => posed = true,
-            Err(_) => bail!("the second localizer read no model or located no scan within {READY_PATIENCE:?}"),
+            Ok(Said::Other(line)) => other = format!("{other}{line}\n"),
+            Err(_) => {
+                let (what, running) =
+                    (if mb.is_none() { "read no model" } else { "located no scan" }, pipeline.0.try_wait()?);
+                let running = running.map_or_else(|| "running".to_owned(), |s| format!("ended ({s})"));
+                bail!(
+                    "the second localizer {what} within {READY_PATIENCE:?}; it said:\n{}\nthe pipeline, {running}, said last:\n{}",
+                    Some(last_said(&other, 4)).filter(|s| !s.is_empty()).unwrap_or_else(|| "(nothing)".into()),
+                    pipeline_said()
+                );
+            }
         }
     }
     let mb = mb.unwrap_or_default();
