@@ -20,8 +20,13 @@ and the latency from publishing the scan to receiving its pose (ms); then, on st
 latency's p50 and p99. Run every DDS participant of a test in a network namespace (the test
 does): discovery multicasts.
 
+With --hostile N, every N-th scan (scan numbers N-1, 2N-1, ...) is sent damaged instead, as a
+faulty driver or a hostile peer might: a layout of NaN, zero or infinite numbers, readings all
+NaN, infinite or huge, no readings, 200 000 readings, or bounds the wrong way round, in turn
+(`HOSTILE`). Its stamp is kept, so a pose for it still names its scan.
+
 Usage: ros2_peer.py LOG [--rate HZ] [--laser-pose x,y,yaw] [--upside-down] [--grid MAP.yaml] [--odom]
-       [--wait S] [--domain N]
+       [--hostile N] [--wait S] [--domain N]
 """
 
 import argparse
@@ -237,6 +242,29 @@ def grid_of(yaml_path):
     )
 
 
+def _set(msg, **fields):
+    for name, value in fields.items():
+        setattr(msg, name, value)
+    return msg
+
+
+# the damages --hostile makes, in turn: each takes a good LaserScan and returns it damaged
+HOSTILE = [
+    lambda m: _set(m, angle_increment=math.nan),
+    lambda m: _set(m, angle_increment=0.0),
+    lambda m: _set(m, angle_min=math.inf, angle_max=-math.inf),
+    lambda m: _set(m, range_max=math.inf, ranges=[math.inf] * len(m.ranges)),
+    lambda m: _set(m, range_min=-math.inf, ranges=[-math.inf] * len(m.ranges)),
+    lambda m: _set(m, ranges=[math.nan] * len(m.ranges)),
+    lambda m: _set(m, ranges=[(1e30 if j % 2 else -1e30) for j in range(len(m.ranges))]),
+    lambda m: _set(m, ranges=[]),
+    lambda m: _set(m, ranges=[1.0] * 200_000),
+    lambda m: _set(m, range_min=m.range_max, range_max=m.range_min),
+    lambda m: _set(m, angle_increment=-10.0),
+    lambda m: _set(m, intensities=[math.nan] * (3 * len(m.ranges))),
+]
+
+
 def quaternion(yaw, roll=0.0):
     # Rz(yaw) Rx(roll)
     cy, sy, cr, sr = math.cos(yaw / 2), math.sin(yaw / 2), math.cos(roll / 2), math.sin(roll / 2)
@@ -255,6 +283,7 @@ def main():
     ap.add_argument("--regrid-after", type=int, help="publish the grid again after this many scans (a map update)")
     ap.add_argument("--odom", action="store_true", help="publish each line's robot pose on rt/odom")
     ap.add_argument("--upside-down", action="store_true", help="the laser is mounted rolled 180 degrees")
+    ap.add_argument("--hostile", type=int, help="send every N-th scan damaged (HOSTILE, in turn)")
     args = ap.parse_args()
     mount = [float(v) for v in args.laser_pose.split(",")]
     scans = scans_of(args.log)
@@ -365,6 +394,8 @@ def main():
             ranges=[r if r < max_range else math.inf for r in ranges],
             intensities=[],
         )
+        if args.hostile and k % args.hostile == args.hostile - 1:
+            msg = HOSTILE[(k // args.hostile) % len(HOSTILE)](msg)
         sent[k] = time.monotonic()
         scan_w.write(msg)
         if args.grid and args.regrid_after == k + 1:
