@@ -1787,17 +1787,26 @@ fn hostile_model_blocks_are_refused_and_the_held_model_kept() {
     map.stop();
     outlet.publish(&ports, &notifier, 105, layout, &random).unwrap();
     let mut late = StageChild::stage(&["localize"], &p, Stdio::piped());
-    let since = Instant::now();
-    while since.elapsed() < Duration::from_secs(2) {
-        // hands the newest block (the history) to the localizer that joined
-        outlet.update_connections(&ports).unwrap();
-        std::thread::sleep(Duration::from_millis(20));
-    }
+    let lines = BufReader::new(late.child().stderr.take().unwrap()).lines();
+    let (tx, said) = std::sync::mpsc::channel();
+    std::thread::spawn(move || lines.map_while(Result::ok).try_for_each(|l| tx.send(l)));
+    let mut heard = String::new();
+    let mut hear = |what: &str, mut meanwhile: Box<dyn FnMut() + '_>| {
+        let since = Instant::now();
+        while !heard.contains(what) {
+            assert!(since.elapsed() < Duration::from_secs(30), "the late localizer never said {what:?}:\n{heard}");
+            meanwhile();
+            while let Ok(line) = said.recv_timeout(Duration::from_millis(20)) {
+                heard += &line;
+                heard.push('\n');
+            }
+        }
+    };
+    // the newest block (the history) goes to a reader that joined when the publisher updates
+    // its connections
+    hear("no map yet: refused version 105:", Box::new(|| outlet.update_connections(&ports).unwrap()));
     outlet.publish(&ports, &notifier, 106, layout, &served).unwrap();
+    hear("localize: map version 106 (", Box::new(|| ()));
     assert!(located(30), "no scan was located by the localizer that started on a bad block");
-    let alive = late.child().try_wait().unwrap().is_none();
-    let said = String::from_utf8_lossy(&late.terminated().stderr).into_owned();
-    assert!(alive, "the localizer that started on a bad block died; it said:\n{said}");
-    assert!(said.contains("no map yet: refused version 105:"), "version 105 not refused:\n{said}");
-    assert!(said.contains("localize: map version 106 ("), "the good version 106 was not taken:\n{said}");
+    assert!(late.child().try_wait().unwrap().is_none(), "the localizer that started on a bad block died");
 }
