@@ -11,6 +11,12 @@ const WIDEST_GAP: i64 = 500_000_000;
 /// A scan this much past the newest message (or before the oldest) takes it, nanoseconds: the
 /// scan's own instant was not heard yet.
 const NEAREST: i64 = 100_000_000;
+/// A message this much older than the newest kept starts the record anew, nanoseconds. The
+/// clock went back (a bag played again from its start, a simulator restarted), or the newest
+/// was stamped wrongly (a bad clock, a damaged or hostile message): kept, it would shut out
+/// every later message, and the odometry would stop for good. A message out of order by less
+/// (reordered on the way) is left out.
+const CLOCK_WENT_BACK: i64 = 1_000_000_000;
 
 /// The recent odometry poses by stamp.
 #[derive(Debug, Default)]
@@ -20,11 +26,19 @@ pub struct Odometry {
 }
 
 impl Odometry {
-    /// Takes one message's stamp and planar pose; one out of stamp order, or not finite, is
-    /// left out.
+    /// Takes one message's stamp and planar pose; one not finite, or out of stamp order by up
+    /// to [`CLOCK_WENT_BACK`], is left out; one older still starts the record anew.
     pub fn add(&mut self, stamp: i64, x: f64, y: f64, yaw: f64) -> bool {
-        if !(x.is_finite() && y.is_finite() && yaw.is_finite()) || self.poses.back().is_some_and(|b| b.0 > stamp) {
+        if !(x.is_finite() && y.is_finite() && yaw.is_finite()) {
             return false;
+        }
+        if let Some(&(newest, _)) = self.poses.back() {
+            if newest > stamp {
+                if newest.saturating_sub(stamp) <= CLOCK_WENT_BACK {
+                    return false;
+                }
+                self.poses.clear();
+            }
         }
         if self.poses.len() >= KEPT {
             self.poses.pop_front();
@@ -81,5 +95,34 @@ mod tests {
         o.add(2_000_000_000, 9.0, 0.0, 0.0);
         assert!(o.at(1_000_000_000).is_none());
         assert!((o.at(50_000_000).unwrap().translation.x).abs() < 1e-9);
+    }
+
+    /// One message stamped far ahead (a bad clock, a damaged message) does not shut out the
+    /// ones after it: the next, older by more than a second, starts the record anew.
+    #[test]
+    fn a_message_stamped_far_ahead_does_not_stop_the_odometry() {
+        let mut o = Odometry::default();
+        let second = 1_000_000_000i64;
+        assert!(o.add(second, 0.0, 0.0, 0.0));
+        assert!(o.add(2_000_000_000_000_000_000, 50.0, 0.0, 0.0));
+        for k in 1..=10 {
+            assert!(o.add(second + k * second / 10, k as f64, 0.0, 0.0), "message {k} left out");
+        }
+        let p = o.at(second + 95 * second / 100).expect("the odometry at a later scan");
+        assert!((p.translation.x - 9.5).abs() < 1e-9, "{p:?}");
+    }
+
+    /// A bag played again from its start: the odometry goes on from the new stamps.
+    #[test]
+    fn a_clock_gone_back_starts_the_odometry_anew() {
+        let mut o = Odometry::default();
+        for k in 0..10 {
+            assert!(o.add(100_000_000_000 + k * 100_000_000, 7.0 + k as f64, 0.0, 0.0));
+        }
+        assert!(o.add(1_000_000_000, 0.0, 0.0, 0.0));
+        assert!(o.add(1_100_000_000, 1.0, 0.0, 0.0));
+        let p = o.at(1_050_000_000).expect("the odometry after the clock went back");
+        assert!((p.translation.x - 0.5).abs() < 1e-9, "{p:?}");
+        assert!(o.at(100_500_000_000).is_none(), "the old record was kept");
     }
 }
