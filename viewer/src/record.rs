@@ -71,7 +71,8 @@ impl TopicCount {
         }
         let seq = header.seq;
         match self.last_seq {
-            Some(last) if seq > last => self.missed += seq - last - 1,
+            // saturating: a damaged number (up to u64::MAX) must not overflow the count
+            Some(last) if seq > last => self.missed = self.missed.saturating_add(seq - last - 1),
             Some(_) => {} // a restarted source: no gap to count
             None => self.first_seq = Some(seq),
         }
@@ -511,5 +512,23 @@ impl Recorder {
     pub fn finish_keeping(self) -> (Counts, Vec<std::path::PathBuf>, Result<(), OutputError>) {
         let (parts, closed) = self.output.close();
         (self.counts, parts, closed)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Damaged sequence numbers (a jump to u64::MAX, then a source that seems to restart, again
+    /// and again) count as missed without overflowing the count, and every new message is taken.
+    #[test]
+    fn damaged_sequence_numbers_never_overflow_the_missed_count() {
+        let mut count = TopicCount::default();
+        let start = messages::monotonic_ns().saturating_sub(1_000_000);
+        for k in 0..6u64 {
+            let seq = if k % 2 == 1 { u64::MAX } else { k };
+            assert!(count.accept(&Header::new(seq, start + k)), "message {k} refused");
+        }
+        assert_eq!(count.missed, u64::MAX);
     }
 }
