@@ -10,7 +10,6 @@ use clap::Args;
 use messages::iceoryx2::prelude::*;
 use messages::{open_control, ready_listener, Inlet, Look, PoseMsg, Topic, MAX_INSTANCE};
 use std::collections::HashSet;
-use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
@@ -102,10 +101,7 @@ pub fn run(a: RunArgs) -> Result<()> {
     pipeline.check_cores(origin, &messages::placement::allowed_cores()?)?;
     let scans = apply_overrides(&mut pipeline, &a);
     // created before anything runs: a path that cannot be written must not cost the run
-    let out = match &a.out {
-        Some(path) => Some((create_out(path)?, path.as_path())),
-        None => None,
-    };
+    let out = a.out.as_deref().map(create_out).transpose()?;
     // the supervisor's own place: it consumes the poses, and holds the wake-up latency request
     let _placement = Placement::take(&pipeline.supervisor)?;
     let stale = messages::cleanup_dead_nodes();
@@ -126,7 +122,7 @@ pub fn run(a: RunArgs) -> Result<()> {
     let started = Instant::now();
     messages::say!("supervisor: {} stages running under prefix {}", stages.len(), a.prefix);
 
-    let mut monitor = Monitor::default();
+    let mut monitor = Monitor::new(out);
     let progress = crate::progress::Progress::scans("poses", scans.filter(|&n| n > 0));
     let mut swap: Option<Swap> = None;
     let mut failure: Option<anyhow::Error> = None;
@@ -173,7 +169,7 @@ pub fn run(a: RunArgs) -> Result<()> {
     if let Some(e) = failure {
         return Err(e);
     }
-    report(&monitor, &stages, scans, out)
+    report(monitor, &stages, scans, a.out.as_deref())
 }
 
 /// The `--out` CSV.
@@ -398,23 +394,23 @@ const NEXT: &str = "next:
   gema2 evaluate                                        the accuracy suite (docs/results.md)
   gema2 --help                                          everything else";
 
-/// Prints the latency and accuracy figures and the restarts, and writes the poses received
-/// to `out` as CSV. A run asked for scans that got no pose back is an error.
+/// Prints the latency and accuracy figures and the restarts, and finishes the CSV of the
+/// poses received at `out` (written as they came). A run asked for scans that got no pose
+/// back is an error.
 fn report(
-    monitor: &Monitor,
+    monitor: Monitor<std::io::BufWriter<std::fs::File>>,
     stages: &[StageProcess],
     scans: Option<u64>,
-    out: Option<(std::io::BufWriter<std::fs::File>, &Path)>,
+    out: Option<&Path>,
 ) -> Result<()> {
     println!("{}", monitor.render(scans));
     for st in stages.iter().filter(|s| s.restarts > 0) {
         println!("stage {} restarted {} times", st.spec.name, st.restarts);
     }
     println!("{NEXT}");
-    if let Some((mut f, path)) = out {
-        monitor.write_csv(&mut f).and_then(|_| f.flush()).with_context(|| format!("writing {}", path.display()))?;
-    }
-    if let Some(n) = scans.filter(|_| monitor.received == 0) {
+    let received = monitor.received;
+    monitor.finish_csv().with_context(|| format!("writing {}", out.map_or(Path::new("-"), |p| p).display()))?;
+    if let Some(n) = scans.filter(|_| received == 0) {
         bail!("no pose came back of the {n} scans asked for: see the stages' messages above");
     }
     if let Some((st, how)) = stages.iter().find_map(|s| s.failed.map(|how| (s, how))) {
