@@ -9,6 +9,7 @@
 //! read 73.8 us p50 for segment in one and 55.4 in the other.)
 
 use crate::{Header, Stage};
+use std::collections::VecDeque;
 
 /// One latency figure: the key the recorder logs it under (`latency/<key>`) and its label.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -50,6 +51,41 @@ pub fn of_pose(h: &Header) -> [f64; 6] {
     ]
 }
 
+/// The latest `kept` values of a figure: what a report of a run reads. A pipeline on a robot
+/// runs for days; keeping every value would grow without end.
+#[derive(Clone, Debug)]
+pub struct Latest<T> {
+    values: VecDeque<T>,
+    kept: usize,
+}
+
+impl<T> Latest<T> {
+    pub fn new(kept: usize) -> Self {
+        Latest { values: VecDeque::new(), kept: kept.max(1) }
+    }
+
+    /// Keeps `value`, letting the oldest go when `kept` are held.
+    pub fn push(&mut self, value: T) {
+        if self.values.len() == self.kept {
+            self.values.pop_front();
+        }
+        self.values.push_back(value);
+    }
+
+    pub fn len(&self) -> usize {
+        self.values.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.values.is_empty()
+    }
+
+    /// Oldest first.
+    pub fn iter(&self) -> impl Iterator<Item = &T> {
+        self.values.iter()
+    }
+}
+
 /// p50 and p99 of the finite `values` (nearest rank); NaN when there are none.
 pub fn p50_p99(values: &[f64]) -> (f64, f64) {
     let mut v: Vec<f64> = values.iter().copied().filter(|x| x.is_finite()).collect();
@@ -78,6 +114,17 @@ mod tests {
         h.stages[1] = StageSpan::default();
         let f = of_pose(&h);
         assert!(f[1].is_nan() && f[2].is_nan() && f[3].is_nan() && f[5] == 19.0);
+    }
+
+    #[test]
+    fn the_latest_values_are_kept_and_the_oldest_let_go() {
+        let mut l = Latest::new(3);
+        assert!(l.is_empty());
+        for v in 1..=5 {
+            l.push(v);
+        }
+        assert_eq!(l.iter().copied().collect::<Vec<_>>(), [3, 4, 5]);
+        assert_eq!(l.len(), 3);
     }
 
     #[test]

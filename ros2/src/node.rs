@@ -143,7 +143,7 @@ pub fn run(a: Ros2Args) -> Result<()> {
         unstamped: 0,
         unusable: 0,
         unmounted_said: false,
-        latency_us: Vec::new(),
+        latency_us: messages::latency::Latest::new(LATENCIES_KEPT),
     };
     let mut failure = None;
     let on_event = |woken: &[bool]| {
@@ -175,7 +175,8 @@ pub fn run(a: Ros2Args) -> Result<()> {
     let scanned = scans.join().map_err(|_| anyhow!("ros2: the scan thread panicked"))?;
     messages::say!("ros2: published {} poses on {}", out.published, a.pose_topic);
     if !out.latency_us.is_empty() {
-        let (p50, p99) = messages::latency::p50_p99(&out.latency_us);
+        let values: Vec<f64> = out.latency_us.iter().copied().collect();
+        let (p50, p99) = messages::latency::p50_p99(&values);
         messages::say!(
             "ros2: latency from a LaserScan taken to its pose published, ms: p50 {:.3} p99 {:.3} (last {} poses)",
             p50 / 1e3,
@@ -224,7 +225,7 @@ struct PosesOut {
     unmounted_said: bool,
     /// Microseconds from each scan taken off DDS to its pose handed to DDS (the latest
     /// [`LATENCIES_KEPT`]).
-    latency_us: Vec<f64>,
+    latency_us: messages::latency::Latest<f64>,
 }
 
 /// Latencies kept for the report: the last hour at 40 Hz.
@@ -265,9 +266,6 @@ impl PosesOut {
         }
         self.poses.publish(message).map_err(|e| anyhow!("{}: {e:?}", self.a.pose_topic))?;
         self.published += 1;
-        if self.latency_us.len() >= LATENCIES_KEPT {
-            self.latency_us.drain(..LATENCIES_KEPT / 2);
-        }
         self.latency_us
             .push(messages::latency::between_us(m.header.stages[Stage::Acquire as usize].enter_ns, monotonic_ns()));
         Ok(())

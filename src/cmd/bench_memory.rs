@@ -137,7 +137,10 @@ pub fn bench_memory(a: &BenchArgs) -> Result<()> {
         match rx.recv_timeout(left) {
             Ok(Said::Model(m)) => mb = Some(m),
             Ok(Said::FirstPose) => posed = true,
-            Ok(Said::Other(line)) => other = format!("{other}{line}\n"),
+            Ok(Said::Other(line)) => {
+                other.push_str(&line);
+                other.push('\n');
+            }
             Err(_) => {
                 let (what, running) =
                     (if mb.is_none() { "read no model" } else { "located no scan" }, pipeline.0.try_wait()?);

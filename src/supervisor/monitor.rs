@@ -3,7 +3,6 @@
 
 use crate::report::{SUCCESS_HEADING_DEG, SUCCESS_POSITION};
 use messages::{latency, Freshness, PoseMsg, Stage, STATUS_FAILED};
-use std::collections::VecDeque;
 use std::io::Write;
 
 /// The figures every reader of a pose reports ([`messages::latency::FIGURES`]), then the two
@@ -20,7 +19,7 @@ pub const FIGURES_KEPT: usize = 1 << 16;
 pub struct Monitor<W: Write> {
     /// Per pose: [`messages::latency::of_pose`], then [`CONSUMER_FIGURES`]; the latest
     /// [`FIGURES_KEPT`].
-    figures: VecDeque<[f64; 8]>,
+    figures: latency::Latest<[f64; 8]>,
     pub received: u64,
     pub right: u64,
     pub with_truth: u64,
@@ -37,7 +36,7 @@ impl<W: Write> Monitor<W> {
     /// A monitor writing the poses' rows to `csv` (its header first) when given.
     pub fn new(csv: Option<W>) -> Self {
         let mut m = Monitor {
-            figures: VecDeque::new(),
+            figures: latency::Latest::new(FIGURES_KEPT),
             received: 0,
             right: 0,
             with_truth: 0,
@@ -81,10 +80,7 @@ impl<W: Write> Monitor<W> {
         let l = h.stages[Stage::Localize as usize];
         let [a, hop_scan, s, hop_corners, localize, published] = latency::of_pose(h);
         let consumer = [latency::between_us(l.leave_ns, received_ns), latency::between_us(h.stamp_ns, received_ns)];
-        if self.figures.len() == FIGURES_KEPT {
-            self.figures.pop_front();
-        }
-        self.figures.push_back([a, hop_scan, s, hop_corners, localize, published, consumer[0], consumer[1]]);
+        self.figures.push([a, hop_scan, s, hop_corners, localize, published, consumer[0], consumer[1]]);
         self.received += 1;
         self.first_ns.get_or_insert(received_ns);
         self.last_ns = received_ns;
@@ -100,15 +96,15 @@ impl<W: Write> Monitor<W> {
                 }
             }
         }
+        if self.csv.is_none() {
+            return;
+        }
         // a code no localizer sends counts as no answer
         let status = match messages::status_name(p.status) {
             "unknown" => "failed",
             name => name,
         };
         let micros = localize + s;
-        if self.csv.is_none() {
-            return;
-        }
         let row = crate::report::csv_row(
             h.seq as usize,
             best.map(|b| (b.pose.x, b.pose.y, b.pose.theta, b.cost, b.inliers, b.through)),
