@@ -48,8 +48,7 @@ enum Command {
     EmulateUrg(cmd::emulate::EmulateArgs),
     /// Segmentation alone over a log: lines and corners per scan, time per scan.
     Lines(cmd::lines::LinesArgs),
-    /// Run one stage in this process (what `gema2 run` starts).
-    #[command(subcommand)]
+    #[command(subcommand, about = STAGE_ABOUT)]
     Stage(StageCommand),
     /// The algorithm on the bundled office with simulated scans, in one process.
     Demo(cmd::demo::DemoArgs),
@@ -68,6 +67,18 @@ enum Command {
     /// scans, metres and seconds until each pose is right and stays right.
     Amcl(Box<cmd::amcl::AmclArgs>),
 }
+
+/// `gema2 stage ...` parsed alone: a pipeline process builds the parser of its own stage, not
+/// the whole tool's, whose freed pages would stay in its heap for the life of the process.
+#[derive(Parser)]
+#[command(name = "gema2 stage", bin_name = "gema2 stage", version, about = STAGE_ABOUT)]
+struct StageCli {
+    #[command(subcommand)]
+    stage: StageCommand,
+}
+
+/// `gema2 stage`'s description, in the tool's help and its own.
+const STAGE_ABOUT: &str = "Run one stage in this process (what `gema2 run` starts)";
 
 #[derive(Subcommand)]
 enum StageCommand {
@@ -94,7 +105,21 @@ fn exit_quietly_on_a_closed_pipe() {
     }
 }
 
+fn run_stage(stage: StageCommand) -> anyhow::Result<()> {
+    match stage {
+        StageCommand::Acquire(a) => acquire::node::run(*a),
+        StageCommand::Ros2(a) => ros2::node::run(*a),
+        StageCommand::Segment(a) => segment::node::run(a),
+        StageCommand::Localize(a) => localize::node::run(a),
+        StageCommand::Mapserver(a) => mapserver::node::run(a),
+    }
+}
+
 fn main() -> anyhow::Result<()> {
+    let mut args = std::env::args_os();
+    if args.nth(1).is_some_and(|a| a == "stage") {
+        return run_stage(StageCli::parse_from(std::iter::once("gema2 stage".into()).chain(args)).stage);
+    }
     let cli = Cli::parse();
     if !matches!(
         cli.command,
@@ -117,21 +142,39 @@ fn main() -> anyhow::Result<()> {
         Some(Command::Lines(a)) => cmd::lines::run(a),
         Some(Command::Inspect(a)) => cmd::inspect::run(a),
         Some(Command::Swap(a)) => supervisor::swap::request(a),
-        Some(Command::Stage(s)) => match s {
-            StageCommand::Acquire(a) => acquire::node::run(*a),
-            StageCommand::Ros2(a) => ros2::node::run(*a),
-            StageCommand::Segment(a) => segment::node::run(a),
-            StageCommand::Localize(a) => localize::node::run(a),
-            StageCommand::Mapserver(a) => mapserver::node::run(a),
-        },
+        Some(Command::Stage(s)) => run_stage(s),
         None => supervisor::run(supervisor::RunArgs::default()),
     }
 }
 
 #[cfg(test)]
 mod tests {
-    use super::Cli;
-    use clap::CommandFactory;
+    use super::{Cli, StageCli};
+    use clap::{CommandFactory, Parser};
+
+    /// A pipeline process parses `gema2 stage ...` with its own parser ([`StageCli`]): it must
+    /// take and refuse what the whole tool's does, and name itself as the whole tool does.
+    #[test]
+    fn a_stage_parses_alone_as_within_the_whole_tool() {
+        StageCli::command().debug_assert();
+        let argvs: [&[&str]; 7] = [
+            &["localize", "--prefix", "p", "--cpu", "1"],
+            &["segment", "--impl", "x"],
+            &["mapserver", "--map", "office"],
+            &["acquire", "--sim", "--no-such-flag"],
+            &["localize", "--cpu", "one"],
+            &["nonsense"],
+            &[],
+        ];
+        for argv in argvs {
+            let whole = Cli::try_parse_from(["gema2", "stage"].iter().chain(argv)).map(|_| ());
+            let alone = StageCli::try_parse_from(["gema2 stage"].iter().chain(argv)).map(|_| ());
+            assert_eq!(whole.map_err(|e| e.kind()), alone.map_err(|e| e.kind()), "gema2 stage {argv:?}");
+        }
+        assert!(StageCli::try_parse_from(["gema2 stage", "localize", "--prefix", "p"]).is_ok());
+        let help = StageCli::try_parse_from(["gema2 stage", "localize", "--help"]).err().map(|e| e.to_string());
+        assert!(help.is_some_and(|h| h.contains("Usage: gema2 stage localize")));
+    }
 
     /// Where an `Args` struct's doc comment leaks into `--help` as a command's description
     /// (clap takes a flattened struct's doc when the command has none of its own), the text is

@@ -77,16 +77,12 @@ pub fn corner_from_msg(m: &CornerMsg) -> Option<Corner> {
         quality: m.quality,
         arms: [arm_from_msg(&m.arms[0]), arm_from_msg(&m.arms[1])],
     };
+    let arms =
+        c.arms.iter().flat_map(|a| [a.direction.x, a.direction.y, a.gap, a.length, a.samples, a.direction_sigma]);
     let finite = [c.position.x, c.position.y, c.inner_angle, c.orientation, c.quality]
-        .iter()
-        .chain(
-            c.arms
-                .iter()
-                .flat_map(|a| [a.direction.x, a.direction.y, a.gap, a.length, a.samples, a.direction_sigma])
-                .collect::<Vec<_>>()
-                .iter(),
-        )
-        .all(|v| v.is_finite());
+        .into_iter()
+        .chain(arms)
+        .all(f64::is_finite);
     finite.then_some(c)
 }
 
