@@ -11,6 +11,10 @@ It publishes, as ROS 2 does:
                  reverse);
   rt/odom        with --odom, nav_msgs::msg::dds_::Odometry_ (reliable): each line's robot pose
                  (ROBOTLASER1's odometry), stamped as its scan and written just before it;
+  rt/tf          with --odom-on-tf instead, that pose as tf2_msgs::msg::dds_::TFMessage_
+                 (reliable), as robots that publish odometry only on /tf do: odom ->
+                 base_footprint, beside a localizer's map -> odom; /tf_static then hangs base_link
+                 from base_footprint;
 and, with --grid, a map_server map (YAML and PGM) on rt/map as nav_msgs::msg::dds_::OccupancyGrid_
 (reliable, transient local), as a ROS 2 map_server does; and subscribes to rt/gema2/pose and
 rt/initialpose (PoseWithCovarianceStamped, reliable).
@@ -25,8 +29,8 @@ faulty driver or a hostile peer might: a layout of NaN, zero or infinite numbers
 NaN, infinite or huge, no readings, 200 000 readings, or bounds the wrong way round, in turn
 (`HOSTILE`). Its stamp is kept, so a pose for it still names its scan.
 
-Usage: ros2_peer.py LOG [--rate HZ] [--laser-pose x,y,yaw] [--upside-down] [--grid MAP.yaml] [--odom]
-       [--hostile N] [--wait S] [--domain N]
+Usage: ros2_peer.py LOG [--rate HZ] [--laser-pose x,y,yaw] [--upside-down] [--grid MAP.yaml]
+       [--odom | --odom-on-tf] [--hostile N] [--wait S] [--domain N]
 """
 
 import argparse
@@ -281,7 +285,9 @@ def main():
     ap.add_argument("--domain", type=int, default=0)
     ap.add_argument("--grid", help="a map_server YAML map to publish on rt/map")
     ap.add_argument("--regrid-after", type=int, help="publish the grid again after this many scans (a map update)")
-    ap.add_argument("--odom", action="store_true", help="publish each line's robot pose on rt/odom")
+    odom = ap.add_mutually_exclusive_group()
+    odom.add_argument("--odom", action="store_true", help="publish each line's robot pose on rt/odom")
+    odom.add_argument("--odom-on-tf", action="store_true", help="publish it on rt/tf, odom -> base_footprint")
     ap.add_argument("--upside-down", action="store_true", help="the laser is mounted rolled 180 degrees")
     ap.add_argument("--hostile", type=int, help="send every N-th scan damaged (HOSTILE, in turn)")
     args = ap.parse_args()
@@ -291,6 +297,8 @@ def main():
     dp = DomainParticipant(args.domain)
     scan_w = DataWriter(dp, Topic(dp, "rt/scan", LaserScan), qos=SENSOR)
     odom_w = DataWriter(dp, Topic(dp, "rt/odom", Odometry), qos=RELIABLE) if args.odom else None
+    if args.odom_on_tf:
+        odom_w = DataWriter(dp, Topic(dp, "rt/tf", TFMessage), qos=RELIABLE)
     tf_w = DataWriter(dp, Topic(dp, "rt/tf_static", TFMessage), qos=LATCHED)
     if args.grid:
         map_w = DataWriter(dp, Topic(dp, "rt/map", OccupancyGrid), qos=LATCHED)
@@ -300,20 +308,22 @@ def main():
         name: DataReader(dp, Topic(dp, f"rt/{name}", PoseWithCovarianceStamped), qos=RELIABLE)
         for name in ("gema2/pose", "initialpose")
     }
-    tf_w.write(
-        TFMessage(
-            transforms=[
-                TransformStamped(
-                    header=Header(stamp=Time(sec=0, nanosec=0), frame_id="base_link"),
-                    child_frame_id="laser",
-                    transform=Transform(
-                        translation=Vector3(x=mount[0], y=mount[1], z=0.3),
-                        rotation=quaternion(mount[2], math.pi if args.upside_down else 0.0),
-                    ),
-                )
-            ]
+    def transform(at, parent, child, x, y, z, rotation):
+        return TransformStamped(
+            header=Header(stamp=at, frame_id=parent),
+            child_frame_id=child,
+            transform=Transform(translation=Vector3(x=x, y=y, z=z), rotation=rotation),
         )
-    )
+
+    fixed = [
+        transform(
+            Time(sec=0, nanosec=0), "base_link", "laser", mount[0], mount[1], 0.3,
+            quaternion(mount[2], math.pi if args.upside_down else 0.0),
+        )
+    ]
+    if args.odom_on_tf:
+        fixed.append(transform(Time(sec=0, nanosec=0), "base_footprint", "base_link", 0.0, 0.0, 0.1, quaternion(0.0)))
+    tf_w.write(TFMessage(transforms=fixed))
     # the bridge's scan reader and pose writer must be found before the first scan
     deadline = time.monotonic() + args.discovery
     while not (
@@ -367,7 +377,17 @@ def main():
         stamp = START + k * STEP
         sec = int(stamp)
         at = Time(sec=sec, nanosec=int(round((stamp - sec) * 1e9)))
-        if odom_w is not None and robot is not None:
+        if args.odom_on_tf and robot is not None:
+            x, y, yaw = robot
+            odom_w.write(
+                TFMessage(
+                    transforms=[
+                        transform(at, "map", "odom", 3.0, -1.0, 0.0, quaternion(0.7 + 0.01 * k)),
+                        transform(at, "odom", "base_footprint", x, y, 0.0, quaternion(yaw)),
+                    ]
+                )
+            )
+        elif odom_w is not None and robot is not None:
             x, y, yaw = robot
             odom_w.write(
                 Odometry(

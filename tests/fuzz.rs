@@ -507,11 +507,22 @@ fn bag_messages() -> Vec<(&'static str, &'static str, Vec<u8>)> {
         pose: msg::PoseWithCovariance { pose: pose(k).pose, ..Default::default() },
         ..Default::default()
     };
-    let mut messages = Vec::new();
+    // odometry on /tf too, and /tf_static placing the laser on the robot
+    let transform = |k: u64, parent: &str, child: &str, x: f64| msg::TransformStamped {
+        header: Header { stamp: stamp(k), frame_id: parent.into() },
+        child_frame_id: child.into(),
+        transform: msg::Transform { translation: [x, 0.0, 0.0], rotation: [0.0, 0.0, 0.1, 0.99] },
+    };
+    let fixed = msg::TfMessage { transforms: vec![transform(0, "base_link", "laser", 0.3)] };
+    let mut messages = vec![("/tf_static", msg::TfMessage::TYPE, fixed.encode())];
     for k in 0..4 {
         messages.push(("/scan", msg::LaserScan::TYPE, scan(k)));
         messages.push(("/truth", msg::PoseStamped::TYPE, pose(k).encode()));
         messages.push(("/odom", msg::Odometry::TYPE, odometry(k).encode()));
+        let tf = msg::TfMessage {
+            transforms: vec![transform(k, "map", "odom", 1.0), transform(k, "odom", "base_link", k as f64 * 0.1)],
+        };
+        messages.push(("/tf", msg::TfMessage::TYPE, tf.encode()));
     }
     messages
 }
@@ -527,7 +538,8 @@ fn read_bag(path: &Path) {
         odometry: Some("/odom".into()),
         ..Default::default()
     };
-    for t in [&topics, &ros::ScanTopics::default()] {
+    let off_tf = ros::ScanTopics { odometry: Some("/tf".into()), ..topics.clone() };
+    for t in [&topics, &off_tf, &ros::ScanTopics::default()] {
         if let Ok(scans) = ros::BagScans::open(&bag, t) {
             for s in scans.take(16).flatten() {
                 assert!(s.scan.geometry.is_well_formed(), "an ill-formed layout was accepted");

@@ -278,7 +278,27 @@ fn the_map_comes_from_a_ros_2_map_server() {
 /// come to rest on several scans. Without odometry every scan would rest on itself alone.
 #[test]
 fn odometry_over_dds_carries_the_sequential_localizer_from_scan_to_scan() {
-    let Some(dir) = namespaced("odometry_over_dds_carries_the_sequential_localizer_from_scan_to_scan") else { return };
+    sequential_over_dds(
+        "odometry_over_dds_carries_the_sequential_localizer_from_scan_to_scan",
+        "tros2odom",
+        "/odom",
+        "--odom",
+    );
+}
+
+/// The same with the odometry on /tf only, as many robots publish it: odom -> base_footprint
+/// beside a localizer's map -> odom, base_link hung from base_footprint on /tf_static
+/// (`GEMA2_ODOM_TOPIC=/tf`).
+#[test]
+fn odometry_off_tf_over_dds_carries_the_sequential_localizer() {
+    sequential_over_dds("odometry_off_tf_over_dds_carries_the_sequential_localizer", "tros2tf", "/tf", "--odom-on-tf");
+}
+
+/// A walk of 100 scans through the office, located by the sequential localizer in the ROS 2
+/// pipeline (services under `name`) reading its odometry from `odom_topic`, which the peer
+/// fills (`peer_odom`).
+fn sequential_over_dds(test: &str, name: &str, odom_topic: &str, peer_odom: &str) {
+    let Some(dir) = namespaced(test) else { return };
     let d = dir.path();
     // a robot walking the office, its exact odometry in each line's robot pose
     let log = d.join("walk.log");
@@ -295,10 +315,12 @@ fn odometry_over_dds_carries_the_sequential_localizer_from_scan_to_scan() {
         log.to_str().unwrap(),
     ]);
     let text = std::fs::read_to_string(ROS2_PIPELINE).unwrap();
+    assert!(text.contains("${GEMA2_ODOM_TOPIC:-/odom}"), "the pipeline file names its odometry topic");
+    let text = text.replace("${GEMA2_ODOM_TOPIC:-/odom}", odom_topic);
     let text = common::with_stage_lines(&text, "localize", "implementation = \"sequential\"");
     let pipeline = d.join("ros2-sequential.toml");
     std::fs::write(&pipeline, text).unwrap();
-    let context = office_beside_the_peer(d, &pipeline, "tros2odom", 100, &log, "--rate 20 --odom");
+    let context = office_beside_the_peer(d, &pipeline, name, 100, &log, &format!("--rate 20 {peer_odom}"));
     let online = rows(&d.join("online.csv"));
     assert_eq!(online.first().map(|h| h[11].as_str()), Some("scans"), "{context}");
     let located: Vec<&Vec<String>> = online.iter().skip(1).filter(|r| r[5] != "failed").collect();

@@ -45,9 +45,13 @@ pub struct AcquireArgs {
     #[arg(long, requires = "bag")]
     pub scan_topic: Option<String>,
     /// The bag's nav_msgs/Odometry topic: each scan carries the odometry at its stamp, for the
-    /// sequential localizer (a log's odometry travels without asking).
+    /// sequential localizer (a log's odometry travels without asking). Or `/tf`: the
+    /// transforms from the odometry frame (--odom-frame) to the robot.
     #[arg(long, requires = "bag")]
     pub odom_topic: Option<String>,
+    /// The odometry frame, when --odom-topic is a tf2_msgs/TFMessage topic such as /tf.
+    #[arg(long, requires = "odom_topic", default_value = "odom")]
+    pub odom_frame: String,
     /// Read a real Hokuyo URG-04LX on this serial port (SCIP 2.0).
     #[arg(long, conflicts_with = "tcp")]
     pub serial: Option<String>,
@@ -189,9 +193,16 @@ fn source(a: &AcquireArgs) -> Result<(Source, &'static str)> {
     }
     if let Some(path) = &a.bag {
         let bag = ros::Bag::open(path)?;
-        let topics =
-            ros::ScanTopics { scan: a.scan_topic.clone(), odometry: a.odom_topic.clone(), ..Default::default() };
+        let topics = ros::ScanTopics {
+            scan: a.scan_topic.clone(),
+            odometry: a.odom_topic.clone(),
+            odom_frame: Some(a.odom_frame.clone()),
+            ..Default::default()
+        };
         let scans = ros::BagScans::open(&bag, &topics)?;
+        if let Some(said) = scans.odometry_said() {
+            messages::say!("acquire: {}: {said}", path.display());
+        }
         if let Some((frame, _)) = scans.mount().filter(|(_, m)| m.upside_down) {
             messages::say!(
                 "acquire: {}: /tf_static mounts {frame:?} upside down: its scans are read mirrored",

@@ -10,8 +10,11 @@
 //! robot's pose and the scan's is that composed with it.
 //!
 //! Odometry comes the same way from a second such topic (`nav_msgs/Odometry` as a robot's base
-//! publishes it), matched to each scan by stamp: the sequential localizer reads only the motion
-//! between two scans, in whatever frame it is.
+//! publishes it), or from the transforms of a `tf2_msgs/TFMessage` topic (`/tf`) from the
+//! odometry frame (`odom`) to the robot, as many robots publish it only there; matched to each
+//! scan by stamp. The sequential localizer reads only the motion between two scans, and the
+//! motion is the laser's: where `/tf_static` places the laser on the frame odometry follows,
+//! the odometry is composed with that place, so a turn moves an off-centre laser as it moved.
 //!
 //! A bag's `/tf_static` places the laser on the robot ([`crate::frames`]): a laser mounted
 //! upside down has its scans read mirrored, as the ROS 2 bridge reads them live, and the
@@ -57,8 +60,11 @@ pub struct ScanTopics {
     pub truth: Option<String>,
     /// The laser's pose in the frame of the truth's pose (x, y, yaw), when they differ.
     pub laser_pose: Option<(f64, f64, f64)>,
-    /// An Odometry or PoseStamped topic holding the robot's odometry.
+    /// An Odometry or PoseStamped topic holding the robot's odometry, or a TFMessage topic
+    /// (`/tf`) holding it as the transforms from `odom_frame` to the robot.
     pub odometry: Option<String>,
+    /// The frame odometry is kept in, on a TFMessage odometry topic; `None`: `odom`.
+    pub odom_frame: Option<String>,
     /// The robot's frame on `/tf_static`; `None`: `base_link`.
     pub base_frame: Option<String>,
 }
@@ -99,6 +105,67 @@ impl Truth {
         let s = (stamp - before.0) as f64 / (after.0 - before.0) as f64;
         Some(interpolate(&before.2, &after.2, s))
     }
+}
+
+/// The frame of `/tf` whose transforms from the odometry frame are the robot's odometry, among
+/// `children` (the frames the odometry frame has transforms to, first seen first): the one the
+/// laser (`laser`) hangs from through `/tf_static`, else the robot's frame `base`, else the
+/// only one.
+fn odometry_child<'a>(
+    children: &'a [String],
+    laser: Option<&str>,
+    frames: &StaticFrames,
+    base: &str,
+) -> Option<&'a str> {
+    let carries_laser = |c: &&String| laser.is_some_and(|l| frames.pose_of(l, c).is_some());
+    let found = children.iter().find(carries_laser).or_else(|| children.iter().find(|c| *c == base));
+    found
+        .or(match children {
+            [only] => Some(only),
+            _ => None,
+        })
+        .map(String::as_str)
+}
+
+/// Odometry read off a TFMessage topic, before its frame is chosen: each transform from the
+/// odometry frame (stamp, order among the scans and the topic's messages, child, pose), and the
+/// other transforms' frames (parent, child), a few, for an error that says what the topic holds.
+#[derive(Default)]
+struct TfOdometry {
+    samples: Vec<(i64, usize, String, Pose)>,
+    others: Vec<(String, String)>,
+}
+
+impl TfOdometry {
+    /// Keeps the transforms of `tf` from `odom_frame`.
+    fn add(&mut self, tf: &msg::TfMessage, odom_frame: &str, order: usize) {
+        for t in &tf.transforms {
+            let (parent, child) = (frame_name(&t.header.frame_id), frame_name(&t.child_frame_id));
+            if parent == odom_frame {
+                if let Some(p) = crate::frames::planar(&t.transform) {
+                    self.samples.push((t.header.stamp.nanos(), order, child.to_owned(), p));
+                }
+            } else if self.others.len() < 8 && !self.others.iter().any(|(a, b)| a == parent && b == child) {
+                self.others.push((parent.to_owned(), child.to_owned()));
+            }
+        }
+    }
+
+    /// The frames the odometry frame has transforms to, first seen first.
+    fn children(&self) -> Vec<String> {
+        let mut children: Vec<String> = Vec::new();
+        for (_, _, c, _) in &self.samples {
+            if !children.contains(c) {
+                children.push(c.clone());
+            }
+        }
+        children
+    }
+}
+
+/// A frame name without the leading `/` some publishers still write.
+fn frame_name(name: &str) -> &str {
+    name.trim_start_matches('/')
 }
 
 /// A pose message's stamp and planar pose, by its type.
@@ -143,6 +210,8 @@ pub struct BagScans {
     base_frame: String,
     /// The first scan's frame and its place on the robot, when `/tf_static` gives one.
     mount: Option<(String, Mount)>,
+    /// Where the odometry comes from, when it takes more than its topic's name to say.
+    odometry_said: Option<String>,
 }
 
 impl BagScans {
@@ -173,24 +242,33 @@ impl BagScans {
             },
         };
         // the truth and odometry topics, checked before anything is read
-        let pose_topic = |name: &String, what: &str| -> Result<(), BagScanError> {
+        let pose_topic = |name: &String, what: &str, tf: bool| -> Result<bool, BagScanError> {
             let Some(t) = all.iter().find(|t| &t.name == name) else {
                 return Err(refused(format!("no {what} topic {name} in the bag; it has {}", listing())));
             };
+            if tf && t.ros_type == msg::TfMessage::TYPE {
+                return Ok(true);
+            }
             if t.ros_type != msg::PoseStamped::TYPE && t.ros_type != msg::Odometry::TYPE {
+                let tf = if tf { ", TFMessage" } else { "" };
                 return Err(refused(format!(
-                    "the {what} topic {name} holds {}, not PoseStamped or Odometry",
+                    "the {what} topic {name} holds {}, not PoseStamped{tf} or Odometry",
                     t.ros_type
                 )));
             }
-            Ok(())
+            Ok(false)
         };
         if let Some(name) = &topics.truth {
-            pose_topic(name, "truth")?;
+            pose_topic(name, "truth", false)?;
         }
-        if let Some(name) = &topics.odometry {
-            pose_topic(name, "odometry")?;
-        }
+        let odometry_tf = match &topics.odometry {
+            Some(name) => pose_topic(name, "odometry", true)?,
+            None => false,
+        };
+        let odom_frame = topics.odom_frame.as_deref().map_or("odom", frame_name).to_owned();
+        let mut tf_odometry = TfOdometry::default();
+        // whose pose the odometry is, when its messages say (an Odometry's child frame)
+        let mut odometry_frame: Option<String> = None;
         let has_tf = all.iter().any(|t| t.name == TF_STATIC && t.ros_type == msg::TfMessage::TYPE);
         // one pass through the bag for the truth, the odometry, /tf_static and the laser's
         // frame. Each pose keeps its place among the scans and its own topic's messages: the
@@ -218,15 +296,21 @@ impl BagScans {
                 let on_scans = *m.topic == *topic.name;
                 let on_truth = topics.truth.as_deref() == Some(&*m.topic);
                 let on_odometry = topics.odometry.as_deref() == Some(&*m.topic);
-                if on_truth || on_odometry {
+                if on_odometry && odometry_tf {
+                    match msg::TfMessage::decode_as(m.encoding, &m.data) {
+                        Ok(tf) => tf_odometry.add(&tf, &odom_frame, odometry_order),
+                        Err(_) => bad_truth += 1,
+                    }
+                } else if on_truth || on_odometry {
                     match stamped_pose(&m.ros_type, m.encoding, &m.data) {
                         Ok((stamp, p, frame)) => {
                             if on_truth {
                                 truth_poses.push((stamp, truth_order, p));
-                                truth_frame = truth_frame.or(frame);
+                                truth_frame = truth_frame.or_else(|| frame.clone());
                             }
                             if on_odometry {
                                 odometry_poses.push((stamp, odometry_order, p));
+                                odometry_frame = odometry_frame.or_else(|| frame.clone());
                             }
                         }
                         Err(_) => bad_truth += usize::from(on_truth) + usize::from(on_odometry),
@@ -248,9 +332,45 @@ impl BagScans {
             Truth { poses }
         };
         let truth = topics.truth.as_ref().map(|_| sorted(truth_poses));
+        let base_frame = topics.base_frame.clone().unwrap_or_else(|| "base_link".into());
+        // the odometry of one frame: a TFMessage topic's child of the odometry frame chosen
+        let mut odometry_said = None;
+        if let (Some(name), true) = (&topics.odometry, odometry_tf) {
+            let children = tf_odometry.children();
+            let Some(child) = odometry_child(&children, laser_frame.as_deref(), &frames, &base_frame) else {
+                let had = |pairs: Vec<String>| if pairs.is_empty() { "none".to_owned() } else { pairs.join(", ") };
+                let others = tf_odometry.others.iter().map(|(a, b)| format!("{a} -> {b}")).collect();
+                let from_odom = children.iter().map(|c| format!("{odom_frame} -> {c}")).collect();
+                return Err(refused(format!(
+                    "the odometry topic {name} holds no transform from {odom_frame} to the robot \
+                     ({base_frame}, or a frame /tf_static hangs the laser from); from {odom_frame}: {}; \
+                     others: {} (--odom-frame names the odometry frame)",
+                    had(from_odom),
+                    had(others)
+                )));
+            };
+            odometry_poses = tf_odometry
+                .samples
+                .iter()
+                .filter(|s| s.2 == child)
+                .map(|&(stamp, order, _, p)| (stamp, order, p))
+                .collect();
+            odometry_said = Some(format!("odometry from {name}: {odom_frame} -> {child}"));
+            odometry_frame = Some(child.to_owned());
+        }
+        // the laser's motion: the odometry composed with the laser's place on its frame
+        let place = odometry_frame.as_deref().and_then(|f| frames.pose_of(laser_frame.as_deref()?, frame_name(f)));
+        if let (Some(place), Some(frame)) = (place.filter(|p| *p != Pose::identity()), &odometry_frame) {
+            for p in &mut odometry_poses {
+                p.2 *= place;
+            }
+            let said = odometry_said.get_or_insert_with(|| format!("odometry of {}", frame_name(frame)));
+            let (x, y) = (place.translation.x, place.translation.y);
+            let yaw = place.rotation.angle().to_degrees();
+            said.push_str(&format!(", composed with the laser's place on it ({x:.3}, {y:.3}) m, {yaw:.1} deg"));
+        }
         let odometry = topics.odometry.as_ref().map(|_| sorted(odometry_poses));
         // the laser's place, by the frame of the first scan that decodes
-        let base_frame = topics.base_frame.clone().unwrap_or_else(|| "base_link".into());
         let mount = laser_frame.and_then(|f| Some((f.clone(), frames.mount_of(&f, &base_frame)?)));
         // the truth is the robot's when an Odometry says so: the laser sits where /tf_static
         // puts it, unless told otherwise
@@ -275,7 +395,14 @@ impl BagScans {
             frames,
             base_frame,
             mount,
+            odometry_said,
         })
+    }
+
+    /// Where the odometry comes from, when it takes more than its topic's name to say: the
+    /// transforms read off a TFMessage topic, and the laser's place it was composed with.
+    pub fn odometry_said(&self) -> Option<&str> {
+        self.odometry_said.as_deref()
     }
 
     /// The scans' frame (the first scan's) and its place on the robot, from the bag's
@@ -352,6 +479,25 @@ mod tests {
         assert!((t.at(50_000_000, 0, 1).unwrap().translation.x - 0.5).abs() < 1e-12);
         assert!(t.at(2_000_000_000, 0, 6).is_none(), "poses 2.9 s apart");
         assert!(t.at(-1, 0, 0).is_none() && t.at(4_000_000_000, 0, 9).is_none(), "outside the poses");
+    }
+
+    #[test]
+    fn odometry_follows_the_frame_that_carries_the_laser_else_the_robot_s_else_the_only_one() {
+        let mut frames = StaticFrames::default();
+        let level = [0.0, 0.0, 0.0, 1.0];
+        frames.insert("base_link", "laser", [0.3, 0.0, 0.2], level);
+        frames.insert("base_footprint", "base_link", [0.0; 3], level);
+        let children = |c: &[&str]| c.iter().map(|s| s.to_string()).collect::<Vec<_>>();
+        let two = children(&["odom_helper", "base_footprint"]);
+        assert_eq!(odometry_child(&two, Some("laser"), &frames, "base_link"), Some("base_footprint"));
+        // no laser frame known, or one /tf_static does not place: the robot's frame
+        let with_base = children(&["odom_helper", "base_link"]);
+        assert_eq!(odometry_child(&with_base, None, &frames, "base_link"), Some("base_link"));
+        assert_eq!(odometry_child(&with_base, Some("camera"), &frames, "base_link"), Some("base_link"));
+        // else the only one, and with two that neither rule picks, none
+        assert_eq!(odometry_child(&children(&["chassis"]), None, &frames, "base_link"), Some("chassis"));
+        assert_eq!(odometry_child(&children(&["a", "b"]), None, &frames, "base_link"), None);
+        assert_eq!(odometry_child(&[], Some("laser"), &frames, "base_link"), None);
     }
 
     #[test]

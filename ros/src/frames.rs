@@ -35,6 +35,19 @@ fn frame(name: &str) -> &str {
 /// Longest chain followed: more is a loop.
 const DEEPEST: usize = 64;
 
+/// A transform's pose as the plane sees it: its translation's x and y, and the heading of its x
+/// axis (as [`StaticFrames::mount_of`] reads a chain). `None` for a transform that is not finite
+/// or has no rotation (a zero quaternion); the quaternion need not be normalised.
+pub fn planar(t: &msg::Transform) -> Option<Pose> {
+    let [qx, qy, qz, qw] = t.rotation;
+    let q = Quaternion::new(qw, qx, qy, qz);
+    if !t.translation.iter().chain(&t.rotation).all(|v| v.is_finite()) || q.norm() < 1e-9 {
+        return None;
+    }
+    let x = UnitQuaternion::from_quaternion(q) * Vector3::x();
+    Some(pose(t.translation[0], t.translation[1], x.y.atan2(x.x)))
+}
+
 impl StaticFrames {
     /// Adds (or replaces) `child`'s pose in `parent`'s frame: its `translation` and its
     /// `rotation` quaternion (x, y, z, w; normalised here). A transform that is not finite or
@@ -147,6 +160,26 @@ mod tests {
         // a tilt is measured
         f.insert("base_link", "tilted", [0.0; 3], rpy(0.0, 12f64.to_radians(), 0.0));
         assert!((f.mount_of("tilted", "base_link").unwrap().tilt_deg - 12.0).abs() < 1e-9);
+    }
+
+    #[test]
+    fn a_transform_is_seen_in_the_plane_whatever_its_quaternion_s_scale() {
+        let t = |rotation: [f64; 4]| msg::Transform { translation: [1.0, -2.0, 0.4], rotation };
+        let [x, y, z, w] = rpy(0.0, 0.0, 2.5);
+        for scale in [1.0, 0.01, 7.0] {
+            let p = planar(&t([x * scale, y * scale, z * scale, w * scale])).unwrap();
+            assert_eq!((p.translation.x, p.translation.y), (1.0, -2.0));
+            assert!((pose_theta(&p) - 2.5).abs() < 1e-12, "{scale}: {}", pose_theta(&p));
+        }
+        // a wheel on an uneven floor: rolled a little, its heading still its x axis's
+        let p = planar(&t(rpy(0.05, -0.03, -1.0))).unwrap();
+        assert!((pose_theta(&p) + 1.0).abs() < 2e-3, "{}", pose_theta(&p));
+        assert_eq!(planar(&t([0.0; 4])), None);
+        assert_eq!(planar(&t([0.0, 0.0, f64::NAN, 1.0])), None);
+        assert_eq!(
+            planar(&msg::Transform { translation: [f64::INFINITY, 0.0, 0.0], rotation: [0.0, 0.0, 0.0, 1.0] }),
+            None
+        );
     }
 
     #[test]

@@ -132,6 +132,7 @@ fn two_laser_topics_need_choosing_and_truth_comes_by_stamp() {
             truth: Some(topic.into()),
             laser_pose: Some((0.5, 0.0, 0.0)),
             odometry: None,
+            odom_frame: None,
             base_frame: None,
         };
         let scans: Vec<_> = BagScans::open(&bag, &topics).unwrap().map(|s| s.unwrap().scan.truth.unwrap()).collect();
@@ -204,4 +205,93 @@ fn a_bag_s_static_transforms_mount_the_laser() {
     let posed = ScanTopics { truth: Some("/posed".into()), ..Default::default() };
     let truth = BagScans::open(&bag, &posed).unwrap().nth(1).unwrap().unwrap().scan.truth.unwrap();
     assert!((truth.translation.x - 2.0).abs() < 1e-9, "{truth:?}");
+}
+
+/// A transform of `child` in `parent` at stamp `k`: at `x, y`, turned by `yaw`, `z` up.
+fn transform(k: u32, parent: &str, child: &str, (x, y, z): (f64, f64, f64), yaw: f64) -> msg::TransformStamped {
+    let (s, c) = (yaw / 2.0).sin_cos();
+    msg::TransformStamped {
+        header: Header { stamp: at(k), frame_id: parent.into() },
+        child_frame_id: child.into(),
+        transform: msg::Transform { translation: [x, y, z], rotation: [0.0, 0.0, s, c] },
+    }
+}
+
+/// Odometry off /tf, as robots that publish it only there leave it: the transforms from odom to
+/// base_footprint, from which /tf_static hangs base_link and the laser 0.3 m ahead. The other
+/// transforms on /tf (map -> odom, a wheel) are passed over, and the odometry is the laser's:
+/// composed with its place, so a turn moves the laser ahead of the axle as it moved. An odometry
+/// frame that /tf does not hold is an error that says what it holds.
+#[test]
+fn odometry_comes_off_tf_and_moves_the_laser_as_it_moved() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("tf.mcap");
+    let fixed = msg::TfMessage {
+        transforms: vec![
+            transform(0, "base_footprint", "base_link", (0.0, 0.0, 0.1), 0.0),
+            transform(0, "/base_link", "laser", (0.3, 0.0, 0.2), 0.0),
+        ],
+    };
+    let base = |k: u32| (0.5 * k as f64, 0.0, 0.4 * k as f64);
+    let mut messages = vec![("/tf_static", msg::TfMessage::TYPE, fixed.encode())];
+    for k in 0..4 {
+        let (x, y, yaw) = base(k);
+        let tf = msg::TfMessage {
+            transforms: vec![
+                transform(k, "map", "odom", (7.0, -3.0, 0.0), 1.0 + k as f64),
+                transform(k, "/odom", "base_footprint", (x, y, 0.0), yaw),
+                transform(k, "base_link", "wheel", (0.0, 0.2, 0.0), 2.0 * k as f64),
+            ],
+        };
+        messages.push(("/tf", msg::TfMessage::TYPE, tf.encode()));
+        messages.push(("/scan", msg::LaserScan::TYPE, scan(k, 0.1).encode()));
+    }
+    write_bag(&path, &messages);
+    let bag = Bag::open(&path).unwrap();
+    let topics = ScanTopics { odometry: Some("/tf".into()), ..Default::default() };
+    let scans = BagScans::open(&bag, &topics).unwrap();
+    let said = scans.odometry_said().unwrap_or_default().to_owned();
+    assert!(said.contains("odom -> base_footprint") && said.contains("(0.300, 0.000) m"), "{said}");
+    let odometry: Vec<_> = scans.map(|s| s.unwrap().odometry.unwrap()).collect();
+    assert_eq!(odometry.len(), 4);
+    for (k, o) in odometry.iter().enumerate() {
+        let (x, y, yaw) = base(k as u32);
+        let laser = laser::pose(x, y, yaw) * laser::pose(0.3, 0.0, 0.0);
+        assert!((o.translation.vector - laser.translation.vector).norm() < 1e-9, "scan {k}: {o:?}, not {laser:?}");
+        assert!((o.rotation.angle() - laser.rotation.angle()).abs() < 1e-9, "scan {k}: {o:?}");
+    }
+    // a turn of 0.4 rad about the axle swings the laser sideways as well as forward
+    let moved = odometry[0].inverse() * odometry[1];
+    assert!(moved.translation.y > 0.1, "{moved:?}");
+    // another odometry frame: none on /tf
+    let wrong =
+        ScanTopics { odometry: Some("/tf".into()), odom_frame: Some("wheel_odom".into()), ..Default::default() };
+    match BagScans::open(&bag, &wrong) {
+        Err(BagScanError::Topic { message: e, .. }) => {
+            assert!(e.contains("no transform from wheel_odom") && e.contains("odom -> base_footprint"), "{e}");
+            assert!(e.contains("--odom-frame"), "{e}");
+        }
+        other => panic!("{:?}", other.map(|_| ())),
+    }
+    // an Odometry topic of base_footprint is composed with the laser's place the same way
+    let odom = |k: u32| {
+        let (x, y, yaw) = base(k);
+        msg::Odometry {
+            header: Header { stamp: at(k), frame_id: "odom".into() },
+            child_frame_id: "base_footprint".into(),
+            pose: msg::PoseWithCovariance { pose: msg::Pose::from_planar(x, y, yaw), ..Default::default() },
+            ..Default::default()
+        }
+    };
+    let path = dir.path().join("odom.mcap");
+    let mut messages = vec![("/tf_static", msg::TfMessage::TYPE, fixed.encode())];
+    for k in 0..2 {
+        messages.push(("/odom", msg::Odometry::TYPE, odom(k).encode()));
+        messages.push(("/scan", msg::LaserScan::TYPE, scan(k, 0.1).encode()));
+    }
+    write_bag(&path, &messages);
+    let bag = Bag::open(&path).unwrap();
+    let topics = ScanTopics { odometry: Some("/odom".into()), ..Default::default() };
+    let by_odom: Vec<_> = BagScans::open(&bag, &topics).unwrap().map(|s| s.unwrap().odometry.unwrap()).collect();
+    assert!((by_odom[1].translation.vector - odometry[1].translation.vector).norm() < 1e-9, "{by_odom:?}");
 }

@@ -47,9 +47,13 @@ pub struct Ros2Args {
     #[arg(long, default_value_t = 10.0, value_parser = positive_seconds)]
     pub initialpose_every: f64,
     /// The robot's nav_msgs/Odometry topic: each scan carries the odometry at its stamp, for
-    /// the sequential localizer (`localize --impl sequential`). Scans go on without it.
+    /// the sequential localizer (`localize --impl sequential`). Scans go on without it. `/tf`
+    /// reads the odometry off the transforms from --odom-frame to the robot instead.
     #[arg(long, default_value = "/odom")]
     pub odom_topic: String,
+    /// The odometry frame, when --odom-topic is /tf.
+    #[arg(long, default_value = "odom")]
+    pub odom_frame: String,
     /// The map's frame, the published poses' frame_id.
     #[arg(long, default_value = "map")]
     pub map_frame: String,
@@ -362,6 +366,64 @@ fn read_as_mounted(
 /// A laser tilted more than this (degrees) is said to be.
 const TILT_SAID_DEG: f64 = 5.0;
 
+/// A frame name without the leading `/` some publishers still write.
+fn frame_name(name: &str) -> &str {
+    name.trim_start_matches('/')
+}
+
+/// Where the odometry comes from: `nav_msgs/Odometry` messages, or `/tf`'s transforms from
+/// the odometry frame to the robot.
+enum OdometryIn {
+    Odometry(Subscription<msg::Odometry>),
+    Tf(Subscription<msg::TfMessage>),
+}
+
+/// The odometry poses of one frame read off a `/tf` message: the transforms from `odom_frame`
+/// to `child` (the one followed so far), or, with none yet, to the robot's frame `base` or a
+/// frame `/tf_static` hangs it from, which is then followed.
+fn odometry_off_tf(
+    tf: &msg::TfMessage,
+    odom_frame: &str,
+    base: &str,
+    frames: &StaticFrames,
+    child: &mut Option<String>,
+) -> Vec<(i64, Pose)> {
+    let mut poses = Vec::new();
+    for t in &tf.transforms {
+        if frame_name(&t.header.frame_id) != frame_name(odom_frame) {
+            continue;
+        }
+        let c = frame_name(&t.child_frame_id);
+        let followed = match child {
+            Some(followed) => followed == c,
+            None => c == frame_name(base) || frames.pose_of(base, c).is_some(),
+        };
+        if let (true, Some(p)) = (followed, ros::frames::planar(&t.transform)) {
+            *child = Some(c.to_owned());
+            poses.push((t.header.stamp.nanos(), p));
+        }
+    }
+    poses
+}
+
+/// The laser's place on the frame the odometry follows (`odometry_frame`; the robot's when
+/// unknown), for a scan of frame `scan_frame`: the odometry composed with it moves as the laser
+/// does. `None` while /tf_static (or --laser-pose) does not place it.
+fn laser_on_odometry_frame(
+    a: &Ros2Args,
+    frames: &StaticFrames,
+    scan_frame: &str,
+    odometry_frame: Option<&str>,
+) -> Option<Pose> {
+    let on = odometry_frame.map(frame_name).filter(|f| !f.is_empty()).unwrap_or(frame_name(&a.base_frame));
+    match a.laser_pose {
+        Some((x, y, yaw)) if on == frame_name(&a.base_frame) => Some(pose(x, y, yaw)),
+        Some((x, y, yaw)) => frames.pose_of(&a.base_frame, on).map(|b| b * pose(x, y, yaw)),
+        None if frame_name(scan_frame) == on => Some(Pose::identity()),
+        None => frames.pose_of(scan_frame, on),
+    }
+}
+
 /// The scan thread: LaserScans from DDS into the pipeline, static transforms into `shared`.
 fn scans_in(context: &Context, a: &Ros2Args, shared: &Mutex<Shared>, stop: &AtomicBool) -> Result<()> {
     let mut dds = context
@@ -378,13 +440,26 @@ fn scans_in(context: &Context, a: &Ros2Args, shared: &Mutex<Shared>, stop: &Atom
         subscribe(&mut dds, "/tf_static", MessageTypeName::new("tf2_msgs", "TFMessage"), &latched)?;
     // best effort takes both a reliable publisher's and a best-effort one's
     let odom_qos = QosProfile::subscription_default().history(History::KeepLast { depth: 50 });
-    let mut odom: Subscription<msg::Odometry> =
-        subscribe(&mut dds, &a.odom_topic, MessageTypeName::new("nav_msgs", "Odometry"), &odom_qos)?;
+    let mut odom = if frame_name(&a.odom_topic) == "tf" {
+        OdometryIn::Tf(subscribe(&mut dds, &a.odom_topic, MessageTypeName::new("tf2_msgs", "TFMessage"), &odom_qos)?)
+    } else {
+        OdometryIn::Odometry(subscribe(
+            &mut dds,
+            &a.odom_topic,
+            MessageTypeName::new("nav_msgs", "Odometry"),
+            &odom_qos,
+        )?)
+    };
     let mut odometry = crate::odometry::Odometry::default();
+    // the frame whose odometry it is (an Odometry's child frame, or the one /tf's followed)
+    let mut odometry_frame: Option<String> = None;
     let mut poll = Poll::new()?;
     poll.registry().register(&mut scans, Token(0), Interest::READABLE)?;
     poll.registry().register(&mut tf, Token(1), Interest::READABLE)?;
-    poll.registry().register(&mut odom, Token(2), Interest::READABLE)?;
+    match &mut odom {
+        OdometryIn::Odometry(s) => poll.registry().register(s, Token(2), Interest::READABLE)?,
+        OdometryIn::Tf(s) => poll.registry().register(s, Token(2), Interest::READABLE)?,
+    }
     let node = messages::create_node("ros2-scans")?;
     let mut out =
         Outlet::<ScanMsg>::open(&node, &a.stage.prefix, Topic::Scan, BackpressureStrategy::RetryUntilDelivered)?;
@@ -405,13 +480,42 @@ fn scans_in(context: &Context, a: &Ros2Args, shared: &Mutex<Shared>, stop: &Atom
             }
         }
         // odometry before the scans, so a scan finds the message of its own instant
-        while let Some(taken) = odom.take().transpose() {
-            match taken {
-                Ok((m, _)) => {
-                    let (x, y, yaw) = m.pose.pose.planar();
-                    odometry.add(m.header.stamp.nanos(), x, y, yaw);
+        match &mut odom {
+            OdometryIn::Odometry(sub) => {
+                while let Some(taken) = sub.take().transpose() {
+                    match taken {
+                        Ok((m, _)) => {
+                            let (x, y, yaw) = m.pose.pose.planar();
+                            odometry.add(m.header.stamp.nanos(), x, y, yaw);
+                            odometry_frame = Some(m.child_frame_id);
+                        }
+                        Err(e) => messages::say!("ros2: {}: a message that does not decode: {e:?}", a.odom_topic),
+                    }
                 }
-                Err(e) => messages::say!("ros2: {}: a message that does not decode: {e:?}", a.odom_topic),
+            }
+            OdometryIn::Tf(sub) => {
+                while let Some(taken) = sub.take().transpose() {
+                    match taken {
+                        Ok((m, _)) => {
+                            let had = odometry_frame.is_some();
+                            let poses = {
+                                let s = shared.lock().unwrap_or_else(|p| p.into_inner());
+                                odometry_off_tf(&m, &a.odom_frame, &a.base_frame, &s.frames, &mut odometry_frame)
+                            };
+                            for (stamp, p) in poses {
+                                odometry.add(stamp, p.translation.x, p.translation.y, pose_theta(&p));
+                            }
+                            if let (false, Some(f)) = (had, &odometry_frame) {
+                                messages::say!(
+                                    "ros2: odometry from {}: {} -> {f}",
+                                    a.odom_topic,
+                                    frame_name(&a.odom_frame)
+                                );
+                            }
+                        }
+                        Err(e) => messages::say!("ros2: {}: a message that does not decode: {e:?}", a.odom_topic),
+                    }
+                }
             }
         }
         while let Some(taken) = scans.take().transpose() {
@@ -430,7 +534,12 @@ fn scans_in(context: &Context, a: &Ros2Args, shared: &Mutex<Shared>, stop: &Atom
                 }
             };
             let (scan, header) = scan;
-            let at_scan = odometry.at(header.stamp.nanos());
+            // the laser's odometry: the robot's composed with the laser's place on it
+            let at_scan = odometry.at(header.stamp.nanos()).map(|o| {
+                let s = shared.lock().unwrap_or_else(|p| p.into_inner());
+                o * laser_on_odometry_frame(a, &s.frames, &header.frame_id, odometry_frame.as_deref())
+                    .unwrap_or_else(Pose::identity)
+            });
             {
                 let mut s = shared.lock().unwrap_or_else(|p| p.into_inner());
                 if s.stamps.len() >= STAMPS_KEPT {
@@ -460,6 +569,77 @@ fn scans_in(context: &Context, a: &Ros2Args, shared: &Mutex<Shared>, stop: &Atom
 #[cfg(test)]
 mod tests {
     use super::*;
+    use clap::Parser;
+
+    #[derive(Parser)]
+    struct Cli {
+        #[command(flatten)]
+        a: Ros2Args,
+    }
+
+    fn args(extra: &[&str]) -> Ros2Args {
+        Cli::parse_from(["ros2"].iter().chain(extra)).a
+    }
+
+    fn transform(parent: &str, child: &str, x: f64, yaw: f64) -> msg::TransformStamped {
+        let (s, c) = (yaw / 2.0).sin_cos();
+        msg::TransformStamped {
+            header: msg::Header { stamp: msg::Time::from_nanos(7), frame_id: parent.into() },
+            child_frame_id: child.into(),
+            transform: msg::Transform { translation: [x, 0.0, 0.0], rotation: [0.0, 0.0, s, c] },
+        }
+    }
+
+    /// `/tf` as a robot publishes it: map -> odom from a localizer, odom -> base_footprint from
+    /// the wheels, base_footprint -> base_link on /tf_static. The odometry is odom's transform
+    /// to the frame the robot hangs from, and only that frame's is followed after.
+    #[test]
+    fn odometry_off_tf_follows_the_frame_the_robot_hangs_from() {
+        let mut frames = StaticFrames::default();
+        frames.insert("base_footprint", "base_link", [0.0, 0.0, 0.1], [0.0, 0.0, 0.0, 1.0]);
+        let tf = |x: f64| msg::TfMessage {
+            transforms: vec![
+                transform("map", "odom", 5.0, 1.0),
+                transform("/odom", "tracker", 9.0, 0.0),
+                transform("odom", "base_footprint", x, 0.5),
+            ],
+        };
+        let mut child = None;
+        // "tracker" hangs no robot: passed over
+        let got = odometry_off_tf(&tf(1.0), "odom", "base_link", &frames, &mut child);
+        assert_eq!(child.as_deref(), Some("base_footprint"));
+        assert_eq!(got.len(), 1);
+        assert!((got[0].1.translation.x - 1.0).abs() < 1e-12 && (pose_theta(&got[0].1) - 0.5).abs() < 1e-12);
+        assert_eq!(got[0].0, 7);
+        let got = odometry_off_tf(&tf(2.0), "/odom", "base_link", &frames, &mut child);
+        assert_eq!(got.iter().map(|g| g.1.translation.x).collect::<Vec<_>>(), vec![2.0]);
+        // another odometry frame: nothing
+        let mut none = None;
+        assert!(odometry_off_tf(&tf(3.0), "wheel_odom", "base_link", &frames, &mut none).is_empty() && none.is_none());
+    }
+
+    /// The odometry is composed with the laser's place on the frame it follows, from
+    /// /tf_static or --laser-pose, so that a turn moves the laser as it moved.
+    #[test]
+    fn the_laser_s_place_on_the_odometry_s_frame() {
+        let mut frames = StaticFrames::default();
+        let level = [0.0, 0.0, 0.0, 1.0];
+        frames.insert("base_footprint", "base_link", [0.0, 0.0, 0.1], level);
+        frames.insert("base_link", "laser", [0.3, 0.0, 0.2], level);
+        let a = args(&[]);
+        let x = |p: Option<Pose>| p.map(|p| p.translation.x);
+        assert_eq!(x(laser_on_odometry_frame(&a, &frames, "laser", Some("base_footprint"))), Some(0.3));
+        // an Odometry without a child frame is taken as the robot's
+        assert_eq!(x(laser_on_odometry_frame(&a, &frames, "/laser", Some(""))), Some(0.3));
+        assert_eq!(x(laser_on_odometry_frame(&a, &frames, "laser", None)), Some(0.3));
+        // not placed yet
+        assert_eq!(laser_on_odometry_frame(&a, &frames, "front_laser", None), None);
+        // --laser-pose gives the laser on the robot's frame, hung from the odometry's
+        let told = args(&["--laser-pose", "0.5,0,0"]);
+        assert_eq!(x(laser_on_odometry_frame(&told, &frames, "front_laser", Some("base_footprint"))), Some(0.5));
+        assert_eq!(x(laser_on_odometry_frame(&told, &frames, "front_laser", Some("base_link"))), Some(0.5));
+        assert_eq!(laser_on_odometry_frame(&told, &frames, "front_laser", Some("elsewhere")), None);
+    }
 
     fn hypothesis(x: f64, cost: f64) -> messages::HypothesisMsg {
         messages::HypothesisMsg { pose: messages::PoseMsgXyt { x, y: 2.0, theta: 0.0 }, cost, ..Default::default() }

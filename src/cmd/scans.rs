@@ -25,9 +25,13 @@ pub struct BagArgs {
     #[arg(long, requires = "truth_topic", value_parser = ros::planar_pose_arg, allow_hyphen_values = true)]
     pub laser_pose: Option<(f64, f64, f64)>,
     /// A nav_msgs/Odometry (or PoseStamped) topic of the bag holding the robot's odometry,
-    /// matched to each scan by stamp: what `--sequential` moves its hypotheses by.
+    /// matched to each scan by stamp: what `--sequential` moves its hypotheses by. Or `/tf`:
+    /// the transforms from the odometry frame (--odom-frame) to the robot.
     #[arg(long, requires = "bag")]
     pub odom_topic: Option<String>,
+    /// The odometry frame, when --odom-topic is a tf2_msgs/TFMessage topic such as /tf.
+    #[arg(long, requires = "odom_topic", default_value = "odom")]
+    pub odom_frame: String,
 }
 
 /// The scans a command reads: a log's or a bag's, every K-th from an offset.
@@ -115,11 +119,15 @@ impl Source {
                 truth: bag.truth_topic.clone(),
                 laser_pose: bag.laser_pose,
                 odometry: bag.odom_topic.clone(),
+                odom_frame: Some(bag.odom_frame.clone()),
                 base_frame: None,
             };
             let scans = ros::BagScans::open(&opened, &topics)?;
             if let Some((frame, mount)) = scans.mount() {
                 eprintln!("{}: {}", path.display(), mount_said(frame, mount, &bag.truth_topic, bag.laser_pose));
+            }
+            if let Some(said) = scans.odometry_said() {
+                eprintln!("{}: {said}", path.display());
             }
             if scans.bad_truth > 0 {
                 eprintln!(
