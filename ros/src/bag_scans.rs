@@ -16,13 +16,15 @@
 //! motion is the laser's: where `/tf_static` places the laser on the frame odometry follows,
 //! the odometry is composed with that place, so a turn moves an off-centre laser as it moved.
 //!
-//! A bag's `/tf_static` places the laser on the robot ([`crate::frames`]): a laser mounted
-//! upside down has its scans read mirrored, as the ROS 2 bridge reads them live, and the
-//! mount is told ([`BagScans::mount`]) for a truth topic of the robot's pose.
+//! A bag's `/tf_static` places the laser on the robot ([`crate::frames`]), and so does a
+//! transform that `/tf` repeats unchanged through the bag, as ROS 1 robots publish their mounts
+//! ([`UnchangingTf`]), where `/tf_static` says nothing of that frame: a laser mounted upside
+//! down has its scans read mirrored, as the ROS 2 bridge reads them live, and the mount is told
+//! ([`BagScans::mount`]) for a truth topic of the robot's pose.
 
 use crate::bag::{Bag, BagError, Messages};
 use crate::cdr::Encoding;
-use crate::frames::{Mount, StaticFrames};
+use crate::frames::{Mount, StaticFrames, UnchangingTf};
 use crate::msg::{self, Decode};
 use laser::{interpolate, pose, LaserScan, Pose};
 use thiserror::Error;
@@ -71,6 +73,9 @@ pub struct ScanTopics {
 
 /// The static transforms' topic.
 pub const TF_STATIC: &str = "/tf_static";
+
+/// The transforms' topic, where a ROS 1 bag keeps its mounts too ([`UnchangingTf`]).
+pub const TF: &str = "/tf";
 
 /// One scan of the bag.
 #[derive(Clone, Debug)]
@@ -269,7 +274,11 @@ impl BagScans {
         let mut tf_odometry = TfOdometry::default();
         // whose pose the odometry is, when its messages say (an Odometry's child frame)
         let mut odometry_frame: Option<String> = None;
-        let has_tf = all.iter().any(|t| t.name == TF_STATIC && t.ros_type == msg::TfMessage::TYPE);
+        let has_tf_static = all.iter().any(|t| t.name == TF_STATIC && t.ros_type == msg::TfMessage::TYPE);
+        let has_tf_dynamic = all.iter().any(|t| t.name == TF && t.ros_type == msg::TfMessage::TYPE);
+        let has_tf = has_tf_static || has_tf_dynamic;
+        // the mounts a bag repeats on /tf, for the frames /tf_static does not place
+        let mut unchanging = UnchangingTf::default();
         // one pass through the bag for the truth, the odometry, /tf_static and the laser's
         // frame. Each pose keeps its place among the scans and its own topic's messages: the
         // scans' reading pass counts the truth's order the same way
@@ -279,8 +288,14 @@ impl BagScans {
         let mut truth_frame: Option<String> = None;
         let mut frames = StaticFrames::default();
         let mut pass: Vec<&str> = Vec::new();
-        for name in
-            [topics.truth.as_deref(), topics.odometry.as_deref(), has_tf.then_some(TF_STATIC)].into_iter().flatten()
+        for name in [
+            topics.truth.as_deref(),
+            topics.odometry.as_deref(),
+            has_tf_static.then_some(TF_STATIC),
+            has_tf_dynamic.then_some(TF),
+        ]
+        .into_iter()
+        .flatten()
         {
             if !pass.contains(&name) {
                 pass.push(name);
@@ -298,7 +313,12 @@ impl BagScans {
                 let on_odometry = topics.odometry.as_deref() == Some(&*m.topic);
                 if on_odometry && odometry_tf {
                     match msg::TfMessage::decode_as(m.encoding, &m.data) {
-                        Ok(tf) => tf_odometry.add(&tf, &odom_frame, odometry_order),
+                        Ok(tf) => {
+                            tf_odometry.add(&tf, &odom_frame, odometry_order);
+                            if *m.topic == *TF {
+                                unchanging.observe(&tf);
+                            }
+                        }
                         Err(_) => bad_truth += 1,
                     }
                 } else if on_truth || on_odometry {
@@ -320,6 +340,11 @@ impl BagScans {
                         Ok(tf) => frames.add(&tf),
                         Err(_) => bad_truth += 1,
                     }
+                } else if *m.topic == *TF {
+                    match msg::TfMessage::decode_as(m.encoding, &m.data) {
+                        Ok(tf) => unchanging.observe(&tf),
+                        Err(_) => bad_truth += 1,
+                    }
                 } else if on_scans && has_tf && laser_frame.is_none() {
                     laser_frame = msg::LaserScan::decode_as(m.encoding, &m.data).ok().map(|s| s.header.frame_id);
                 }
@@ -331,6 +356,7 @@ impl BagScans {
             poses.sort_by_key(|p| (p.0, p.1));
             Truth { poses }
         };
+        unchanging.add_to(&mut frames);
         let truth = topics.truth.as_ref().map(|_| sorted(truth_poses));
         let base_frame = topics.base_frame.clone().unwrap_or_else(|| "base_link".into());
         // the odometry of one frame: a TFMessage topic's child of the odometry frame chosen

@@ -75,6 +75,11 @@ impl StaticFrames {
         self.parents.is_empty()
     }
 
+    /// Whether `child`'s place is known.
+    pub fn places(&self, child: &str) -> bool {
+        self.parents.contains_key(frame(child))
+    }
+
     /// Where `child` is on `base`, when the transforms reach from one to the other.
     pub fn mount_of(&self, child: &str, base: &str) -> Option<Mount> {
         let (child, base) = (frame(child), frame(base));
@@ -101,6 +106,50 @@ impl StaticFrames {
     /// The planar pose of `child` in `base`'s frame ([`StaticFrames::mount_of`]).
     pub fn pose_of(&self, child: &str, base: &str) -> Option<Pose> {
         self.mount_of(child, base).map(|m| m.pose)
+    }
+}
+
+/// The transforms of `/tf` that never changed over a bag: a ROS 1 robot's mounts, which
+/// ROS 1's `static_transform_publisher` and older drivers publish there again and again
+/// instead of on `/tf_static`. A frame whose transform moved (a joint, odometry) or whose parent
+/// changed is not one of them.
+#[derive(Clone, Debug, Default)]
+pub struct UnchangingTf {
+    /// By child: its parent, its first transform, and whether every later one was the same.
+    seen: HashMap<String, (String, msg::Transform, bool)>,
+}
+
+/// How far two transforms of one mount may differ (metres, and quaternion components) for
+/// rounding.
+const SAME_TRANSFORM: f64 = 1e-6;
+
+impl UnchangingTf {
+    /// Notes every transform of a `/tf` message.
+    pub fn observe(&mut self, tf: &msg::TfMessage) {
+        for t in &tf.transforms {
+            let (parent, child) = (frame(&t.header.frame_id), frame(&t.child_frame_id));
+            match self.seen.get_mut(child) {
+                None => {
+                    self.seen.insert(child.to_owned(), (parent.to_owned(), t.transform, true));
+                }
+                Some((p, first, same)) => {
+                    let near = |a: &[f64], b: &[f64]| a.iter().zip(b).all(|(x, y)| (x - y).abs() <= SAME_TRANSFORM);
+                    *same &= p == parent
+                        && near(&first.translation, &t.transform.translation)
+                        && near(&first.rotation, &t.transform.rotation);
+                }
+            }
+        }
+    }
+
+    /// Adds to `frames` the unchanging transforms of the frames it does not place yet:
+    /// `/tf_static` has the last word.
+    pub fn add_to(&self, frames: &mut StaticFrames) {
+        for (child, (parent, t, same)) in &self.seen {
+            if *same && !frames.places(child) {
+                frames.insert(parent, child, t.translation, t.rotation);
+            }
+        }
     }
 }
 
@@ -180,6 +229,32 @@ mod tests {
             planar(&msg::Transform { translation: [f64::INFINITY, 0.0, 0.0], rotation: [0.0, 0.0, 0.0, 1.0] }),
             None
         );
+    }
+
+    #[test]
+    fn a_mount_repeated_on_tf_places_the_laser_and_a_moving_frame_does_not() {
+        let t = |parent: &str, child: &str, x: f64| msg::TfMessage {
+            transforms: vec![msg::TransformStamped {
+                header: msg::Header { stamp: msg::Time::from_nanos(0), frame_id: parent.into() },
+                child_frame_id: child.into(),
+                transform: msg::Transform { translation: [x, 0.0, 0.0], rotation: [0.0, 0.0, 0.0, 1.0] },
+            }],
+        };
+        let mut tf = UnchangingTf::default();
+        for k in 0..5 {
+            tf.observe(&t("/base_link", "laser", 0.25));
+            tf.observe(&t("odom", "base_link", k as f64));
+            tf.observe(&t(if k < 3 { "base_link" } else { "arm" }, "camera", 0.1));
+        }
+        tf.observe(&t("base_link", "sonar", 0.05));
+        let mut frames = StaticFrames::default();
+        frames.insert_planar("base_link", "sonar", 0.07, 0.0, 0.0);
+        tf.add_to(&mut frames);
+        assert_eq!(frames.pose_of("laser", "base_link").map(|p| p.translation.x), Some(0.25));
+        // odometry moved, the camera changed parents: neither is a mount
+        assert!(!frames.places("base_link") && !frames.places("camera"));
+        // /tf_static's own place stands
+        assert_eq!(frames.pose_of("sonar", "base_link").map(|p| p.translation.x), Some(0.07));
     }
 
     #[test]

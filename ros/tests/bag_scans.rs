@@ -295,3 +295,29 @@ fn odometry_comes_off_tf_and_moves_the_laser_as_it_moved() {
     let by_odom: Vec<_> = BagScans::open(&bag, &topics).unwrap().map(|s| s.unwrap().odometry.unwrap()).collect();
     assert!((by_odom[1].translation.vector - odometry[1].translation.vector).norm() < 1e-9, "{by_odom:?}");
 }
+
+/// A bag whose mounts come on /tf, again and again, as ROS 1 robots publish them: the laser,
+/// rolled 180 degrees 0.2 m ahead of base_link, is placed as /tf_static would place it, while
+/// odometry moving on /tf places nothing.
+#[test]
+fn a_mount_repeated_on_tf_places_the_laser_as_tf_static_would() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("ros1-like.mcap");
+    let mut messages = Vec::new();
+    for k in 0..3 {
+        let mut mount = transform(k, "base_link", "laser", (0.2, 0.0, 0.3), 0.0);
+        mount.transform.rotation = [1.0, 0.0, 0.0, 0.0];
+        let tf =
+            msg::TfMessage { transforms: vec![mount, transform(k, "odom", "base_link", (k as f64, 0.0, 0.0), 0.0)] };
+        messages.push(("/tf", msg::TfMessage::TYPE, tf.encode()));
+        messages.push(("/scan", msg::LaserScan::TYPE, scan(k, 0.1).encode()));
+    }
+    write_bag(&path, &messages);
+    let bag = Bag::open(&path).unwrap();
+    let scans = BagScans::open(&bag, &ScanTopics::default()).unwrap();
+    let (frame, mount) = scans.mount().cloned().unwrap();
+    assert!(frame == "laser" && mount.upside_down && (mount.pose.translation.x - 0.2).abs() < 1e-12, "{mount:?}");
+    let read: Vec<_> = scans.map(|s| s.unwrap().scan).collect();
+    let g = &read[0].geometry;
+    assert!((g.angle(0) - 0.2).abs() < 1e-6 && (g.angle(4) + 0.2).abs() < 1e-6, "mirrored: {g:?}");
+}
