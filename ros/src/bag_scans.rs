@@ -208,7 +208,7 @@ pub struct BagScans {
     ranks: std::collections::HashMap<i64, usize>,
     /// Scans the bag holds on the topic, when its summaries say.
     pub total: Option<u64>,
-    /// Messages of the truth, odometry and `/tf_static` topics that did not decode.
+    /// Messages of the truth, odometry, `/tf` and `/tf_static` topics that did not decode.
     pub bad_truth: usize,
     /// The bag's static transforms, and the robot's frame among them.
     frames: StaticFrames,

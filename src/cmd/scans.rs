@@ -131,7 +131,7 @@ impl Source {
             }
             if scans.bad_truth > 0 {
                 eprintln!(
-                    "{}: {} messages of the truth, odometry and /tf_static topics did not decode",
+                    "{}: {} messages of the truth, odometry, /tf and /tf_static topics did not decode",
                     path.display(),
                     scans.bad_truth
                 );
