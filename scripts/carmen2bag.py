@@ -9,7 +9,9 @@ Topics:
           corrected pose of a SLAM-corrected log), unless the log says its poses are not
           ground truth;
   /odom   nav_msgs/msg/Odometry, frame `odom`: a FLASER line's odometry pose, a ROBOTLASER1
-          line's robot pose (gema2 reads both as odometry).
+          line's robot pose (gema2 reads both as odometry);
+          with --odom-on-tf, that pose on /tf instead (tf2_msgs/msg/TFMessage, odom ->
+          base_link), as robots that publish odometry only on /tf leave it.
 
 The scans are read as gema2 reads them (docs/sensors.md): a FLASER line's n readings start at
 -90 degrees and span 180 (pi/n apart for 180 or 360 readings, pi/(n-1) otherwise), unless
@@ -17,7 +19,7 @@ The scans are read as gema2 reads them (docs/sensors.md): a FLASER line's n read
 FLASER unless --flaser-range-max) are written +inf, "no return" in REP 117.
 
 Usage: carmen2bag.py LOG OUT [--storage mcap|sqlite3|rosbag1] [--compression none|bz2|lz4]
-       [--flaser-fov DEG] [--flaser-start DEG] [--flaser-range-max M]
+       [--flaser-fov DEG] [--flaser-start DEG] [--flaser-range-max M] [--odom-on-tf]
 Run it with the project's Python: `$(scripts/python-env) scripts/carmen2bag.py ...`.
 """
 
@@ -30,7 +32,7 @@ from pathlib import Path
 import numpy as np
 from rosbags.rosbag1 import Writer as Writer1
 from rosbags.rosbag2 import StoragePlugin, Writer
-from rosbags.typesys import Stores, get_typestore
+from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 
 NO_TRUTH_MARKER = "# gema2: poses are not ground truth"
 MIN_VALID_RANGE = 0.02
@@ -112,10 +114,14 @@ def main():
     ap.add_argument("--flaser-fov", type=float)
     ap.add_argument("--flaser-start", type=float)
     ap.add_argument("--flaser-range-max", type=float, default=50.0)
+    ap.add_argument("--odom-on-tf", action="store_true", help="the odometry on /tf (odom -> base_link), not /odom")
     args = ap.parse_args()
 
     ros1 = args.storage == "rosbag1"
     ts = get_typestore(Stores.ROS1_NOETIC if ros1 else Stores.ROS2_HUMBLE)
+    if "tf2_msgs/msg/TFMessage" not in ts.types:
+        # rosbags' ROS 1 store lacks it; its definition is ROS 2's
+        ts.register(get_types_from_msg("geometry_msgs/TransformStamped[] transforms", "tf2_msgs/msg/TFMessage"))
     serialize = ts.serialize_ros1 if ros1 else ts.serialize_cdr
     T = ts.types
     Time, Header = T["builtin_interfaces/msg/Time"], T["std_msgs/msg/Header"]
@@ -123,6 +129,7 @@ def main():
     Pose, Point, Quaternion = T["geometry_msgs/msg/Pose"], T["geometry_msgs/msg/Point"], T["geometry_msgs/msg/Quaternion"]
     Odometry, PoseWithCov = T["nav_msgs/msg/Odometry"], T["geometry_msgs/msg/PoseWithCovariance"]
     TwistWithCov, Twist, Vector3 = T["geometry_msgs/msg/TwistWithCovariance"], T["geometry_msgs/msg/Twist"], T["geometry_msgs/msg/Vector3"]
+    TFMessage, TransformStamped, Transform = T["tf2_msgs/msg/TFMessage"], T["geometry_msgs/msg/TransformStamped"], T["geometry_msgs/msg/Transform"]
 
     seq = 0
 
@@ -149,7 +156,10 @@ def main():
     with writer as w:
         scan_c = w.add_connection("/scan", LaserScan.__msgtype__, typestore=ts)
         truth_c = w.add_connection("/truth", PoseStamped.__msgtype__, typestore=ts)
-        odom_c = w.add_connection("/odom", Odometry.__msgtype__, typestore=ts)
+        if args.odom_on_tf:
+            odom_c = w.add_connection("/tf", TFMessage.__msgtype__, typestore=ts)
+        else:
+            odom_c = w.add_connection("/odom", Odometry.__msgtype__, typestore=ts)
         with open_log(args.log) as f:
             for number, line in enumerate(f, 1):
                 if line.startswith(NO_TRUTH_MARKER):
@@ -190,7 +200,16 @@ def main():
                 if truth:
                     p = PoseStamped(header=header(sec, nanosec, "map"), pose=pose(*laser))
                     w.write(truth_c, log_time, serialize(p, PoseStamped.__msgtype__))
-                if odom is not None:
+                if odom is not None and args.odom_on_tf:
+                    p = pose(*odom)
+                    moved = Transform(
+                        translation=Vector3(x=p.position.x, y=p.position.y, z=0.0), rotation=p.orientation
+                    )
+                    tf = TFMessage(
+                        transforms=[TransformStamped(header=header(sec, nanosec, "odom"), child_frame_id="base_link", transform=moved)]
+                    )
+                    w.write(odom_c, log_time, serialize(tf, TFMessage.__msgtype__))
+                elif odom is not None:
                     o = Odometry(
                         header=header(sec, nanosec, "odom"),
                         child_frame_id="base_link",

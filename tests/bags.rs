@@ -359,6 +359,33 @@ fn a_bag_s_odometry_carries_the_sequential_localizer_as_the_log_s_does() {
     // no odometry topic: nothing carried from scan to scan
     let (_, _) = locate(dir.path(), "walk-bare", MAP, &["--bag", bag_s, "--truth-topic", "/truth"], &seq);
     assert!(resting("walk-bare").iter().all(|&n| n <= 1), "{:?}", resting("walk-bare"));
+    // the same odometry on /tf only (odom -> base_link), in a ROS 1 bag: the same rows
+    let on_tf = dir.path().join("walk-tf.bag");
+    carmen2bag(&log, &on_tf, &["--storage", "rosbag1", "--odom-on-tf"]);
+    let csv = dir.path().join("walk-tf.csv");
+    let run = gema2(&[
+        "locate",
+        "--map",
+        MAP,
+        "--out",
+        csv.to_str().unwrap(),
+        "--bag",
+        on_tf.to_str().unwrap(),
+        "--truth-topic",
+        "/truth",
+        "--odom-topic",
+        "/tf",
+        "--sequential",
+    ]);
+    let said = String::from_utf8_lossy(&run.stderr).into_owned();
+    ok(run);
+    assert!(said.contains("odometry from /tf: odom -> base_link"), "{said}");
+    // the heading is read off a transform's quaternion by another formula than a pose's: the
+    // last bits may differ, as between the log and the bag
+    let by_tf = rows(&csv);
+    let (agree, ties) = agreeing(&by_bag, &by_tf);
+    assert!(agree * 100 >= by_bag.len() * 95, "{agree} of {} rows agree ({ties} ties)", by_bag.len());
+    assert!(resting("walk-tf").iter().any(|&n| n >= 10), "{:?}", resting("walk-tf"));
 }
 
 /// `gema2 odometry` reads a bag's truth and odometry topics as it reads a log's poses: the
