@@ -24,7 +24,7 @@
 
 use crate::bag::{Bag, BagError, Messages};
 use crate::cdr::Encoding;
-use crate::frames::{Mount, StaticFrames, UnchangingTf};
+use crate::frames::{frame_name, Mount, StaticFrames, UnchangingTf};
 use crate::msg::{self, Decode};
 use laser::{interpolate, pose, LaserScan, Pose};
 use thiserror::Error;
@@ -166,11 +166,6 @@ impl TfOdometry {
         }
         children
     }
-}
-
-/// A frame name without the leading `/` some publishers still write.
-fn frame_name(name: &str) -> &str {
-    name.trim_start_matches('/')
 }
 
 /// A pose message's stamp and planar pose, by its type.
@@ -400,7 +395,7 @@ impl BagScans {
         let mount = laser_frame.and_then(|f| Some((f.clone(), frames.mount_of(&f, &base_frame)?)));
         // the truth is the robot's when an Odometry says so: the laser sits where /tf_static
         // puts it, unless told otherwise
-        let of_robot = truth_frame.as_deref().map(|f| f.trim_start_matches('/')) == Some(base_frame.as_str());
+        let of_robot = truth_frame.as_deref().map(frame_name) == Some(base_frame.as_str());
         let laser_pose = topics
             .laser_pose
             .map(|(x, y, t)| pose(x, y, t))

@@ -28,7 +28,7 @@ pub struct Mount {
 }
 
 /// A frame name without the leading `/` some publishers still write.
-fn frame(name: &str) -> &str {
+pub fn frame_name(name: &str) -> &str {
     name.trim_start_matches('/')
 }
 
@@ -56,11 +56,11 @@ impl StaticFrames {
         let [qx, qy, qz, qw] = rotation;
         let q = Quaternion::new(qw, qx, qy, qz);
         let finite = translation.iter().chain(&rotation).all(|v| v.is_finite());
-        if !finite || q.norm() < 1e-9 || frame(parent) == frame(child) {
+        if !finite || q.norm() < 1e-9 || frame_name(parent) == frame_name(child) {
             return;
         }
         let t = Isometry3::from_parts(Translation3::from(translation), UnitQuaternion::from_quaternion(q));
-        self.parents.insert(frame(child).to_owned(), (frame(parent).to_owned(), t));
+        self.parents.insert(frame_name(child).to_owned(), (frame_name(parent).to_owned(), t));
     }
 
     /// Adds (or replaces) every transform of a `/tf_static` message.
@@ -77,12 +77,12 @@ impl StaticFrames {
 
     /// Whether `child`'s place is known.
     pub fn places(&self, child: &str) -> bool {
-        self.parents.contains_key(frame(child))
+        self.parents.contains_key(frame_name(child))
     }
 
     /// Where `child` is on `base`, when the transforms reach from one to the other.
     pub fn mount_of(&self, child: &str, base: &str) -> Option<Mount> {
-        let (child, base) = (frame(child), frame(base));
+        let (child, base) = (frame_name(child), frame_name(base));
         let mut at = child;
         let mut p = Isometry3::identity();
         for _ in 0..DEEPEST {
@@ -127,7 +127,7 @@ impl UnchangingTf {
     /// Notes every transform of a `/tf` message.
     pub fn observe(&mut self, tf: &msg::TfMessage) {
         for t in &tf.transforms {
-            let (parent, child) = (frame(&t.header.frame_id), frame(&t.child_frame_id));
+            let (parent, child) = (frame_name(&t.header.frame_id), frame_name(&t.child_frame_id));
             match self.seen.get_mut(child) {
                 None => {
                     self.seen.insert(child.to_owned(), (parent.to_owned(), t.transform, true));

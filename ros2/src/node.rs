@@ -16,7 +16,7 @@ use clap::Args;
 use laser::{pose, pose_theta, Pose};
 use messages::iceoryx2::prelude::*;
 use messages::{monotonic_ns, Freshness, Look, Outlet, PoseMsg, ScanMsg, Stage, Topic, STATUS_FAILED, STATUS_OK};
-use ros::frames::{Mount, StaticFrames};
+use ros::frames::{frame_name, Mount, StaticFrames};
 use ros::msg;
 use ros2_client::dds::rustdds::mio1::{Events, Interest, Poll, Token};
 use ros2_client::dds::{Context, ContextOptions, Publisher, Subscription};
@@ -290,13 +290,7 @@ impl PosesOut {
                 msg::Header { stamp: msg::Time::from_nanos(now.as_nanos() as u64), frame_id: String::new() }
             }
         };
-        let mount = match self.a.laser_pose {
-            Some((x, y, yaw)) => Some(pose(x, y, yaw)),
-            None if header.frame_id.trim_start_matches('/') == self.a.base_frame.trim_start_matches('/') => {
-                Some(Pose::identity())
-            }
-            None => shared.frames.pose_of(&header.frame_id, &self.a.base_frame),
-        };
+        let mount = laser_place(&self.a, &shared.frames, &header.frame_id, None);
         (header, mount)
     }
 
@@ -366,11 +360,6 @@ fn read_as_mounted(
 /// A laser tilted more than this (degrees) is said to be.
 const TILT_SAID_DEG: f64 = 5.0;
 
-/// A frame name without the leading `/` some publishers still write.
-fn frame_name(name: &str) -> &str {
-    name.trim_start_matches('/')
-}
-
 /// Where the odometry comes from: `nav_msgs/Odometry` messages, or `/tf`'s transforms from
 /// the odometry frame to the robot.
 enum OdometryIn {
@@ -406,16 +395,13 @@ fn odometry_off_tf(
     poses
 }
 
-/// The laser's place on the frame the odometry follows (`odometry_frame`; the robot's when
-/// unknown), for a scan of frame `scan_frame`: the odometry composed with it moves as the laser
-/// does. `None` while /tf_static (or --laser-pose) does not place it.
-fn laser_on_odometry_frame(
-    a: &Ros2Args,
-    frames: &StaticFrames,
-    scan_frame: &str,
-    odometry_frame: Option<&str>,
-) -> Option<Pose> {
-    let on = odometry_frame.map(frame_name).filter(|f| !f.is_empty()).unwrap_or(frame_name(&a.base_frame));
+/// The laser's place on frame `on` (the robot's, `--base-frame`, when `None` or empty), for a
+/// scan of frame `scan_frame`: `--laser-pose` on the robot, or the static transforms from the
+/// scan's frame. On the robot it is the mount a pose is published through; on the frame the
+/// odometry follows, the odometry composed with it moves as the laser does. `None` while
+/// neither places it.
+fn laser_place(a: &Ros2Args, frames: &StaticFrames, scan_frame: &str, on: Option<&str>) -> Option<Pose> {
+    let on = on.map(frame_name).filter(|f| !f.is_empty()).unwrap_or(frame_name(&a.base_frame));
     match a.laser_pose {
         Some((x, y, yaw)) if on == frame_name(&a.base_frame) => Some(pose(x, y, yaw)),
         Some((x, y, yaw)) => frames.pose_of(&a.base_frame, on).map(|b| b * pose(x, y, yaw)),
@@ -534,19 +520,17 @@ fn scans_in(context: &Context, a: &Ros2Args, shared: &Mutex<Shared>, stop: &Atom
                 }
             };
             let (scan, header) = scan;
-            // the laser's odometry: the robot's composed with the laser's place on it
-            let at_scan = odometry.at(header.stamp.nanos()).map(|o| {
-                let s = shared.lock().unwrap_or_else(|p| p.into_inner());
-                o * laser_on_odometry_frame(a, &s.frames, &header.frame_id, odometry_frame.as_deref())
-                    .unwrap_or_else(Pose::identity)
-            });
-            {
+            let at_scan = {
                 let mut s = shared.lock().unwrap_or_else(|p| p.into_inner());
+                // the laser's odometry: the robot's composed with the laser's place on it
+                let place = || laser_place(a, &s.frames, &header.frame_id, odometry_frame.as_deref());
+                let at_scan = odometry.at(header.stamp.nanos()).map(|o| o * place().unwrap_or_else(Pose::identity));
                 if s.stamps.len() >= STAMPS_KEPT {
                     s.stamps.pop_front();
                 }
                 s.stamps.push_back((seq, header));
-            }
+                at_scan
+            };
             out.send(|m: &mut ScanMsg| {
                 acquire::node::scan_to_msg(&scan, at_scan.as_ref(), seq, enter, m);
                 m.header.span(Stage::Acquire).enter_ns = enter;
@@ -628,17 +612,17 @@ mod tests {
         frames.insert("base_link", "laser", [0.3, 0.0, 0.2], level);
         let a = args(&[]);
         let x = |p: Option<Pose>| p.map(|p| p.translation.x);
-        assert_eq!(x(laser_on_odometry_frame(&a, &frames, "laser", Some("base_footprint"))), Some(0.3));
+        assert_eq!(x(laser_place(&a, &frames, "laser", Some("base_footprint"))), Some(0.3));
         // an Odometry without a child frame is taken as the robot's
-        assert_eq!(x(laser_on_odometry_frame(&a, &frames, "/laser", Some(""))), Some(0.3));
-        assert_eq!(x(laser_on_odometry_frame(&a, &frames, "laser", None)), Some(0.3));
+        assert_eq!(x(laser_place(&a, &frames, "/laser", Some(""))), Some(0.3));
+        assert_eq!(x(laser_place(&a, &frames, "laser", None)), Some(0.3));
         // not placed yet
-        assert_eq!(laser_on_odometry_frame(&a, &frames, "front_laser", None), None);
+        assert_eq!(laser_place(&a, &frames, "front_laser", None), None);
         // --laser-pose gives the laser on the robot's frame, hung from the odometry's
         let told = args(&["--laser-pose", "0.5,0,0"]);
-        assert_eq!(x(laser_on_odometry_frame(&told, &frames, "front_laser", Some("base_footprint"))), Some(0.5));
-        assert_eq!(x(laser_on_odometry_frame(&told, &frames, "front_laser", Some("base_link"))), Some(0.5));
-        assert_eq!(laser_on_odometry_frame(&told, &frames, "front_laser", Some("elsewhere")), None);
+        assert_eq!(x(laser_place(&told, &frames, "front_laser", Some("base_footprint"))), Some(0.5));
+        assert_eq!(x(laser_place(&told, &frames, "front_laser", Some("base_link"))), Some(0.5));
+        assert_eq!(laser_place(&told, &frames, "front_laser", Some("elsewhere")), None);
     }
 
     fn hypothesis(x: f64, cost: f64) -> messages::HypothesisMsg {
