@@ -47,12 +47,20 @@ fn rows(path: &Path) -> Vec<Row> {
 
 /// Locates `source` (`--log L` or `--bag B ...`) on `map` and returns the CSV rows and the report.
 fn locate(dir: &Path, name: &str, map: &str, source: &[&str], extra: &[&str]) -> (Vec<Row>, String) {
+    let (rows, report, _) = locate_saying(dir, name, map, source, extra);
+    (rows, report)
+}
+
+/// [`locate`], with what the command said on stderr as well.
+fn locate_saying(dir: &Path, name: &str, map: &str, source: &[&str], extra: &[&str]) -> (Vec<Row>, String, String) {
     let csv = dir.join(format!("{name}.csv"));
     let mut args = vec!["locate", "--map", map, "--out", csv.to_str().unwrap()];
     args.extend_from_slice(source);
     args.extend_from_slice(extra);
-    let report = ok(gema2(&args));
-    (rows(&csv), report)
+    let run = gema2(&args);
+    let said = String::from_utf8_lossy(&run.stderr).into_owned();
+    let report = ok(run);
+    (rows(&csv), report, said)
 }
 
 /// How many rows agree (the same status, and the same pose within 1 cm and 0.5 degrees), and
@@ -359,30 +367,14 @@ fn a_bag_s_odometry_carries_the_sequential_localizer_as_the_log_s_does() {
     // no odometry topic: nothing carried from scan to scan
     let (_, _) = locate(dir.path(), "walk-bare", MAP, &["--bag", bag_s, "--truth-topic", "/truth"], &seq);
     assert!(resting("walk-bare").iter().all(|&n| n <= 1), "{:?}", resting("walk-bare"));
-    // the same odometry on /tf only (odom -> base_link), in a ROS 1 bag: the same rows
+    // the same odometry on /tf only (odom -> base_link), in a ROS 1 bag: rows that agree
     let on_tf = dir.path().join("walk-tf.bag");
     carmen2bag(&log, &on_tf, &["--storage", "rosbag1", "--odom-on-tf"]);
-    let csv = dir.path().join("walk-tf.csv");
-    let run = gema2(&[
-        "locate",
-        "--map",
-        MAP,
-        "--out",
-        csv.to_str().unwrap(),
-        "--bag",
-        on_tf.to_str().unwrap(),
-        "--truth-topic",
-        "/truth",
-        "--odom-topic",
-        "/tf",
-        "--sequential",
-    ]);
-    let said = String::from_utf8_lossy(&run.stderr).into_owned();
-    ok(run);
+    let off_tf = ["--bag", on_tf.to_str().unwrap(), "--truth-topic", "/truth", "--odom-topic", "/tf"];
+    let (by_tf, _, said) = locate_saying(dir.path(), "walk-tf", MAP, &off_tf, &seq);
     assert!(said.contains("odometry from /tf: odom -> base_link"), "{said}");
     // the heading is read off a transform's quaternion by another formula than a pose's: the
     // last bits may differ, as between the log and the bag
-    let by_tf = rows(&csv);
     let (agree, ties) = agreeing(&by_bag, &by_tf);
     assert!(agree * 100 >= by_bag.len() * 95, "{agree} of {} rows agree ({ties} ties)", by_bag.len());
     assert!(resting("walk-tf").iter().any(|&n| n >= 10), "{:?}", resting("walk-tf"));
