@@ -12,7 +12,7 @@ use crate::wall::Wall;
 use laser::{Pose, ScanGeometry};
 use nalgebra::{Point2, Vector2};
 use std::f64::consts::TAU;
-use std::sync::atomic::{AtomicU32, Ordering};
+use std::sync::atomic::{AtomicU16, AtomicU32, Ordering};
 use std::sync::{Arc as Shared, Mutex, OnceLock, PoisonError};
 
 /// Expected ranges d'_i of eq. 7: what an ideal sensor at a pose would read in the map.
@@ -42,8 +42,10 @@ struct ReachLists {
     /// the lists repeat most of the map in every cell (11 MB on freiburg-079's built map at
     /// 50 m), in every localizer that shares the map's model.
     within: ReachFrame,
-    /// How many walls each cell lists, counted on first need ([`NOT_COUNTED`] until then).
-    counts: Vec<AtomicU32>,
+    /// How many walls each cell lists, counted on first need ([`NOT_COUNTED`] until then),
+    /// at most [`MOST_COUNTED`]: a cell with that many walls in reach is marched from until
+    /// it pays for filtering, and is never filtered up front, whatever the count beyond.
+    counts: Vec<AtomicU16>,
     /// Beams marched from each cell whose list is not filtered (kept) now ([`Plan`]),
     /// saturating; back to 0 when its list is dropped.
     marched: Vec<AtomicU32>,
@@ -52,7 +54,10 @@ struct ReachLists {
 }
 
 /// A cell whose walls are not counted yet ([`ReachLists::counts`]).
-const NOT_COUNTED: u32 = u32::MAX;
+const NOT_COUNTED: u16 = u16::MAX;
+
+/// The most walls a cell is counted to have ([`ReachLists::counts`]).
+const MOST_COUNTED: u16 = u16::MAX - 1;
 
 /// The cells' filtered lists ([`potentially_visible`]) this process holds: those it cast from
 /// most recently, in at most `budget` bytes. Every cell's list, kept whole, would grow with
@@ -61,8 +66,8 @@ const NOT_COUNTED: u32 = u32::MAX;
 /// gains nothing from them (it marches), and tracking casts from a few cells.
 #[derive(Clone, Debug)]
 struct KeptLists {
-    /// Per cell: its place in `lists`, or [`NOT_KEPT`].
-    slot: Vec<u32>,
+    /// Per cell: its place in `lists`, or [`NOT_KEPT`]; so at most [`MOST_KEPT`] lists.
+    slot: Vec<u16>,
     lists: Vec<KeptList>,
     bytes: usize,
     budget: usize,
@@ -78,7 +83,10 @@ struct KeptList {
 }
 
 /// A cell whose list is not kept ([`KeptLists::slot`]).
-const NOT_KEPT: u32 = u32::MAX;
+const NOT_KEPT: u16 = u16::MAX;
+
+/// The most lists kept at once, whatever the budget ([`KeptLists::slot`]).
+const MOST_KEPT: usize = NOT_KEPT as usize;
 
 /// What a kept list takes beside its indices: its entry in [`KeptLists::lists`], and the
 /// shared allocation's two counts and the list's own header.
@@ -113,18 +121,19 @@ impl KeptLists {
             return kept;
         }
         let bytes = list.bytes();
-        while self.bytes + bytes > self.budget && !self.lists.is_empty() {
+        while (self.bytes + bytes > self.budget || self.lists.len() >= MOST_KEPT) && !self.lists.is_empty() {
             let oldest = (0..self.lists.len()).min_by_key(|&k| self.lists[k].used).unwrap_or(0);
             let gone = self.lists.swap_remove(oldest);
             self.bytes -= gone.list.bytes();
             self.slot[gone.cell as usize] = NOT_KEPT;
             if let Some(moved) = self.lists.get(oldest) {
-                self.slot[moved.cell as usize] = oldest as u32;
+                self.slot[moved.cell as usize] = oldest as u16;
             }
             dropped.push(gone.cell as usize);
         }
         self.clock += 1;
-        self.slot[cell] = self.lists.len() as u32;
+        // below MOST_KEPT: the loop above made room
+        self.slot[cell] = self.lists.len() as u16;
         self.lists.push(KeptList { cell: cell as u32, list: Shared::clone(&list), used: self.clock });
         self.bytes += bytes;
         list
@@ -133,13 +142,12 @@ impl KeptLists {
 
 impl Clone for ReachLists {
     fn clone(&self) -> Self {
-        let copy = |v: &[AtomicU32]| v.iter().map(|m| AtomicU32::new(m.load(Ordering::Relaxed))).collect();
         let kept = self.kept.lock().unwrap_or_else(PoisonError::into_inner).clone();
         ReachLists {
             range: self.range,
             within: self.within,
-            counts: copy(&self.counts),
-            marched: copy(&self.marched),
+            counts: self.counts.iter().map(|m| AtomicU16::new(m.load(Ordering::Relaxed))).collect(),
+            marched: self.marched.iter().map(|m| AtomicU32::new(m.load(Ordering::Relaxed))).collect(),
             kept: Mutex::new(kept),
         }
     }
@@ -155,7 +163,7 @@ impl ReachLists {
     fn filtering_eagerly_up_to(walls: &[Wall], range: f64, eager_pairs: f64, budget: usize) -> Self {
         let within = ReachFrame::covering(walls, CELL, range, CELL);
         let cells_n = within.cell_count();
-        let counts = (0..cells_n).map(|_| AtomicU32::new(NOT_COUNTED)).collect();
+        let counts = (0..cells_n).map(|_| AtomicU16::new(NOT_COUNTED)).collect();
         let marched = (0..cells_n).map(|_| AtomicU32::new(0)).collect();
         let kept = Mutex::new(KeptLists::new(cells_n, budget));
         let lists = ReachLists { range, within, counts, marched, kept };
@@ -217,7 +225,7 @@ impl ReachLists {
         match count.load(Ordering::Relaxed) {
             NOT_COUNTED => {
                 // two threads may both count a cell: they store the same number
-                let n = u32::try_from(self.within.count_of(walls, c, r)).unwrap_or(NOT_COUNTED - 1);
+                let n = u16::try_from(self.within.count_of(walls, c, r)).unwrap_or(MOST_COUNTED).min(MOST_COUNTED);
                 count.store(n, Ordering::Relaxed);
                 n as usize
             }
@@ -1133,11 +1141,29 @@ mod tests {
             let kept = small.kept.lock().unwrap();
             assert!(kept.bytes <= budget, "{} bytes kept, budget {budget}", kept.bytes);
             assert_eq!(kept.bytes, kept.lists.iter().map(|k| k.list.bytes()).sum::<usize>());
-            assert!(kept.lists.iter().enumerate().all(|(k, l)| kept.slot[l.cell as usize] == k as u32));
+            assert!(kept.lists.iter().enumerate().all(|(k, l)| kept.slot[l.cell as usize] == k as u16));
         }
         for &(c, r) in &cells {
             assert_eq!(small.visible_in(&walls, c, r).to_vec(), whole.visible_in(&walls, c, r).to_vec());
         }
+    }
+
+    /// A budget with room for more lists than a cell's slot can number keeps at most
+    /// [`MOST_KEPT`], dropping the least recently used, and every slot still points at its list.
+    #[test]
+    fn no_more_lists_are_kept_than_a_slot_can_number() {
+        let cells = MOST_KEPT + 10;
+        let mut kept = KeptLists::new(cells, usize::MAX);
+        let mut dropped = Vec::new();
+        for cell in 0..cells {
+            let list = Shared::new(WallList::new(&[cell as u32 % 7], 8));
+            kept.keep(cell, list, &mut dropped);
+        }
+        assert_eq!(kept.lists.len(), MOST_KEPT);
+        assert_eq!(dropped, (0..10).collect::<Vec<_>>(), "the oldest made room");
+        assert!(kept.lists.iter().enumerate().all(|(k, l)| kept.slot[l.cell as usize] == k as u16));
+        assert!((0..10).all(|cell| kept.slot[cell] == NOT_KEPT));
+        assert_eq!(kept.get(cells - 1).map(|l| l.to_vec()), Some(vec![(cells as u32 - 1) % 7]));
     }
 
     /// A caster whose lists hold a few cells at a time casts as one that keeps every cell's.

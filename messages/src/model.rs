@@ -38,6 +38,9 @@ pub const MODEL_ALIGN: usize = 16;
 /// Blocks a model reader may hold at once: the one it reads and a newer one.
 pub const MODEL_HELD: usize = 2;
 
+/// Readers of the model at once: localizers, their replacements during a swap, and tools.
+const MODEL_READERS: usize = 16;
+
 /// The model topic's data and wake-up services.
 pub struct ModelPorts {
     pub name: String,
@@ -63,11 +66,11 @@ pub fn open_model_topic(node: &Node<ipc::Service>, prefix: &str) -> Result<Model
         .enable_safe_overflow(true)
         // a map server and its replacement
         .max_publishers(2)
-        .max_subscribers(16)
+        .max_subscribers(MODEL_READERS)
         .max_nodes(32)
         .open_or_create_with_attributes(&crate::topic::wire_attributes())
         .map_err(|e| open(&e))?;
-    let event = open_event(node, &name, &service)?;
+    let event = open_event(node, &name, &service, MODEL_READERS)?;
     Ok(ModelPorts { name: service, data, event })
 }
 

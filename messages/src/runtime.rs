@@ -31,13 +31,16 @@ fn quiet_iceoryx2() {
 
 /// How many connections to publishers that have gone each subscriber keeps until what it holds
 /// from them is returned. iceoryx2's default, 128, costs every subscriber about 470 KB of its
-/// own memory (a slot per connection, each a few KB of names), more than a localizer needs for
-/// anything else; a connection kept here is only one whose publisher went while this process
-/// still held its samples or had sent it some not yet read. A subscriber holds at most
-/// [`crate::MODEL_HELD`] (the model) or 2 (iceoryx2's default elsewhere) samples, and reads what
-/// it was sent within a scan, so 4 covers every publisher that can go at once (a swap's, a
-/// restart's and a larger map block's). Each slot costs a subscriber about 3.6 KB.
-pub const EXPIRED_CONNECTIONS: usize = 4;
+/// own memory (a slot per connection, each about 3.6 KB of names), more than a localizer needs
+/// for anything else. A connection is kept here only when its publisher went while this
+/// process still held its samples or had been sent some not yet read:
+/// - A sample held: a subscriber holds at most [`crate::MODEL_HELD`] (the model) or 2
+///   (iceoryx2's default elsewhere) samples, so at most 2 connections hold one; iceoryx2 makes
+///   room for those first, so a held sample is never taken away.
+/// - A sample sent but unread: a stage reads what it was sent within a scan, so only
+///   publishers that go within the same scan count; a third such one at once loses its
+///   unread samples, with iceoryx2's warning.
+pub const EXPIRED_CONNECTIONS: usize = 2;
 
 /// Creates this process's node. Termination signals (SIGINT, SIGTERM) are left to iceoryx2,
 /// which records them for the node; [`crate::run_waitset`] and [`crate::sleep`] then return so

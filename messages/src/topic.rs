@@ -166,21 +166,24 @@ pub fn open_pubsub<T: Debug + ZeroCopySend + 'static>(
             };
             OpenError::Open { service: service.into(), message: format!("{e:?} (payload {payload}){hint}") }
         })?;
-    let event = open_event(node, &name, service)?;
+    let event = open_event(node, &name, service, s.max_subscribers)?;
     Ok(TopicPorts { name: service.into(), data, event })
 }
 
 /// Opens (or creates) the event service paired with the data service `name` (`service`):
-/// what wakes its subscribers.
+/// what wakes its subscribers. Each subscriber listens once, so the listeners are at most
+/// the subscribers, `max_listeners`: every notifier (each publisher has one) keeps a slot per
+/// listener, about 1.2 KB each of the publishing process's own memory.
 pub(crate) fn open_event(
     node: &Node<ipc::Service>,
     name: &ServiceName,
     service: &str,
+    max_listeners: usize,
 ) -> Result<event::PortFactory<ipc::Service>, OpenError> {
     node.service_builder(name)
         .event()
         .max_notifiers(16)
-        .max_listeners(16)
+        .max_listeners(max_listeners)
         .max_nodes(32)
         .open_or_create_with_attributes(&crate::topic::wire_attributes())
         .map_err(|e| OpenError::Open { service: service.into(), message: format!("event: {e:?}") })

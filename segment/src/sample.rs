@@ -83,6 +83,9 @@ impl Sample {
 pub fn build_samples(scan: &ScanView<'_>, error: &ErrorModel, averaging: usize, out: &mut Vec<Sample>) {
     out.clear();
     let m = averaging.max(1);
+    // room for every group at once: grown by doubling, the buffer would take up to twice
+    // what a scan needs, and the smaller buffers it outgrew stay in the process's heap
+    out.reserve_exact(scan.len().div_ceil(m));
     let g = scan.geometry;
     let mut gap = true;
     let mut first = 0;
