@@ -1465,6 +1465,41 @@ fn bench_memory_reads_a_second_localizers_own_memory() {
     assert!(err.contains("cannot read the log"), "{err}");
 }
 
+/// `gema2 bench --memory --carmen DIR` measures a second localizer on the map of each log's
+/// even scans, a row a log, and writes the table into its own section of a results page,
+/// beside the single run's.
+#[test]
+fn bench_memory_measures_each_log_of_a_folder_on_its_own_map() {
+    let dir = tempfile::tempdir().unwrap();
+    let logs = dir.path().join("logs");
+    std::fs::create_dir(&logs).unwrap();
+    let log = logs.join("walk.log");
+    // 15 s of scans at 20 a second: the pipeline outlasts its 4 s lead and the readings
+    let out = gema2(&["sim", "--map", "office", "--scans", "300", "--seed", "5", "--out", log.to_str().unwrap()]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let page = dir.path().join("results.md");
+    std::fs::write(&page, "# results\n\n<!-- BEGIN bench-memory -->\nthe long run\n<!-- END bench-memory -->\n")
+        .unwrap();
+    let (logs_s, page_s) = (logs.to_str().unwrap(), page.to_str().unwrap());
+    let out = gema2(&["bench", "--memory", "--carmen", logs_s, "--seconds", "2", "--markdown", page_s]);
+    let said = String::from_utf8_lossy(&out.stdout).into_owned();
+    assert!(out.status.success(), "{said}{}", String::from_utf8_lossy(&out.stderr));
+    let row = said.lines().find(|l| l.starts_with("| walk |")).unwrap_or_else(|| panic!("no row for the log: {said}"));
+    let cells: Vec<&str> = row.split('|').map(str::trim).collect();
+    let (mb, tenth, most): (f64, f64, f64) =
+        (cells[2].parse().unwrap(), cells[3].parse().unwrap(), cells[5].parse().unwrap());
+    assert!(mb > 0.0 && (tenth - mb * 100.0).abs() <= 5.5 && most > 0.0, "{row}");
+    assert_eq!(cells[6], if most <= tenth { "within" } else { "over" }, "{row}");
+    assert!(said.contains("of 1 logs"), "{said}");
+    let written = std::fs::read_to_string(&page).unwrap();
+    assert!(written.contains("the long run") && written.contains("<!-- BEGIN bench-memory-carmen -->"), "{written}");
+    assert!(written.contains(row), "{written}");
+
+    let out = gema2(&["bench", "--memory", "--carmen", dir.path().join("none").to_str().unwrap()]);
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("no such folder or log"));
+}
+
 /// What a test reads off the pose topic: every scan answered so far, by number.
 struct Answers {
     poses: messages::iceoryx2::port::subscriber::Subscriber<

@@ -53,6 +53,10 @@ pub struct BenchArgs {
     /// With --memory: a CARMEN log to replay (default: simulate in --map).
     #[arg(long, requires = "memory")]
     pub log: Option<PathBuf>,
+    /// With --memory: each CARMEN log of this folder (or this one log) in turn, on the map of
+    /// its even scans, built as `gema2 map build --every 2 --offset 0` builds it: a table.
+    #[arg(long, requires = "memory", conflicts_with_all = ["map", "log"])]
+    pub carmen: Option<PathBuf>,
     /// With --memory: scans per second.
     #[arg(long, default_value = "20", requires = "memory", value_parser = acquire::node::rate_arg)]
     pub rate: String,

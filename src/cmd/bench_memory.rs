@@ -88,13 +88,122 @@ pub fn bench_memory(a: &BenchArgs) -> Result<()> {
     if !Path::new("/proc/self/smaps_rollup").exists() {
         bail!("--memory reads /proc/PID/smaps_rollup (Linux 4.14 and later), which this system lacks");
     }
-    let exe = std::env::current_exe().context("locating the gema2 binary")?;
     let scratch = super::ScratchDir::new("bench-memory")?;
+    let mut out = String::new();
+    let mut say = |line: String| {
+        println!("{line}");
+        out.push_str(&line);
+        out.push('\n');
+    };
+    match &a.carmen {
+        None => {
+            let m = measure(&scratch, &a.map, a.log.as_deref(), &a.rate, a.seconds)?;
+            let source = a.log.as_ref().map_or_else(|| format!("simulated in {}", a.map), |l| l.display().to_string());
+            say(format!(
+                "second localizer beside a running pipeline: map {}, scans {source} at {} a second",
+                a.map, a.rate
+            ));
+            say(format!("  map model: {:.1} MB, shared; a tenth of it: {:.0} kB", m.model_mb, m.tenth_kb()));
+            let at_10 = m.at_10.map(|kb| format!("{kb} kB 10 s after ready, ")).unwrap_or_default();
+            say(format!(
+                "  its own memory (Private_Clean + Private_Dirty): {at_10}{} kB at {:.0} s, at most {} kB over {} readings: {} a tenth of the model",
+                m.last.1,
+                m.last.0,
+                m.most,
+                m.readings,
+                m.verdict()
+            ));
+        }
+        Some(dir) => {
+            let logs = super::evaluate::carmen_logs(dir)?;
+            say("### a second localizer's own memory, on each log's map".into());
+            say(String::new());
+            say(format!(
+                "A second localizer beside a running pipeline on the map of each log's even scans (`gema2 map build --every 2 --offset 0`), the log replayed at {} scans a second; its own memory (Private_Clean + Private_Dirty) over {} s after it is ready, against a tenth of the shared model.",
+                a.rate, a.seconds
+            ));
+            say(String::new());
+            say("| log | model, MB | a tenth, kB | 10 s after ready, kB | at most, kB | |".into());
+            say("|---|---|---|---|---|---|".into());
+            let (mut within, mut rows) = (0, 0);
+            for log in &logs {
+                let stem = super::evaluate::log_stem(log);
+                let map = scratch.path().join(format!("{stem}-even.json"));
+                let built = super::evaluate::built_map(log, 0)?;
+                std::fs::write(&map, built.to_json("built")).with_context(|| format!("writing {}", map.display()))?;
+                let m = measure(&scratch, &map.to_string_lossy(), Some(log), &a.rate, a.seconds)
+                    .with_context(|| format!("{}", log.display()))?;
+                rows += 1;
+                within += usize::from(m.within());
+                let at_10 = m.at_10.map_or_else(|| "-".to_owned(), |kb| kb.to_string());
+                say(format!(
+                    "| {stem} | {:.1} | {:.0} | {at_10} | {} | {} |",
+                    m.model_mb,
+                    m.tenth_kb(),
+                    m.most,
+                    m.verdict()
+                ));
+            }
+            say(String::new());
+            say(format!("Within a tenth of the model on {within} of {rows} logs."));
+        }
+    }
+    if let Some(path) = &a.markdown {
+        let command: Vec<String> = std::env::args().skip(1).collect();
+        // the table per log and the one long run keep their own sections
+        let (section, body) = if a.carmen.is_some() {
+            ("bench-memory-carmen", out)
+        } else {
+            ("bench-memory", format!("```\n{out}```\n"))
+        };
+        crate::results::write_section(path, section, &format!("gema2 {}", command.join(" ")), &body)?;
+    }
+    Ok(())
+}
+
+/// What [`measure`] read of the second localizer.
+struct Measured {
+    /// The shared model's size, as the localizer said it.
+    model_mb: f64,
+    /// Its own memory 10 s after it was ready, kB, when the readings lasted that long.
+    at_10: Option<u64>,
+    /// The last reading: seconds after ready, kB.
+    last: (f64, u64),
+    /// The most it had over the readings, kB.
+    most: u64,
+    readings: usize,
+}
+
+impl Measured {
+    fn tenth_kb(&self) -> f64 {
+        self.model_mb * 1e3 / 10.0
+    }
+
+    /// Whether the most it had is within a tenth of the model.
+    fn within(&self) -> bool {
+        (self.most as f64) <= self.tenth_kb()
+    }
+
+    fn verdict(&self) -> &'static str {
+        if self.within() {
+            "within"
+        } else {
+            "over"
+        }
+    }
+}
+
+/// Runs the pipeline on `map` with scans from `log` (simulated in `map` without) at `rate`,
+/// starts a second localizer beside it once the pipeline is under way, and reads the second
+/// one's own memory once a second for `seconds` after it has read the model and located a
+/// scan, or until the pipeline ends.
+fn measure(scratch: &super::ScratchDir, map: &str, log: Option<&Path>, rate: &str, seconds: f64) -> Result<Measured> {
+    let exe = std::env::current_exe().context("locating the gema2 binary")?;
     let file = scratch.path().join("memory.toml");
-    std::fs::write(&file, pipeline_file(&a.map, a.log.as_deref(), &a.rate))?;
+    std::fs::write(&file, pipeline_file(map, log, rate))?;
     let prefix = format!("benchmem{}", std::process::id());
     // the pipeline outlasts the readings, unless its log ends first
-    let timeout = a.seconds + PIPELINE_LEAD.as_secs_f64() + READY_PATIENCE.as_secs_f64() + 30.0;
+    let timeout = seconds + PIPELINE_LEAD.as_secs_f64() + READY_PATIENCE.as_secs_f64() + 30.0;
     let mut run = Command::new(&exe);
     run.arg("run").arg("--pipeline").arg(&file).args(["--prefix", &prefix, "--scans", "0"]);
     let said_path = scratch.path().join("pipeline.err");
@@ -153,10 +262,10 @@ pub fn bench_memory(a: &BenchArgs) -> Result<()> {
             }
         }
     }
-    let mb = mb.unwrap_or_default();
+    let model_mb = mb.unwrap_or_default();
     let ready = Instant::now();
     let mut readings: Vec<(f64, u64)> = Vec::new();
-    while ready.elapsed().as_secs_f64() < a.seconds {
+    while ready.elapsed().as_secs_f64() < seconds {
         std::thread::sleep(Duration::from_secs(1));
         if pipeline.0.try_wait()?.is_some() {
             break;
@@ -166,35 +275,14 @@ pub fn bench_memory(a: &BenchArgs) -> Result<()> {
             None => bail!("the second localizer ended during the readings"),
         }
     }
-    let Some(&(last_s, last_kb)) = readings.last() else {
+    let Some(&last) = readings.last() else {
         bail!("the pipeline ended before a reading; a longer log or the simulator gives more");
     };
     let most = readings.iter().map(|r| r.1).max().unwrap_or_default();
-    let at_10 = readings.iter().find(|r| r.0 >= 10.0).map(|r| format!("{} kB 10 s after ready, ", r.1));
-    let tenth_kb = mb * 1e3 / 10.0;
-    let source = a.log.as_ref().map_or_else(|| format!("simulated in {}", a.map), |l| l.display().to_string());
-    let mut out = String::new();
-    let mut say = |line: String| {
-        println!("{line}");
-        out.push_str(&line);
-        out.push('\n');
-    };
-    say(format!("second localizer beside a running pipeline: map {}, scans {source} at {} a second", a.map, a.rate));
-    say(format!("  map model: {mb:.1} MB, shared; a tenth of it: {tenth_kb:.0} kB"));
-    say(format!(
-        "  its own memory (Private_Clean + Private_Dirty): {}{last_kb} kB at {last_s:.0} s, at most {most} kB over {} readings: {} a tenth of the model",
-        at_10.unwrap_or_default(),
-        readings.len(),
-        if (most as f64) <= tenth_kb { "within" } else { "over" }
-    ));
-    if let Some(path) = &a.markdown {
-        let command: Vec<String> = std::env::args().skip(1).collect();
-        let body = format!("```\n{out}```\n");
-        crate::results::write_section(path, "bench-memory", &format!("gema2 {}", command.join(" ")), &body)?;
-    }
+    let at_10 = readings.iter().find(|r| r.0 >= 10.0).map(|r| r.1);
     drop(second);
     drop(pipeline);
-    Ok(())
+    Ok(Measured { model_mb, at_10, last, most, readings: readings.len() })
 }
 
 #[cfg(test)]
