@@ -35,17 +35,27 @@ pub fn frame_name(name: &str) -> &str {
 /// Longest chain followed: more is a loop.
 const DEEPEST: usize = 64;
 
-/// A transform's pose as the plane sees it: its translation's x and y, and the heading of its x
-/// axis (as [`StaticFrames::mount_of`] reads a chain). `None` for a transform that is not finite
-/// or has no rotation (a zero quaternion); the quaternion need not be normalised.
-pub fn planar(t: &msg::Transform) -> Option<Pose> {
-    let [qx, qy, qz, qw] = t.rotation;
+/// A transform's `translation` and `rotation` quaternion (x, y, z, w; normalised here) as an
+/// isometry. `None` for a transform that is not finite or has no rotation (a zero quaternion).
+fn isometry(translation: [f64; 3], rotation: [f64; 4]) -> Option<Isometry3<f64>> {
+    let [qx, qy, qz, qw] = rotation;
     let q = Quaternion::new(qw, qx, qy, qz);
-    if !t.translation.iter().chain(&t.rotation).all(|v| v.is_finite()) || q.norm() < 1e-9 {
-        return None;
-    }
-    let x = UnitQuaternion::from_quaternion(q) * Vector3::x();
-    Some(pose(t.translation[0], t.translation[1], x.y.atan2(x.x)))
+    let finite = translation.iter().chain(&rotation).all(|v| v.is_finite());
+    (finite && q.norm() >= 1e-9)
+        .then(|| Isometry3::from_parts(Translation3::from(translation), UnitQuaternion::from_quaternion(q)))
+}
+
+/// `p` as the plane sees it: its translation's x and y, and the heading of its x axis.
+fn seen_in_the_plane(p: &Isometry3<f64>) -> Pose {
+    let x = p.rotation * Vector3::x();
+    pose(p.translation.x, p.translation.y, x.y.atan2(x.x))
+}
+
+/// A transform's pose as the plane sees it, as [`StaticFrames::mount_of`] reads a chain.
+/// `None` for a transform that is not finite or has no rotation (a zero quaternion); the
+/// quaternion need not be normalised.
+pub fn planar(t: &msg::Transform) -> Option<Pose> {
+    isometry(t.translation, t.rotation).map(|p| seen_in_the_plane(&p))
 }
 
 impl StaticFrames {
@@ -53,13 +63,9 @@ impl StaticFrames {
     /// `rotation` quaternion (x, y, z, w; normalised here). A transform that is not finite or
     /// has no rotation (a zero quaternion) is left out.
     pub fn insert(&mut self, parent: &str, child: &str, translation: [f64; 3], rotation: [f64; 4]) {
-        let [qx, qy, qz, qw] = rotation;
-        let q = Quaternion::new(qw, qx, qy, qz);
-        let finite = translation.iter().chain(&rotation).all(|v| v.is_finite());
-        if !finite || q.norm() < 1e-9 || frame_name(parent) == frame_name(child) {
+        let Some(t) = isometry(translation, rotation).filter(|_| frame_name(parent) != frame_name(child)) else {
             return;
-        }
-        let t = Isometry3::from_parts(Translation3::from(translation), UnitQuaternion::from_quaternion(q));
+        };
         self.parents.insert(frame_name(child).to_owned(), (frame_name(parent).to_owned(), t));
     }
 
@@ -87,11 +93,9 @@ impl StaticFrames {
         let mut p = Isometry3::identity();
         for _ in 0..DEEPEST {
             if at == base {
-                let x = p.rotation * Vector3::x();
                 let z = p.rotation * Vector3::z();
-                let t = p.translation.vector;
                 return Some(Mount {
-                    pose: pose(t.x, t.y, x.y.atan2(x.x)),
+                    pose: seen_in_the_plane(&p),
                     upside_down: z.z < 0.0,
                     tilt_deg: z.z.abs().clamp(0.0, 1.0).acos().to_degrees(),
                 });
