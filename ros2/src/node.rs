@@ -320,6 +320,17 @@ fn subscribe<M: 'static>(
     dds.create_subscription(&topic, None).map_err(|e| anyhow!("ros2: {name}: {e:?}"))
 }
 
+/// Hands `f` every message `sub` holds now; one that does not decode is said, naming `topic`,
+/// and passed over. The subscriptions are edge-triggered: a wake-up must take all that came.
+fn take_all<M: 'static + serde::de::DeserializeOwned>(sub: &Subscription<M>, topic: &str, mut f: impl FnMut(M)) {
+    while let Some(taken) = sub.take().transpose() {
+        match taken {
+            Ok((m, _)) => f(m),
+            Err(e) => messages::say!("ros2: {topic}: a message that does not decode: {e:?}"),
+        }
+    }
+}
+
 /// Scan `m` as the robot's plane sees it: mirrored when /tf_static mounts its laser upside
 /// down (unless `--laser-pose` places the laser), said once per change, with a laser's tilt
 /// out of the plane.
@@ -458,51 +469,28 @@ fn scans_in(context: &Context, a: &Ros2Args, shared: &Mutex<Shared>, stop: &Atom
                 return Err(anyhow!("ros2: waiting for DDS: {e}"));
             }
         }
-        // edge-triggered: take all that came, from both, on any wake-up
-        while let Some(taken) = tf.take().transpose() {
-            match taken {
-                Ok((m, _)) => shared.lock().unwrap_or_else(|p| p.into_inner()).frames.add(&m),
-                Err(e) => messages::say!("ros2: /tf_static: a message that does not decode: {e:?}"),
-            }
-        }
+        // edge-triggered: take all that came, from every subscription, on any wake-up
+        take_all(&tf, "/tf_static", |m| shared.lock().unwrap_or_else(|p| p.into_inner()).frames.add(&m));
         // odometry before the scans, so a scan finds the message of its own instant
-        match &mut odom {
-            OdometryIn::Odometry(sub) => {
-                while let Some(taken) = sub.take().transpose() {
-                    match taken {
-                        Ok((m, _)) => {
-                            let (x, y, yaw) = m.pose.pose.planar();
-                            odometry.add(m.header.stamp.nanos(), x, y, yaw);
-                            odometry_frame = Some(m.child_frame_id);
-                        }
-                        Err(e) => messages::say!("ros2: {}: a message that does not decode: {e:?}", a.odom_topic),
-                    }
+        match &odom {
+            OdometryIn::Odometry(sub) => take_all(sub, &a.odom_topic, |m| {
+                let (x, y, yaw) = m.pose.pose.planar();
+                odometry.add(m.header.stamp.nanos(), x, y, yaw);
+                odometry_frame = Some(m.child_frame_id);
+            }),
+            OdometryIn::Tf(sub) => take_all(sub, &a.odom_topic, |m| {
+                let had = odometry_frame.is_some();
+                let poses = {
+                    let s = shared.lock().unwrap_or_else(|p| p.into_inner());
+                    odometry_off_tf(&m, &a.odom_frame, &a.base_frame, &s.frames, &mut odometry_frame)
+                };
+                for (stamp, p) in poses {
+                    odometry.add(stamp, p.translation.x, p.translation.y, pose_theta(&p));
                 }
-            }
-            OdometryIn::Tf(sub) => {
-                while let Some(taken) = sub.take().transpose() {
-                    match taken {
-                        Ok((m, _)) => {
-                            let had = odometry_frame.is_some();
-                            let poses = {
-                                let s = shared.lock().unwrap_or_else(|p| p.into_inner());
-                                odometry_off_tf(&m, &a.odom_frame, &a.base_frame, &s.frames, &mut odometry_frame)
-                            };
-                            for (stamp, p) in poses {
-                                odometry.add(stamp, p.translation.x, p.translation.y, pose_theta(&p));
-                            }
-                            if let (false, Some(f)) = (had, &odometry_frame) {
-                                messages::say!(
-                                    "ros2: odometry from {}: {} -> {f}",
-                                    a.odom_topic,
-                                    frame_name(&a.odom_frame)
-                                );
-                            }
-                        }
-                        Err(e) => messages::say!("ros2: {}: a message that does not decode: {e:?}", a.odom_topic),
-                    }
+                if let (false, Some(f)) = (had, &odometry_frame) {
+                    messages::say!("ros2: odometry from {}: {} -> {f}", a.odom_topic, frame_name(&a.odom_frame));
                 }
-            }
+            }),
         }
         while let Some(taken) = scans.take().transpose() {
             let enter = monotonic_ns();
