@@ -129,7 +129,9 @@ pub fn bench_memory(a: &BenchArgs) -> Result<()> {
             for log in &logs {
                 let stem = super::evaluate::log_stem(log);
                 let map = scratch.path().join(format!("{stem}-even.json"));
-                let built = super::evaluate::built_map(log, 0)?;
+                // the file `gema2 map build` writes of the even scans
+                let every_other = super::build_map::BuildArgs::every_other(log, 0)?;
+                let built = super::build_map::build(&every_other, &mut super::Malformed::silent())?.map;
                 std::fs::write(&map, built.to_json("built")).with_context(|| format!("writing {}", map.display()))?;
                 let m = measure(&scratch, &map.to_string_lossy(), Some(log), &a.rate, a.seconds)
                     .with_context(|| format!("{}", log.display()))?;
