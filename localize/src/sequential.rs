@@ -475,7 +475,7 @@ impl Sequential {
             let mut predicted = self.tracks[n].pose * delta;
             let c = predicted.translation.vector;
             cfg.grid_starts(steps.iter().copied(), &predicted, &mut starts);
-            self.localizer.search_around(scan, seg, &starts, cfg.refined, &mut self.scored);
+            self.localizer.search_around(scan, seg, &starts, (cfg.refined, f64::INFINITY), &mut self.scored);
             let edge = f64::from(shifts) * cfg.position_step;
             let mut relooked = n == 0 && window_short && self.look_again(scan, seg, &steps, (c, edge), &mut starts);
             if n == 0 {
@@ -614,7 +614,8 @@ impl Sequential {
         let near = cfg.second_look_sides;
         let steps = steps.iter().copied().filter(|(k, i, j)| k.abs() <= near && i.abs() <= near && j.abs() <= near);
         cfg.grid_starts(steps, &first, starts);
-        self.localizer.search_around(scan, seg, starts, 1, &mut self.relook);
+        // only a pose cheaper than the first look's is wanted
+        self.localizer.search_around(scan, seg, starts, (1, first_cost.value), &mut self.relook);
         let Some(&(second, second_cost)) = self.relook.first() else { return false };
         if second_cost.value >= first_cost.value {
             return false;
@@ -710,9 +711,10 @@ impl Sequential {
                 ));
             }
         }
-        self.localizer.search_around(scan, seg, starts, 1, &mut self.relook);
+        let wanted = first_cost.value - cfg.along_look_margin;
+        self.localizer.search_around(scan, seg, starts, (1, wanted), &mut self.relook);
         let &(second, second_cost) = self.relook.first()?;
-        (second_cost.value < first_cost.value - cfg.along_look_margin).then_some((second, second_cost))
+        (second_cost.value < wanted).then_some((second, second_cost))
     }
 
     /// The global search; its hypotheses join the tracks. Returns the single-scan status, best

@@ -210,11 +210,36 @@ fn the_search_about_a_prediction_finds_the_truth_among_hundreds_of_starts() {
                 }
             }
         }
-        localizer.search_around(&scan.view(), seg, &starts, 3, &mut out);
+        localizer.search_around(&scan.view(), seg, &starts, (3, f64::INFINITY), &mut out);
         found += usize::from(out.first().is_some_and(|(p, _)| same_pose(p, &truth, 0.05, 1f64.to_radians())));
     }
     // 37 of 40 as built; a second pass that kept only the best of the first found 29
     assert!(found * 5 >= tries * 4, "found the truth {found} times of {tries}");
+}
+
+/// A search about a prediction told to want only poses cheaper than one its caller holds
+/// (`below`) answers the pose the unbounded search does when that pose is cheaper, and no
+/// dearer pose: what the second look and the look along ask of it.
+#[test]
+fn a_search_about_a_prediction_below_a_cost_gives_only_cheaper_poses() {
+    let mut rig = Rig::new("office", 7);
+    let map = worlds::by_name("office").expect("a bundled world");
+    let mut sim = Simulator::new(&map, SensorModel::urg04lx(), Scenario::People, 7);
+    let (mut unbounded, mut bounded) = (Vec::new(), Vec::new());
+    for _ in 0..10 {
+        let scan = sim.next_scan();
+        let truth = scan.truth.expect("a simulated scan's truth");
+        let seg = rig.segmenter.segment(&scan.view());
+        let localizer = &mut rig.sequential.localizer;
+        localizer.set_lines(seg.lines.iter().map(localize::slide::SlideLine::from));
+        let starts: Vec<_> = (-2..=2).map(|k| truth * pose(0.1, -0.05, f64::from(k) * 0.05)).collect();
+        localizer.search_around(&scan.view(), seg, &starts, (1, f64::INFINITY), &mut unbounded);
+        let &(best, cost) = unbounded.first().expect("a pose about the truth");
+        localizer.search_around(&scan.view(), seg, &starts, (1, cost.value * 1.01), &mut bounded);
+        assert_eq!(bounded.first(), Some(&(best, cost)));
+        localizer.search_around(&scan.view(), seg, &starts, (1, cost.value * 0.99), &mut bounded);
+        assert!(bounded.is_empty(), "a pose dearer than asked: {bounded:?}");
+    }
 }
 
 /// A 6 x 4 m room with a 1 x 1 m bay in its top wall.

@@ -381,14 +381,17 @@ impl Localizer {
     /// [`set_lines`](Self::set_lines)), as a search screens its candidates, then refines the
     /// `keep` best and costs them by the full eq. 7: a search over the poses
     /// a track may have reached, for the sequential localizer ([`crate::sequential`]). `out`
-    /// gets (pose, cost) of the refined ones, cheapest first, less those known to cost more
-    /// than one refined before them (eq. 7 stopped early: [`crate::cost::cost_below`]).
+    /// gets (pose, cost) of the refined ones that cost less than `below` per beam, cheapest
+    /// first, less those known to cost more than one refined before them (eq. 7 stopped early:
+    /// [`crate::cost::cost_below`]). A caller that wants only a pose cheaper than one it holds
+    /// passes that pose's cost as `below` (else infinity): where the ray caster marches beam
+    /// by beam, a dearer pose then costs only the beams that show it dearer.
     pub fn search_around(
         &mut self,
         scan: &ScanView<'_>,
         seg: &Segmentation,
         starts: &[Pose],
-        keep: usize,
+        (keep, below): (usize, f64),
         out: &mut Vec<(Pose, Cost)>,
     ) {
         out.clear();
@@ -434,7 +437,7 @@ impl Localizer {
         for c in &self.candidates {
             let refined = refine(&model, &self.refine_pts, &c.pose, &cfg.refine).0;
             // only the cheapest is wanted: one known to cost more than it is stopped early
-            let bound = out.iter().map(|(_, c)| c.value).fold(f64::INFINITY, f64::min);
+            let bound = out.iter().map(|(_, c)| c.value).fold(below, f64::min);
             let cost = crate::cost::cost_below(
                 scan,
                 &refined,
@@ -445,7 +448,7 @@ impl Localizer {
                 &mut self.scratch,
                 &mut self.expected,
             );
-            if cost.value.is_finite() {
+            if cost.value.is_finite() && cost.value < below {
                 out.push((refined, cost));
             }
         }
