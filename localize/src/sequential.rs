@@ -162,6 +162,14 @@ pub struct SequentialConfig {
     /// corridor explains its scan 0.7 a beam better than the truth). Infinite lead: never.
     pub look_answer_lead: f64,
     pub look_answer_sigmas: f64,
+    /// An `ambiguous` answer stays on the track the last `ok` answer was on, while that track
+    /// holds on the scan and no other leads it by `margin`, rather than moving to whichever
+    /// track leads by less: where the evidence cannot tell the tracks apart, the one the
+    /// localizer was sure of and has followed since is the likelier, and a robot's answer
+    /// does not jump to a twin and back. On infinite-corridor a cold start's track, `ok` on
+    /// its first scan, fell a little behind a twin 81 m away on its third, and the answer
+    /// followed the twin for nine scans. Only `ambiguous` answers move: no status changes.
+    pub keep_to_the_last_ok: bool,
 }
 
 impl SequentialConfig {
@@ -215,6 +223,7 @@ impl Default for SequentialConfig {
             near_look_lead: 1.0,
             look_answer_lead: 0.5,
             look_answer_sigmas: 2.0,
+            keep_to_the_last_ok: true,
         }
     }
 }
@@ -243,6 +252,8 @@ pub struct Track {
     /// and not `ok` ([`SequentialConfig::look_answer_lead`]). Kept on the track the look was
     /// about, so that another track that the global search puts first never answers with it.
     pub look_answer: Option<(Pose, Cost)>,
+    /// Which track it is: one number a track keeps while it lives, never given to another.
+    pub id: u64,
 }
 
 /// One scan's answer.
@@ -278,6 +289,11 @@ pub struct Sequential {
     gate: (f64, f64),
     /// The steps of the last window searched about a track.
     window: Window,
+    /// The [`Track::id`] of the track the last `ok` answer was on, while it lives and no
+    /// answer since was `failed` ([`SequentialConfig::keep_to_the_last_ok`]).
+    last_ok: Option<u64>,
+    /// The [`Track::id`] the next new track gets.
+    next_id: u64,
 }
 
 /// The steps (k, i, j) of the grid a track is searched over ([`SequentialConfig::grid_starts`]),
@@ -328,6 +344,8 @@ impl Sequential {
             relook: Vec::new(),
             gate: (0.0, 0.0),
             window: Window::default(),
+            last_ok: None,
+            next_id: 0,
         }
     }
 
@@ -341,6 +359,7 @@ impl Sequential {
     pub fn reset(&mut self) {
         self.tracks.clear();
         self.last_odometry = None;
+        self.last_ok = None;
     }
 
     pub fn tracks(&self) -> &[Track] {
@@ -412,6 +431,7 @@ impl Sequential {
         }
         self.settle_lags();
         let mut answer = self.answer(scan, single);
+        self.keep_to_the_last_ok(&mut answer);
         answer.global = global;
         answer
     }
@@ -751,18 +771,22 @@ impl Sequential {
                         t.relooked = false;
                     }
                 }
-                None => self.tracks.push(Track {
-                    pose: h.pose,
-                    cost: h.cost,
-                    // lagging until the lags are settled: it missed every scan the others saw
-                    behind: if had_tracks { f64::NAN } else { 0.0 },
-                    scans: 1,
-                    misses: 0,
-                    late: had_tracks,
-                    relooked: false,
-                    shadow: None,
-                    look_answer: None,
-                }),
+                None => {
+                    self.next_id += 1;
+                    self.tracks.push(Track {
+                        pose: h.pose,
+                        cost: h.cost,
+                        // lagging until the lags are settled: it missed every scan the others saw
+                        behind: if had_tracks { f64::NAN } else { 0.0 },
+                        scans: 1,
+                        misses: 0,
+                        late: had_tracks,
+                        relooked: false,
+                        shadow: None,
+                        look_answer: None,
+                        id: self.next_id,
+                    });
+                }
             }
         }
         single
@@ -792,9 +816,14 @@ impl Sequential {
         let mut kept = 0;
         for k in 0..self.tracks.len() {
             let t = self.tracks[k];
-            if !self.tracks[..kept].iter().any(|q| one_pose(&q.pose, &t.pose)) {
-                self.tracks[kept] = t;
-                kept += 1;
+            match self.tracks[..kept].iter().find(|q| one_pose(&q.pose, &t.pose)) {
+                // one pose: the last `ok` was on it, whichever track stays
+                Some(q) if self.last_ok == Some(t.id) => self.last_ok = Some(q.id),
+                Some(_) => {}
+                None => {
+                    self.tracks[kept] = t;
+                    kept += 1;
+                }
             }
         }
         self.tracks.truncate(kept.min(cfg.max_tracks));
@@ -869,6 +898,27 @@ impl Sequential {
             self.answer_single_ok(scan, single, &mut a);
         }
         a
+    }
+
+    /// An `ambiguous` answer on the track the last `ok` answer was on, while that track holds
+    /// on the scan and no track leads it by the margin ([`SequentialConfig::keep_to_the_last_ok`]);
+    /// then remembers which track this answer is on if it is `ok`.
+    fn keep_to_the_last_ok(&mut self, a: &mut SequentialAnswer) {
+        let margin = self.config.margin;
+        let held = self
+            .last_ok
+            .and_then(|id| self.tracks.iter().position(|t| t.id == id && t.misses == 0 && t.behind < margin));
+        if let Some(k) =
+            held.filter(|&k| self.config.keep_to_the_last_ok && a.status == Status::Ambiguous && a.track != Some(k))
+        {
+            let t = self.tracks[k];
+            (a.pose, a.cost, a.scans, a.track) = (Some(t.pose), Some(t.cost), t.scans, Some(k));
+        }
+        self.last_ok = match a.status {
+            Status::Ok => a.track.and_then(|k| self.tracks.get(k)).map(|t| t.id),
+            Status::Ambiguous => self.last_ok.filter(|&id| self.tracks.iter().any(|t| t.id == id)),
+            Status::Failed => None,
+        };
     }
 
     /// Whether `track` passes what every `ok` must of the scan: the beams agreeing, on a drawn
@@ -1046,6 +1096,7 @@ mod tests {
             relooked: false,
             shadow: None,
             look_answer: None,
+            id: 0,
         };
         let look = (pose(5.5, 2.0, 0.0), cost(0.2));
         // level, so neither leads and the answer is `ambiguous` without reading the scan
@@ -1059,5 +1110,74 @@ mod tests {
         sequential.tracks = vec![found_for, other];
         let a = sequential.answer(&scan, None);
         assert_eq!((a.status, a.pose, a.cost), (Status::Ambiguous, Some(look.0), Some(look.1)));
+    }
+
+    /// An `ambiguous` answer stays on the track the last `ok` was on while it holds and no
+    /// track leads it by the margin; a `failed` answer or a cold start forgets it.
+    #[test]
+    fn an_ambiguous_answer_stays_on_the_track_last_ok() {
+        let room = [(0.0, 0.0, 8.0, 0.0), (8.0, 0.0, 8.0, 4.0), (8.0, 4.0, 0.0, 4.0), (0.0, 4.0, 0.0, 0.0)];
+        let walls = room.iter().map(|&(ax, ay, bx, by)| map::Wall::new(ax, ay, bx, by)).collect();
+        let model = crate::model::MapModel::new(map::WallMap::new(walls), &map::MapCornerConfig::default());
+        let localizer = Localizer::new(std::sync::Arc::new(model), crate::LocalizerConfig::default());
+        let mut sequential = Sequential::new(localizer, SequentialConfig::default());
+        let cost = Cost { value: 1.0, inliers: 0.9, through: 0.0, beams: 100 };
+        let track = |x, id| Track {
+            pose: pose(x, 2.0, 0.0),
+            cost,
+            behind: 0.0,
+            scans: 5,
+            misses: 0,
+            late: false,
+            relooked: false,
+            shadow: None,
+            look_answer: None,
+            id,
+        };
+        let (twin, last_ok) = (track(2.0, 1), track(5.0, 2));
+        let ambiguous_on = |track: usize, pose| SequentialAnswer {
+            status: Status::Ambiguous,
+            pose: Some(pose),
+            cost: Some(cost),
+            scans: 5,
+            global: false,
+            tracks: 2,
+            track: Some(track),
+        };
+        let ok_on = |track| SequentialAnswer { status: Status::Ok, ..ambiguous_on(track, last_ok.pose) };
+        let answer = |sequential: &mut Sequential, mut a: SequentialAnswer| {
+            sequential.keep_to_the_last_ok(&mut a);
+            (a.pose, a.track)
+        };
+        sequential.tracks = vec![last_ok, twin];
+        answer(&mut sequential, ok_on(0));
+        // the twin is ahead by less than the margin: the answer stays
+        sequential.tracks = vec![Track { behind: 0.0, ..twin }, Track { behind: 0.2, ..last_ok }];
+        assert_eq!(answer(&mut sequential, ambiguous_on(0, twin.pose)), (Some(last_ok.pose), Some(1)));
+        // it missed the scan: the best
+        sequential.tracks = vec![twin, Track { misses: 1, ..last_ok }];
+        assert_eq!(answer(&mut sequential, ambiguous_on(0, twin.pose)), (Some(twin.pose), Some(0)));
+        // held again, but the twin leads it by the margin: the best
+        sequential.tracks = vec![twin, Track { behind: 0.3, ..last_ok }];
+        assert_eq!(answer(&mut sequential, ambiguous_on(0, twin.pose)), (Some(twin.pose), Some(0)));
+        // behind by less again: the answer is back on it
+        sequential.tracks = vec![twin, Track { behind: 0.1, ..last_ok }];
+        assert_eq!(answer(&mut sequential, ambiguous_on(0, twin.pose)), (Some(last_ok.pose), Some(1)));
+        // merged into the track ahead at its pose: the last `ok` is that one
+        sequential.tracks = vec![twin, Track { pose: twin.pose, behind: 0.1, ..last_ok }];
+        sequential.settle_lags();
+        assert_eq!((sequential.tracks.len(), sequential.last_ok), (1, Some(twin.id)));
+        sequential.tracks = vec![Track { pose: last_ok.pose, ..twin }, Track { pose: twin.pose, id: 3, ..twin }];
+        assert_eq!(answer(&mut sequential, ambiguous_on(1, twin.pose)), (Some(last_ok.pose), Some(0)));
+        // a `failed` answer forgets it
+        let mut failed = ambiguous_on(0, twin.pose);
+        failed.status = Status::Failed;
+        answer(&mut sequential, failed);
+        assert_eq!(answer(&mut sequential, ambiguous_on(0, twin.pose)), (Some(twin.pose), Some(0)));
+        // as does a cold start
+        answer(&mut sequential, ok_on(1));
+        sequential.reset();
+        sequential.tracks = vec![twin, last_ok];
+        assert_eq!(answer(&mut sequential, ambiguous_on(0, twin.pose)), (Some(twin.pose), Some(0)));
     }
 }
