@@ -13,7 +13,9 @@
 //! [`max_through_ok`](crate::LocalizerConfig::max_through_ok) allows
 //! ([`Localizer::sees_through_drawn_walls`]). A scan the single-scan search is `ok` on is `ok`
 //! at that held track with the same probes, though a twin leads on the sum: the lead was earned
-//! where the two could not be told apart.
+//! where the two could not be told apart. A scan that is not `ok` answers, `ambiguous`, on the
+//! track the last `ok` was on while it holds and no track leads it by the margin
+//! ([`SequentialConfig::keep_to_the_last_ok`]).
 //!
 //! While no track is sure, every scan also runs the global search of [`Localizer::locate`] and
 //! its hypotheses join the tracks (a global pose that lands on a track refreshes it). Once
@@ -260,18 +262,19 @@ pub struct Track {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SequentialAnswer {
     pub status: Status,
-    /// The best track's pose and cost, or, when `ambiguous`, a look's that the scan fits much
-    /// better ([`SequentialConfig::look_answer_lead`]); none when `failed`.
+    /// The answering track's pose and cost (see `track`), or, when `ambiguous`, a look's that
+    /// the scan fits much better ([`SequentialConfig::look_answer_lead`]); none when `failed`.
     pub pose: Option<Pose>,
     pub cost: Option<Cost>,
-    /// How many scans the answer rests on (the best track's).
+    /// How many scans the answer rests on (the answering track's).
     pub scans: u32,
     /// Whether the global search ran on this scan (else it tracked).
     pub global: bool,
     /// Tracks held after the scan.
     pub tracks: usize,
-    /// Which of [`Sequential::tracks`] the answer is: the best, or a younger one the scan's own
-    /// search was `ok` on; none when `failed`.
+    /// Which of [`Sequential::tracks`] the answer is: the best, a younger one the scan's own
+    /// search was `ok` on, or, when `ambiguous`, the one the last `ok` was on
+    /// ([`SequentialConfig::keep_to_the_last_ok`]); none when `failed`.
     pub track: Option<usize>,
 }
 
