@@ -1079,17 +1079,22 @@ mod tests {
         assert!((fused.translation.vector - nalgebra::Vector2::new(0.5, 0.0)).norm() < 1e-12, "{fused:?}");
     }
 
-    /// A look's pose answers for the track it was found about while that track is the best,
-    /// and never for another track that the scan's global search put first.
-    #[test]
-    fn a_looks_answer_stays_with_its_track() {
+    /// A sequential localizer in an empty 8 x 4 m room.
+    fn in_a_room() -> Sequential {
         let room = [(0.0, 0.0, 8.0, 0.0), (8.0, 0.0, 8.0, 4.0), (8.0, 4.0, 0.0, 4.0), (0.0, 4.0, 0.0, 0.0)];
         let walls = room.iter().map(|&(ax, ay, bx, by)| map::Wall::new(ax, ay, bx, by)).collect();
         let model = crate::model::MapModel::new(map::WallMap::new(walls), &map::MapCornerConfig::default());
         let localizer = Localizer::new(std::sync::Arc::new(model), crate::LocalizerConfig::default());
-        let mut sequential = Sequential::new(localizer, SequentialConfig::default());
-        let cost = |value| Cost { value, inliers: 0.9, through: 0.0, beams: 100 };
-        let track = |x| Track {
+        Sequential::new(localizer, SequentialConfig::default())
+    }
+
+    fn cost(value: f64) -> Cost {
+        Cost { value, inliers: 0.9, through: 0.0, beams: 100 }
+    }
+
+    /// A held track of 5 scans at (x, 2) facing along x, level with the best.
+    fn track(x: f64, id: u64) -> Track {
+        Track {
             pose: pose(x, 2.0, 0.0),
             cost: cost(1.0),
             behind: 0.0,
@@ -1099,11 +1104,18 @@ mod tests {
             relooked: false,
             shadow: None,
             look_answer: None,
-            id: 0,
-        };
+            id,
+        }
+    }
+
+    /// A look's pose answers for the track it was found about while that track is the best,
+    /// and never for another track that the scan's global search put first.
+    #[test]
+    fn a_looks_answer_stays_with_its_track() {
+        let mut sequential = in_a_room();
         let look = (pose(5.5, 2.0, 0.0), cost(0.2));
         // level, so neither leads and the answer is `ambiguous` without reading the scan
-        let (found_for, other) = (Track { look_answer: Some(look), ..track(5.0) }, track(2.0));
+        let (found_for, other) = (Track { look_answer: Some(look), ..track(5.0, 1) }, track(2.0, 2));
         let ranges = [1.0f32; 8];
         let geometry = laser::ScanGeometry::urg04lx_decimated(96);
         let scan = ScanView { geometry, ranges: &ranges };
@@ -1119,29 +1131,12 @@ mod tests {
     /// track leads it by the margin; a `failed` answer or a cold start forgets it.
     #[test]
     fn an_ambiguous_answer_stays_on_the_track_last_ok() {
-        let room = [(0.0, 0.0, 8.0, 0.0), (8.0, 0.0, 8.0, 4.0), (8.0, 4.0, 0.0, 4.0), (0.0, 4.0, 0.0, 0.0)];
-        let walls = room.iter().map(|&(ax, ay, bx, by)| map::Wall::new(ax, ay, bx, by)).collect();
-        let model = crate::model::MapModel::new(map::WallMap::new(walls), &map::MapCornerConfig::default());
-        let localizer = Localizer::new(std::sync::Arc::new(model), crate::LocalizerConfig::default());
-        let mut sequential = Sequential::new(localizer, SequentialConfig::default());
-        let cost = Cost { value: 1.0, inliers: 0.9, through: 0.0, beams: 100 };
-        let track = |x, id| Track {
-            pose: pose(x, 2.0, 0.0),
-            cost,
-            behind: 0.0,
-            scans: 5,
-            misses: 0,
-            late: false,
-            relooked: false,
-            shadow: None,
-            look_answer: None,
-            id,
-        };
+        let mut sequential = in_a_room();
         let (twin, last_ok) = (track(2.0, 1), track(5.0, 2));
         let ambiguous_on = |track: usize, pose| SequentialAnswer {
             status: Status::Ambiguous,
             pose: Some(pose),
-            cost: Some(cost),
+            cost: Some(cost(1.0)),
             scans: 5,
             global: false,
             tracks: 2,
