@@ -434,7 +434,7 @@ impl Sequential {
         }
         self.settle_lags();
         let mut answer = self.answer(scan, single);
-        self.keep_to_the_last_ok(&mut answer);
+        self.remember_the_last_ok(&answer);
         answer.global = global;
         answer
     }
@@ -857,8 +857,10 @@ impl Sequential {
     /// pose the scan's own search was `ok` on is the answer ([`Self::answer_single_ok`]): `ok`
     /// when it passes the same bar ([`Self::meets_ok_bar`]), though it is younger than its
     /// rivals (a twin the robot drove along, or the old place of a kidnapped robot, kept the
-    /// lead while the scan now tells them apart). Else, when the best track missed the scan,
-    /// the answer is `ambiguous`, where odometry put the best.
+    /// lead while the scan now tells them apart). Else an answer that is not `ok` is
+    /// `ambiguous`: at the held track the scan's own search was `ok` on when the best missed
+    /// the scan, else at the track the last `ok` was on ([`Self::on_the_last_ok`]), else at the
+    /// best (where odometry put it, when it missed).
     fn answer(&mut self, scan: &ScanView<'_>, single: Option<(Status, Pose, f64)>) -> SequentialAnswer {
         let mut a = SequentialAnswer {
             status: Status::Failed,
@@ -876,6 +878,11 @@ impl Sequential {
             let Some(first) = self.tracks.first() else { return a };
             (a.status, a.pose, a.scans, a.track) = (Status::Ambiguous, Some(first.pose), first.scans, Some(0));
             self.answer_single_ok(scan, single, &mut a);
+            // no place the scan is sure of: the track the last `ok` was on, if it holds, before
+            // where odometry put the best
+            if a.cost.is_none() {
+                self.on_the_last_ok(&mut a);
+            }
             return a;
         };
         (a.pose, a.cost, a.scans, a.track) = (Some(best.pose), Some(best.cost), best.scans, Some(0));
@@ -898,15 +905,16 @@ impl Sequential {
             (a.pose, a.cost) = (Some(pose), Some(cost));
         }
         if !sure {
+            self.on_the_last_ok(&mut a);
             self.answer_single_ok(scan, single, &mut a);
         }
         a
     }
 
-    /// An `ambiguous` answer on the track the last `ok` answer was on, while that track holds
-    /// on the scan and no track leads it by the margin ([`SequentialConfig::keep_to_the_last_ok`]);
-    /// then remembers which track this answer is on if it is `ok`.
-    fn keep_to_the_last_ok(&mut self, a: &mut SequentialAnswer) {
+    /// Makes an `ambiguous` answer the track the last `ok` answer was on, while that track
+    /// holds on the scan and no track leads it by the margin
+    /// ([`SequentialConfig::keep_to_the_last_ok`]).
+    fn on_the_last_ok(&self, a: &mut SequentialAnswer) {
         let margin = self.config.margin;
         let held = self
             .last_ok
@@ -917,6 +925,11 @@ impl Sequential {
             let t = self.tracks[k];
             (a.pose, a.cost, a.scans, a.track) = (Some(t.pose), Some(t.cost), t.scans, Some(k));
         }
+    }
+
+    /// Remembers which track the scan's answer is on when it is `ok`; forgets it on a `failed`
+    /// one, or once that track is gone.
+    fn remember_the_last_ok(&mut self, a: &SequentialAnswer) {
         self.last_ok = match a.status {
             Status::Ok => a.track.and_then(|k| self.tracks.get(k)).map(|t| t.id),
             Status::Ambiguous => self.last_ok.filter(|&id| self.tracks.iter().any(|t| t.id == id)),
@@ -1144,7 +1157,8 @@ mod tests {
         };
         let ok_on = |track| SequentialAnswer { status: Status::Ok, ..ambiguous_on(track, last_ok.pose) };
         let answer = |sequential: &mut Sequential, mut a: SequentialAnswer| {
-            sequential.keep_to_the_last_ok(&mut a);
+            sequential.on_the_last_ok(&mut a);
+            sequential.remember_the_last_ok(&a);
             (a.pose, a.track)
         };
         sequential.tracks = vec![last_ok, twin];
