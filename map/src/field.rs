@@ -9,6 +9,11 @@ use crate::slab::Slab;
 use crate::wall::Wall;
 use nalgebra::Point2;
 
+/// A cell of a [`DistanceField`], found once ([`DistanceField::cell_of`]) to read several of
+/// its tables at one point.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct FieldCell(usize);
+
 #[derive(Clone, Debug)]
 pub struct DistanceField {
     origin: Point2<f64>,
@@ -190,7 +195,29 @@ impl DistanceField {
     /// [`mark_nearest`]: Self::mark_nearest
     #[inline]
     pub fn marked_nearest_wall(&self, p: Point2<f64>) -> Option<u32> {
-        let i = self.index(p)?;
+        self.marked_nearest_wall_of(FieldCell(self.index(p)?))
+    }
+
+    /// The cell holding `p`, if it lies in the field: to read several of its tables at one
+    /// point ([`distance_of`](Self::distance_of), [`marked_nearest_wall_of`](Self::marked_nearest_wall_of))
+    /// finding the cell once.
+    #[inline]
+    pub fn cell_of(&self, p: Point2<f64>) -> Option<FieldCell> {
+        self.index(p).map(FieldCell)
+    }
+
+    /// [`distance`](Self::distance) at a cell [`cell_of`](Self::cell_of) found (`cap` for none).
+    #[inline]
+    pub fn distance_of(&self, cell: Option<FieldCell>) -> f64 {
+        match cell {
+            Some(FieldCell(i)) => self.cells[i] as f64 * self.quantum,
+            None => self.cap,
+        }
+    }
+
+    /// [`marked_nearest_wall`](Self::marked_nearest_wall) at a cell [`cell_of`](Self::cell_of) found.
+    #[inline]
+    pub fn marked_nearest_wall_of(&self, FieldCell(i): FieldCell) -> Option<u32> {
         let marked = self.marked.get(i / 64).is_some_and(|b| b >> (i % 64) & 1 == 1);
         if marked {
             self.nearest_of(i)
@@ -390,6 +417,18 @@ mod tests {
             f.mark_nearest(|k| k == 1);
             prop_assert_eq!(f.marked_nearest_wall(p), f.nearest_wall(p).filter(|&k| k == 1));
             prop_assert_eq!(f.marked_nearest_wall(Point2::new(x + 100.0, y)), None);
+        }
+
+        #[test]
+        /// A cell found once reads what the point itself reads, in and out of the field.
+        fn a_cell_found_once_reads_as_its_point(x in -4.5f64..4.5, y in -4.5f64..4.5) {
+            let walls = vec![Wall::new(-1.0, 0.0, 1.0, 0.5), Wall::new(0.0, -2.0, 0.0, -1.0)];
+            let mut f = DistanceField::new(&walls, 0.05, 1.0);
+            f.mark_nearest(|k| k == 0);
+            let p = Point2::new(x, y);
+            let cell = f.cell_of(p);
+            prop_assert_eq!(f.distance_of(cell).to_bits(), f.distance(p).to_bits());
+            prop_assert_eq!(cell.and_then(|c| f.marked_nearest_wall_of(c)), f.marked_nearest_wall(p));
         }
 
         #[test]

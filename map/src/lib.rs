@@ -40,7 +40,7 @@ pub mod wall;
 
 pub use bundled::{bundled, BUNDLED};
 pub use corners::{CornerIndex, MapArm, MapCorner, MapCornerConfig};
-pub use field::DistanceField;
+pub use field::{DistanceField, FieldCell};
 pub use free_space::{FreeSpace, Outside};
 pub use map::{MapError, WallMap, APPROXIMATE_MAP, MAX_EXTENT, MIN_WALL_LENGTH};
 pub use model::MapModel;

@@ -408,9 +408,10 @@ impl Localizer {
         self.candidates.clear();
         let two_passes = starts.len() > few;
         let (first_pass, first_keep) = if two_passes { (&self.screen_few, few) } else { (&self.screen_pts, keep) };
+        let about_a_prediction = screen.without_bounds();
         for p in starts {
             let limit = self.best_sums.kth(first_keep);
-            if let Some(sum) = screen.sum(p, first_pass, limit) {
+            if let Some(sum) = about_a_prediction.sum(p, first_pass, limit) {
                 self.best_sums.offer(sum, first_keep);
                 self.candidates.push(Candidate { pose: *p, score: sum, scan_corner: 0, map_corner: 0, order: 0 });
             }

@@ -10,7 +10,7 @@ use crate::lowest::Lowest;
 use crate::model::{MapModel, WallFrame, FIELD_CAP};
 use crate::slide::SlideLine;
 use laser::{angle_diff, pose_theta, Pose};
-use map::{DistanceField, OpenFloor};
+use map::{DistanceField, FieldCell, OpenFloor};
 use nalgebra::Point2;
 use segment::Segmentation;
 
@@ -80,6 +80,8 @@ pub(super) struct Screen<'a> {
     open: f64,
     floor: &'a OpenFloor,
     cost: CostConfig,
+    /// Whether [`sum`](Self::sum) with a limit first sums the field's lower bounds.
+    bounds: bool,
 }
 
 impl<'a> Screen<'a> {
@@ -93,7 +95,16 @@ impl<'a> Screen<'a> {
             open: cfg.screen_open.max(1.0),
             floor: &model.open_floor,
             cost: cfg.cost,
+            bounds: true,
         }
+    }
+
+    /// The screen without the field's lower bounds, for poses about a prediction: there nearly
+    /// every point lies within a pooled block of a wall, whose bound is 0, and the bounds
+    /// dropped a quarter of a tracked window's starts for a look-up of every point of nearly
+    /// all of them (acapulco's 625 starts a scan). The sums are the same.
+    pub(super) fn without_bounds(self) -> Self {
+        Screen { bounds: false, ..self }
     }
 
     /// The sum over `points` (sensor frame) placed at `pose`; `None` as soon as the partial sum
@@ -107,7 +118,7 @@ impl<'a> Screen<'a> {
     pub(super) fn sum(&self, pose: &Pose, points: &[ScreenPoint], limit: f64) -> Option<f64> {
         // with a limit, first the field's lower bounds, from a table that stays in cache: most
         // wrong poses pass the limit on them alone, without reading the field itself
-        if limit < f64::INFINITY {
+        if self.bounds && limit < f64::INFINITY {
             let mut bound = 0.0;
             for q in points {
                 let d = self.field.lower_bound(pose * q.at).min(self.cap);
@@ -124,8 +135,9 @@ impl<'a> Screen<'a> {
         let mut sum = 0.0;
         for q in points {
             let p = pose * q.at;
-            let mut d = self.field.distance(p).min(self.cap);
-            if d < self.cap && self.seen_from_a_closed_side(p, sensor) {
+            let cell = self.field.cell_of(p);
+            let mut d = self.field.distance_of(cell).min(self.cap);
+            if d < self.cap && cell.is_some_and(|cell| self.seen_from_a_closed_side(cell, sensor)) {
                 d = self.cap;
             }
             let c = if d < self.cap {
@@ -158,15 +170,15 @@ impl<'a> Screen<'a> {
         }
     }
 
-    /// Whether `sensor` lies on the closed side of the wall nearest to `p` (never when the map
+    /// Whether `sensor` lies on the closed side of the wall nearest to the point in `cell` (never when the map
     /// has no closed sides).
     #[inline]
-    fn seen_from_a_closed_side(&self, p: Point2<f64>, sensor: Point2<f64>) -> bool {
+    fn seen_from_a_closed_side(&self, cell: FieldCell, sensor: Point2<f64>) -> bool {
         let Some((frames, closed)) = self.sides else {
             return false;
         };
         // only a nearest wall with a closed side is looked up (few are)
-        let Some(k) = self.field.marked_nearest_wall(p) else {
+        let Some(k) = self.field.marked_nearest_wall_of(cell) else {
             return false;
         };
         let (Some(f), Some(sides)) = (frames.get(k as usize), closed.get(k as usize)) else {
