@@ -251,7 +251,7 @@ impl Simulator {
     }
 
     /// From now on, furniture stays where it is put ([`Walk`]): each scan sees the boxes put so
-    /// far, and new ones are put only where fewer than [`WALK_BOXES`] are within reach.
+    /// far, and new ones are put only where fewer than `WALK_BOXES` are within reach.
     pub fn keep_furniture(&mut self) {
         self.kept_boxes.get_or_insert_with(Vec::new);
     }

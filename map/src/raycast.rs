@@ -93,7 +93,7 @@ const MOST_KEPT: usize = NOT_KEPT as usize;
 const KEPT_LIST_OVERHEAD: usize =
     std::mem::size_of::<KeptList>() + 2 * std::mem::size_of::<usize>() + std::mem::size_of::<WallList>();
 
-/// The bytes the filtered lists of one caster may hold ([`KeptLists`]). Tracking a robot
+/// The bytes the filtered lists of one caster may hold (`KeptLists`). Tracking a robot
 /// casts from the few cells around it, each list a few hundred walls (2 bytes a wall); a
 /// global search's casts from cells it has not filtered march. On the shared CARMEN logs,
 /// tracking took the same time with 64 KB as with 256 KB.

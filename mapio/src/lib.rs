@@ -4,7 +4,7 @@
 //! One job: map formats and map making. ROS map_server grids read and written ([`ros`], their
 //! PGM or PNG images in [`image`]), a
 //! grid's occupied faces traced into walls ([`trace`]), a wall map built from scans at known
-//! poses ([`build`], over the evidence per cell of [`occupancy`]), a rough grid surveyed by a
+//! poses ([`build()`], over the evidence per cell of [`occupancy`]), a rough grid surveyed by a
 //! virtual laser and built so ([`resurvey`]), and [`load_map`], which takes whatever a user
 //! names on a command line.
 //!

@@ -1,5 +1,5 @@
 //! A survey of an occupancy grid by a virtual laser, so that a grid can be made into walls the
-//! way a log is ([`crate::build`], as `gema2 map build` does) rather than by tracing its
+//! way a log is ([`crate::build()`], as `gema2 map build` does) rather than by tracing its
 //! cells' faces ([`crate::trace`]).
 //!
 //! A SLAM grid of a real building draws a wall as a jagged, broken band of cells one to three
@@ -159,7 +159,7 @@ impl crate::build::Survey for VirtualScans {
     }
 }
 
-/// `grid` surveyed by `survey` and built into walls by `build` ([`crate::build`]), with the
+/// `grid` surveyed by `survey` and built into walls by `build` ([`crate::build()`]), with the
 /// number of scans cast; `None` when no pose stands clear in its free space or no wall was
 /// seen. The map's free space is the grid's free cells ([`OccupancyGrid::free_space`]), as a
 /// traced grid's is, rather than the cells the virtual beams crossed.

@@ -27,7 +27,7 @@ pub struct Odometry {
 
 impl Odometry {
     /// Takes one message's stamp and planar pose; one not finite, or out of stamp order by up
-    /// to [`CLOCK_WENT_BACK`], is left out; one older still starts the record anew.
+    /// to `CLOCK_WENT_BACK`, is left out; one older still starts the record anew.
     pub fn add(&mut self, stamp: i64, x: f64, y: f64, yaw: f64) -> bool {
         if !(x.is_finite() && y.is_finite() && yaw.is_finite()) {
             return false;

@@ -1,5 +1,5 @@
 //! `gema2 map build`: a wall map from the scans of a log whose poses are true (a
-//! SLAM-corrected log), as [`mapio::build`] makes it. Evaluate on scans the map was not built
+//! SLAM-corrected log), as [`mapio::build()`] makes it. Evaluate on scans the map was not built
 //! from (`--every 2` here, `locate --every 2 --offset 1` there).
 
 use super::scans::{Source, SourceError};
@@ -133,7 +133,7 @@ pub fn run(a: BuildArgs) -> Result<()> {
     Ok(())
 }
 
-/// The map of `a`'s scans ([`mapio::build`]). Malformed laser lines are left out, added to
+/// The map of `a`'s scans ([`mapio::build()`]). Malformed laser lines are left out, added to
 /// `malformed`.
 pub fn build(a: &BuildArgs, malformed: &mut Malformed) -> Result<Built> {
     // before the first pass over the log, which may be long
