@@ -278,6 +278,13 @@ pub struct SequentialAnswer {
     pub track: Option<usize>,
 }
 
+impl SequentialAnswer {
+    /// The answer at track `k` of [`Sequential::tracks`], `track`: its pose, cost and scans.
+    fn rest_on(&mut self, k: usize, track: &Track) {
+        (self.pose, self.cost, self.scans, self.track) = (Some(track.pose), Some(track.cost), track.scans, Some(k));
+    }
+}
+
 /// The sequential localizer over a single-scan [`Localizer`].
 pub struct Sequential {
     pub localizer: Localizer,
@@ -885,7 +892,7 @@ impl Sequential {
             }
             return a;
         };
-        (a.pose, a.cost, a.scans, a.track) = (Some(best.pose), Some(best.cost), best.scans, Some(0));
+        a.rest_on(0, &best);
         let leads = self.lead() >= self.config.margin;
         // a track that turned up while others were held has not been through their scans: it
         // must outlive them for a while; one of a cold start, as its own search judged it, or
@@ -915,15 +922,15 @@ impl Sequential {
     /// holds on the scan and no track leads it by the margin
     /// ([`SequentialConfig::keep_to_the_last_ok`]).
     fn on_the_last_ok(&self, a: &mut SequentialAnswer) {
+        if !self.config.keep_to_the_last_ok || a.status != Status::Ambiguous {
+            return;
+        }
         let margin = self.config.margin;
         let held = self
             .last_ok
             .and_then(|id| self.tracks.iter().position(|t| t.id == id && t.misses == 0 && t.behind < margin));
-        if let Some(k) =
-            held.filter(|&k| self.config.keep_to_the_last_ok && a.status == Status::Ambiguous && a.track != Some(k))
-        {
-            let t = self.tracks[k];
-            (a.pose, a.cost, a.scans, a.track) = (Some(t.pose), Some(t.cost), t.scans, Some(k));
+        if let Some(k) = held.filter(|&k| a.track != Some(k)) {
+            a.rest_on(k, &self.tracks[k]);
         }
     }
 
@@ -967,11 +974,12 @@ impl Sequential {
         };
         let t = self.tracks[k];
         if self.meets_ok_bar(scan, &t) {
-            (a.pose, a.cost, a.scans, a.status, a.track) = (Some(t.pose), Some(t.cost), t.scans, Status::Ok, Some(k));
+            a.rest_on(k, &t);
+            a.status = Status::Ok;
         } else if a.cost.is_none() {
             // the best track missed: the place the scan is sure of, rather than where odometry
             // put the best
-            (a.pose, a.cost, a.scans, a.track) = (Some(t.pose), Some(t.cost), t.scans, Some(k));
+            a.rest_on(k, &t);
         }
     }
 }

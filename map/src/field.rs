@@ -270,10 +270,7 @@ impl DistanceField {
     /// Distance from `p` to the nearest wall, capped (and `cap` outside the field).
     #[inline]
     pub fn distance(&self, p: Point2<f64>) -> f64 {
-        match self.index(p) {
-            Some(i) => self.cells[i] as f64 * self.quantum,
-            None => self.cap,
-        }
+        self.distance_of(self.cell_of(p))
     }
 
     pub fn cap(&self) -> f64 {
