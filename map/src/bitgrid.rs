@@ -157,3 +157,59 @@ impl Flat for BitGrid {
         Ok(BitGrid { grid, bits })
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    /// What a point's cell is, by the letter: the floor of its offset in cells, on the grid.
+    fn cell_by_the_floor(
+        origin: Point2<f64>,
+        cell: f64,
+        (cols, rows): (usize, usize),
+        p: Point2<f64>,
+    ) -> Option<(usize, usize)> {
+        let (c, r) = (((p.x - origin.x) / cell).floor(), ((p.y - origin.y) / cell).floor());
+        (c >= 0.0 && r >= 0.0 && c < cols as f64 && r < rows as f64).then_some((c as usize, r as usize))
+    }
+
+    fn coordinate() -> impl Strategy<Value = f64> {
+        prop_oneof![
+            -50.0..150.0f64,
+            Just(f64::NAN),
+            Just(f64::INFINITY),
+            Just(f64::NEG_INFINITY),
+            Just(-0.0),
+            Just(1e300),
+            Just(-1e300),
+            Just(9.3e18),
+        ]
+    }
+
+    proptest! {
+        #[test]
+        fn a_point_lies_in_the_cell_its_floor_names(
+            ox in -10.0..10.0f64,
+            oy in -10.0..10.0f64,
+            cell in 0.01..2.0f64,
+            cols in 1usize..400,
+            rows in 1usize..400,
+            x in coordinate(),
+            y in coordinate(),
+        ) {
+            let origin = Point2::new(ox, oy);
+            let p = Point2::new(x, y);
+            prop_assert_eq!(cell_holding(origin, cell, (cols, rows), p), cell_by_the_floor(origin, cell, (cols, rows), p));
+        }
+    }
+
+    #[test]
+    fn a_point_on_a_cells_edge_lies_in_the_cell_it_starts() {
+        let origin = Point2::new(-1.0, -2.0);
+        assert_eq!(cell_holding(origin, 0.25, (10, 10), Point2::new(-1.0, -2.0)), Some((0, 0)));
+        assert_eq!(cell_holding(origin, 0.25, (10, 10), Point2::new(-0.5, -1.75)), Some((2, 1)));
+        assert_eq!(cell_holding(origin, 0.25, (10, 10), Point2::new(1.5, -2.0)), None);
+        assert_eq!(cell_holding(origin, 0.25, (10, 10), Point2::new(-1.0 - 1e-12, -2.0)), None);
+    }
+}

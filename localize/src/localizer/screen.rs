@@ -401,6 +401,39 @@ mod tests {
 
     proptest! {
         #![proptest_config(ProptestConfig::with_cases(64))]
+        /// A sum with a limit is the sum without one, or `None` where that reaches the limit:
+        /// the pooled bounds and the stop part way drop only poses the whole sum drops, and
+        /// leave a kept pose's sum as it is to the bit. On a thick-walled plan (closed sides)
+        /// and an open one, every other point on a long line.
+        #[test]
+        fn a_limit_only_drops_the_poses_it_should(
+            poses in proptest::collection::vec((0.0f64..12.0, -1.0f64..9.0, -3.2f64..3.2), 1..40),
+            points in proptest::collection::vec((-4.0f64..4.0, -4.0f64..4.0), 1..80),
+            share in 0.0f64..1.5,
+            thick in any::<bool>(),
+        ) {
+            let walls = map::bundled("apartment").unwrap().unwrap();
+            let walls = if thick { map::thick::thicken(&walls, 0.12) } else { walls };
+            let model = MapModel::new(walls, &map::MapCornerConfig::default());
+            let points: Vec<ScreenPoint> = points
+                .iter()
+                .enumerate()
+                .map(|(k, &(x, y))| ScreenPoint { at: Point2::new(x, y), on_long_line: k % 2 == 0 })
+                .collect();
+            let cfg = LocalizerConfig::default();
+            for screen in [Screen::new(&model, &cfg), Screen::new(&model, &cfg).without_bounds()] {
+                for &(x, y, t) in &poses {
+                    let pose = Pose::new(nalgebra::Vector2::new(x, y), t);
+                    let whole = screen.sum(&pose, &points, f64::INFINITY).unwrap();
+                    // limits about the whole sum, and the sum itself (reached: dropped)
+                    for limit in [whole * share, whole, whole * (1.0 + 1e-12), whole + 1.0] {
+                        let expected = (whole < limit).then_some(whole);
+                        prop_assert_eq!(screen.sum(&pose, &points, limit).map(f64::to_bits), expected.map(f64::to_bits));
+                    }
+                }
+            }
+        }
+
         /// The first screening pass keeps the same poses, with the same sums, whatever order it
         /// reads the points in: the order only decides how soon a pose is dropped.
         #[test]
