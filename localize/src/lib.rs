@@ -24,8 +24,8 @@ pub use cost::{Cost, CostConfig, CostKind};
 pub use gema2::{Gema2, Gema2Config};
 pub use grid::{GridConfig, FROM_GRID};
 pub use localizer::{
-    same_pose, FirstLook, Hypothesis, Judgement, Localization, Localizer, LocalizerConfig, LocateTimes, Ran, Status,
-    Step, TwinLook, CASCADE,
+    same_pose, FirstLook, Hypothesis, Judgement, Localization, Localizer, LocalizerConfig, LocateTimes, Probes, Ran,
+    Status, Step, TwinLook, CASCADE,
 };
 pub use map::model::{self, MapModel};
 pub use matching::pose_from_corners;

@@ -34,7 +34,7 @@
 //! the scan is located from scratch.
 
 use crate::cost::Cost;
-use crate::localizer::{same_pose, Localizer, Status};
+use crate::localizer::{same_pose, Localizer, Probes, Status};
 use crate::slide::SlideLine;
 use laser::motion::{motion, OdometryNoise};
 use laser::{angle_diff, pose_theta, Pose, ScanView};
@@ -85,17 +85,9 @@ pub struct SequentialConfig {
     /// points' worth of refinement's: below it the scan leaves a direction free (a corridor),
     /// along which only drifting odometry says where the robot is.
     pub min_constraint: f64,
-    /// The probes an `ok` answer must withstand ([`Sequential::withstands_probes`]): the pose
-    /// moved this far (metres) along the direction the scan pins down least and turned this far
-    /// (radians), each costing at least `probe_margin` more per beam by eq. 7 over about
-    /// `probe_beams` beams. `ok` promises 0.3 m and 5 degrees: the turn is probed at the
-    /// promise, the move at twice it (at 0.3 m and 0.45 m, right answers in corridors of
-    /// freiburg-101 and a furnished warehouse failed it; wrong ones as few failed it at 0.6 m).
-    /// 32 beams: at 64 the probes cost twice as much and caught fewer wrong answers.
-    pub probe_position: f64,
-    pub probe_heading: f64,
-    pub probe_margin: f64,
-    pub probe_beams: usize,
+    /// The probes an `ok` answer must withstand ([`Sequential::withstands_probes`]), a single
+    /// scan's as well ([`LocalizerConfig::ok_probes`](crate::LocalizerConfig::ok_probes)).
+    pub probes: Probes,
     /// A cold start's first scan is `ok` as the single-scan search judged it, or, where that
     /// search said `ambiguous`, when no distinct hypothesis of its comes within this much eq. 7
     /// cost per beam of the best. On a map built from a log a right pose sees through more of
@@ -209,10 +201,7 @@ impl Default for SequentialConfig {
             max_position_sides: 2,
             refined: 3,
             min_constraint: 12.0,
-            probe_position: 0.6,
-            probe_heading: 5f64.to_radians(),
-            probe_margin: 0.3,
-            probe_beams: 32,
+            probes: Probes::default(),
             lone_gap: 2.0,
             along_sigma: 0.2,
             second_look_sides: 1,
@@ -446,34 +435,16 @@ impl Sequential {
         answer
     }
 
-    /// Whether the scan tells `pose` from the poses at the edge of what `ok` promises: moved
-    /// [`SequentialConfig::probe_position`] either way along the direction the scan pins down
-    /// least, and turned [`SequentialConfig::probe_heading`] either way. Each must cost at least
-    /// [`SequentialConfig::probe_margin`] more than `pose` by eq. 7 over
-    /// [`SequentialConfig::probe_beams`] beams. A track can sit off the truth, held there by
-    /// odometry, where eq. 7 is flat (an aisle's length, a heading among clutter): then a pose
-    /// that would be wrong explains the scan as well, and the answer is `ambiguous`.
+    /// Whether the scan tells `pose` from the poses at the edge of what `ok` promises
+    /// ([`Localizer::withstands_probes`] with [`SequentialConfig::probes`]). A track can sit
+    /// off the truth, held there by odometry, where eq. 7 is flat (an aisle's length, a
+    /// heading among clutter): then a pose that would be wrong explains the scan as well, and
+    /// the answer is `ambiguous`.
     ///
     /// Reads the localizer's state for `scan`: call it after locating the scan.
     pub fn withstands_probes(&mut self, scan: &ScanView<'_>, pose: &Pose) -> bool {
         let (_, along) = self.localizer.weakest_direction(pose);
-        self.withstands_probes_along(scan, pose, along)
-    }
-
-    /// [`withstands_probes`](Self::withstands_probes) with the direction the scan pins down
-    /// least at `pose` known.
-    fn withstands_probes_along(&mut self, scan: &ScanView<'_>, pose: &Pose, along: nalgebra::Vector2<f64>) -> bool {
-        let cfg = self.config;
-        let (t, heading) = (pose.translation.vector, pose_theta(pose));
-        let probes = [
-            nalgebra::Isometry2::new(t + along * cfg.probe_position, heading),
-            nalgebra::Isometry2::new(t - along * cfg.probe_position, heading),
-            nalgebra::Isometry2::new(t, heading + cfg.probe_heading),
-            nalgebra::Isometry2::new(t, heading - cfg.probe_heading),
-        ];
-        let base = self.localizer.final_cost_below(scan, pose, f64::INFINITY, cfg.probe_beams).value;
-        let bar = base + cfg.probe_margin;
-        probes.iter().all(|p| self.localizer.final_cost_below(scan, p, bar, cfg.probe_beams).value >= bar)
+        self.localizer.withstands_probes(scan, pose, along, &self.config.probes)
     }
 
     /// Moves every track by the odometry's motion, searches for it across the motion's spread
@@ -956,7 +927,8 @@ impl Sequential {
             return false;
         }
         let (constraint, along) = self.localizer.weakest_direction(&track.pose);
-        constraint >= self.config.min_constraint && self.withstands_probes_along(scan, &track.pose, along)
+        constraint >= self.config.min_constraint
+            && self.localizer.withstands_probes(scan, &track.pose, along, &self.config.probes)
     }
 
     /// Makes `a` the held track at the pose this scan's single-scan search was `ok` on, if there

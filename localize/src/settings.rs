@@ -377,6 +377,20 @@ impl LocalizerConfig {
             min_constraint_ok_approximate
         ),
         SettingSpec {
+            key: "ok_probe_position",
+            range: Range::NonNegative,
+            meaning: "an ok pose must cost ok_probe_margin a beam less than itself moved this far either way along the direction the scan pins down least, or turned 5 degrees either way, metres (0: no probes)",
+            get: |c| c.ok_probes.position,
+            put: |c, v| c.ok_probes.position = v,
+        },
+        SettingSpec {
+            key: "ok_probe_margin",
+            range: Range::NonNegative,
+            meaning: "how much more a beam each probe of an ok pose must cost by eq. 7",
+            get: |c| c.ok_probes.margin,
+            put: |c, v| c.ok_probes.margin = v,
+        },
+        SettingSpec {
             key: "track",
             range: Range::NonNegative,
             meaning: "search only within this distance of the last pose, metres (0: always global)",

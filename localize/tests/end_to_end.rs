@@ -5,7 +5,7 @@ use laser::{pose, pose_theta, LaserScan, ScanGeometry};
 use localize::cost::cost;
 use localize::refine::{refine, RefineConfig};
 use localize::slide::SlideLine;
-use localize::{pose_from_corners, same_pose, CostConfig, Gema2, LocalizerConfig, MapModel, Status};
+use localize::{pose_from_corners, same_pose, CostConfig, Gema2, LocalizerConfig, MapModel, Probes, Status};
 use map::{MapCornerConfig, RayScratch, Wall, WallMap};
 use segment::{ErrorModel, LineVisibilitySegmenter, Segmentation, Segmenter, SegmenterConfig};
 use std::sync::Arc;
@@ -1130,4 +1130,42 @@ fn a_built_map_caps_what_each_search_keeps_for_the_coarse_cost() {
     assert_eq!(built_capped, on(&built, written_out), "the cap is not the budgets it caps");
     assert_ne!(built_capped, on(&built, uncapped), "a cap of 8 changed no answer: the test shows nothing");
     assert_eq!(on(&drawn, capped), on(&drawn, uncapped), "a drawn map's budgets were capped");
+}
+
+/// A single scan's `ok` withstands the probes a sequential `ok` must: the pose moved along the
+/// direction the scan pins down least, and turned, each costs clearly more. In a warehouse a
+/// scan down an aisle can rank one pose best with no rival within its misfit, yet explain
+/// itself about as well half a metre along; without the probes some `ok` answers there fail
+/// them, with them none does.
+#[test]
+fn a_single_scans_ok_withstands_the_probes() {
+    let map = worlds::warehouse(1);
+    for probing in [true, false] {
+        let mut config = LocalizerConfig::default();
+        if !probing {
+            config.ok_probes.position = 0.0;
+        }
+        let mut g = gema2(&map, config);
+        let mut sim = Simulator::new(&map, SensorModel::urg04lx(), Scenario::Clean, 3);
+        let (mut ok, mut unprobed) = (0, 0);
+        for _ in 0..120 {
+            let scan = sim.next_scan();
+            let (status, best) = {
+                let (_, loc) = g.process(&scan.view());
+                (loc.status, loc.hypotheses.first().map(|h| h.pose))
+            };
+            let Some(best) = best.filter(|_| status == Status::Ok) else { continue };
+            ok += 1;
+            let (_, along) = g.localizer.weakest_direction(&best);
+            if !g.localizer.withstands_probes(&scan.view(), &best, along, &Probes::default()) {
+                unprobed += 1;
+            }
+        }
+        assert!(ok >= 60, "{ok} ok of 120 scans");
+        if probing {
+            assert_eq!(unprobed, 0, "{unprobed} of {ok} ok answers fail the probes");
+        } else {
+            assert!(unprobed > 0, "no ok answer of {ok} fails the probes without them: the test shows nothing");
+        }
+    }
 }

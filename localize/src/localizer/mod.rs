@@ -28,7 +28,7 @@ mod ranking;
 mod screen;
 
 pub use cascade::{Ran, Step, StepSpec, When, CASCADE};
-pub use config::{FirstLook, LocalizerConfig, TwinLook};
+pub use config::{FirstLook, LocalizerConfig, Probes, TwinLook};
 pub use screen::same_pose;
 
 use crate::cost::{cost, cost_below, Cost, CostConfig};
@@ -117,7 +117,8 @@ pub struct LocateTimes {
     /// Coarse eq. 7 over the screened hypotheses.
     pub coarse: Duration,
     pub refine: Duration,
-    /// Full eq. 7 over the refined hypotheses.
+    /// Full eq. 7 over the refined hypotheses, and over the probes of an `ok` one
+    /// ([`LocalizerConfig::ok_probes`]).
     pub cost: Duration,
     /// The steps of the cascade that ran ([`CASCADE`]). Each step's time above is the sum
     /// over all the steps that ran.
@@ -506,6 +507,13 @@ impl Localizer {
         }
         if self.out.status == Status::Ok && self.too_weak_for_ok() {
             self.out.status = Status::Ambiguous;
+        }
+        if self.out.status == Status::Ok {
+            let probing = Instant::now();
+            if !self.best_withstands_probes(scan) {
+                self.out.status = Status::Ambiguous;
+            }
+            self.out.times.cost += probing.elapsed();
         }
         self.report();
         self.prior = match (self.config.track_radius, self.out.status, self.out.hypotheses.first()) {

@@ -3,12 +3,12 @@
 //! `ambiguous` when a distinct pose explains it about as well or the best sees through too
 //! many walls to be trusted, `failed` when no pose explains it.
 
-use super::{rival_gap, same_pose, Localizer, Status};
+use super::{rival_gap, same_pose, Localizer, Probes, Status};
 use crate::cost::Cost;
 use crate::model::MapModel;
 use crate::slide::FROM_SLIDE;
-use laser::{angle_diff, pose_theta, Pose};
-use nalgebra::Point2;
+use laser::{angle_diff, pose_theta, Pose, ScanView};
+use nalgebra::{Point2, Vector2};
 
 impl Localizer {
     /// Whether a distinct hypothesis as good as the best (within [`LocalizerConfig::cornerless_tie`])
@@ -49,6 +49,42 @@ impl Localizer {
     /// checks [`Localizer::locate`] makes once the cascade ends.
     pub(super) fn ok_after_the_slide(&self) -> bool {
         self.out.status == Status::Ok && !self.short_of_the_slides_bar() && !self.too_weak_for_ok()
+    }
+
+    /// Whether the best hypothesis withstands [`LocalizerConfig::ok_probes`] (true with none).
+    pub(super) fn best_withstands_probes(&mut self, scan: &ScanView<'_>) -> bool {
+        let Some(pose) = self.out.hypotheses.first().map(|h| h.pose) else { return true };
+        let probes = self.config.ok_probes;
+        if probes.position <= 0.0 {
+            return true;
+        }
+        let (_, along) = self.weakest_direction(&pose);
+        self.withstands_probes(scan, &pose, along, &probes)
+    }
+
+    /// Whether the scan tells `pose` from the poses at the edge of what `ok` promises
+    /// ([`Probes`]): moved either way along `along` (the direction the scan pins down least,
+    /// [`weakest_direction`](Self::weakest_direction)) and turned either way, each must cost
+    /// at least the margin more than `pose`. Where eq. 7 is flat (an aisle's length, a
+    /// heading among clutter) a pose that would be wrong explains the scan as well: an answer
+    /// there is `ambiguous`. Reads the state of the scan last located: call it after.
+    pub fn withstands_probes(
+        &mut self,
+        scan: &ScanView<'_>,
+        pose: &Pose,
+        along: Vector2<f64>,
+        probes: &Probes,
+    ) -> bool {
+        let (t, heading) = (pose.translation.vector, pose_theta(pose));
+        let moved = [
+            Pose::new(t + along * probes.position, heading),
+            Pose::new(t - along * probes.position, heading),
+            Pose::new(t, heading + probes.heading),
+            Pose::new(t, heading - probes.heading),
+        ];
+        let base = self.final_cost_below(scan, pose, f64::INFINITY, probes.beams).value;
+        let bar = base + probes.margin;
+        moved.iter().all(|p| self.final_cost_below(scan, p, bar, probes.beams).value >= bar)
     }
 
     /// Whether a distinct hypothesis costs less than [`LocalizerConfig::ambiguity_ratio`] of
