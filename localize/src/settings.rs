@@ -376,20 +376,20 @@ impl LocalizerConfig {
             "on a built map, the best pose is ambiguous unless the scan pins it down along every direction by this many points' worth (0: off)",
             min_constraint_ok_approximate
         ),
-        SettingSpec {
-            key: "ok_probe_position",
-            range: Range::NonNegative,
-            meaning: "an ok pose must cost ok_probe_margin a beam less than itself moved this far either way along the direction the scan pins down least, or turned 5 degrees either way, metres (0: no probes)",
-            get: |c| c.ok_probes.position,
-            put: |c, v| c.ok_probes.position = v,
-        },
-        SettingSpec {
-            key: "ok_probe_margin",
-            range: Range::NonNegative,
-            meaning: "how much more a beam each probe of an ok pose must cost by eq. 7",
-            get: |c| c.ok_probes.margin,
-            put: |c, v| c.ok_probes.margin = v,
-        },
+        setting!(
+            LocalizerConfig,
+            "ok_probe_position",
+            Range::NonNegative,
+            "an ok pose must cost ok_probe_margin a beam less than itself moved this far either way along the direction the scan pins down least, or turned 5 degrees either way, metres (0: no probes)",
+            ok_probes.position
+        ),
+        setting!(
+            LocalizerConfig,
+            "ok_probe_margin",
+            Range::NonNegative,
+            "how much more a beam each probe of an ok pose must cost by eq. 7",
+            ok_probes.margin
+        ),
         SettingSpec {
             key: "track",
             range: Range::NonNegative,
@@ -726,6 +726,17 @@ mod tests {
         assert_eq!(c.sequential.motion.alphas, [0.2, 0.03, 0.4, 0.05]);
         let row = plain.rows().into_iter().find(|r| r.key == "odom_alpha2").unwrap();
         assert_eq!((row.stage, row.default.as_str()), (SEQUENTIAL, "0.02"));
+    }
+
+    /// The single scan's probes are set by name, and 0 turns them off.
+    #[test]
+    fn the_ok_probes_are_set_by_name() {
+        let mut c = Gema2Config::default();
+        c.apply(&["ok_probe_position=0.4", "ok_probe_margin=0.2"]).unwrap();
+        assert_eq!((c.localizer.ok_probes.position, c.localizer.ok_probes.margin), (0.4, 0.2));
+        c.apply(&["ok_probe_position=0"]).unwrap();
+        assert_eq!(c.localizer.ok_probes.position, 0.0);
+        assert!(c.apply(&["ok_probe_margin=-1"]).is_err());
     }
 
     #[test]
