@@ -190,7 +190,7 @@ pub struct LocalizerConfig {
     /// yet explain the scan about as well half a metre either way. On the simulated suite
     /// (`gema2 evaluate`, 48 logs) they made 8 of the 14 wrong `ok` and 233 of the 9919 right
     /// ones `ambiguous` (the heading probes alone 2 wrong and 14 right); on the seven CARMEN
-    /// logs both ways 1 of 6 wrong and 35 of 3818 right. Success is the same: the answers are.
+    /// logs both ways 1 of 6 wrong and 55 of 3838 right. Success is the same: the answers are.
     pub ok_probes: Probes,
     /// A scan with at least this many returns lost on surfaces it sees on both sides
     /// ([`crate::cost::surface_dropouts`]) comes from a sensor that reads "no return" where a
@@ -409,24 +409,6 @@ impl LocalizerConfig {
     }
 }
 
-/// A first, cheaper search, as the paper's: the best scan corner (or few best) the map has
-/// corners like, fewer hypotheses screened and refined.
-///
-/// When its best pose is *confirmed* (at least `min_inliers` of the beams agree with the map
-/// and at most `max_through` see through its walls) the scan ends there, `ok` or `ambiguous`;
-/// otherwise the full search runs and its hypotheses are ranked together with the first
-/// look's. An ambiguous scan whose best pose is confirmed is a symmetric place (two identical
-/// rooms): the full search would find the same twins. On the clean office log this changed
-/// no scan's status, and on the other simulated logs success by at most one scan.
-///
-/// Seeing through walls is what tells a wrong pose: people and furniture only shorten beams,
-/// so a right pose in a furnished room has fewer inliers but still almost no beam through a
-/// wall. On the simulated logs, lowering `min_inliers` from 0.9 to 0.6 settled 2 % -> 50 % of
-/// furnished office scans and changed no scan's success. The full search exists for scans whose
-/// best corner is a box or a person: its pose sees through walls and is not confirmed. On a
-/// map built from scans a twin does not see through walls either, so there the first look
-/// does not run (see the cascade).
-///
 /// Probes of a pose ([`Localizer::withstands_probes`](super::Localizer::withstands_probes)):
 /// the pose moved `position` metres either way along the direction the scan pins down least,
 /// and turned `heading` radians either way, each costing at least `margin` more per beam by
@@ -449,6 +431,24 @@ impl Default for Probes {
     }
 }
 
+/// A first, cheaper search, as the paper's: the best scan corner (or few best) the map has
+/// corners like, fewer hypotheses screened and refined.
+///
+/// When its best pose is *confirmed* (at least `min_inliers` of the beams agree with the map
+/// and at most `max_through` see through its walls) the scan ends there, `ok` or `ambiguous`;
+/// otherwise the full search runs and its hypotheses are ranked together with the first
+/// look's. An ambiguous scan whose best pose is confirmed is a symmetric place (two identical
+/// rooms): the full search would find the same twins. On the clean office log this changed
+/// no scan's status, and on the other simulated logs success by at most one scan.
+///
+/// Seeing through walls is what tells a wrong pose: people and furniture only shorten beams,
+/// so a right pose in a furnished room has fewer inliers but still almost no beam through a
+/// wall. On the simulated logs, lowering `min_inliers` from 0.9 to 0.6 settled 2 % -> 50 % of
+/// furnished office scans and changed no scan's success. The full search exists for scans whose
+/// best corner is a box or a person: its pose sees through walls and is not confirmed. On a
+/// map built from scans a twin does not see through walls either, so there the first look
+/// does not run (see the cascade).
+///
 /// A confirmed pose the first look rates `ok` is only as sure as the twins it looked for: with
 /// one scan corner and two refined hypotheses it passes over a twin whose match to that corner
 /// screened poorly (the corner's pose a few centimetres and a degree off), or that only
