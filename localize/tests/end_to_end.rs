@@ -1159,6 +1159,13 @@ fn a_single_scans_ok_withstands_the_probes() {
             let (_, along) = g.localizer.weakest_direction(&best);
             if !g.localizer.withstands_probes(&scan.view(), &best, along, &Probes::default()) {
                 unprobed += 1;
+                // probes that probe nothing: every pose withstands them
+                assert!(g.localizer.withstands_probes(
+                    &scan.view(),
+                    &best,
+                    along,
+                    &Probes { position: 0.0, ..Probes::default() }
+                ));
             }
         }
         assert!(ok >= 60, "{ok} ok of 120 scans");

@@ -425,6 +425,14 @@ pub struct Probes {
     pub beams: usize,
 }
 
+impl Probes {
+    /// Whether these probes test nothing: a `position` of 0 (or less), which every pose
+    /// withstands.
+    pub fn probes_nothing(&self) -> bool {
+        self.position <= 0.0
+    }
+}
+
 impl Default for Probes {
     fn default() -> Self {
         Probes { position: 0.6, heading: 5f64.to_radians(), margin: 0.3, beams: 32 }

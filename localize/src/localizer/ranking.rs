@@ -55,7 +55,7 @@ impl Localizer {
     pub(super) fn best_withstands_probes(&mut self, scan: &ScanView<'_>) -> bool {
         let Some(pose) = self.out.hypotheses.first().map(|h| h.pose) else { return true };
         let probes = self.config.ok_probes;
-        if probes.position <= 0.0 {
+        if probes.probes_nothing() {
             return true;
         }
         let (_, along) = self.weakest_direction(&pose);
@@ -67,7 +67,8 @@ impl Localizer {
     /// [`weakest_direction`](Self::weakest_direction)) and turned either way, each must cost
     /// at least the margin more than `pose`. Where eq. 7 is flat (an aisle's length, a
     /// heading among clutter) a pose that would be wrong explains the scan as well: an answer
-    /// there is `ambiguous`. Reads the state of the scan last located: call it after.
+    /// there is `ambiguous`. Every pose withstands probes that probe nothing (a `position` of
+    /// 0). Reads the state of the scan last located: call it after.
     pub fn withstands_probes(
         &mut self,
         scan: &ScanView<'_>,
@@ -75,6 +76,9 @@ impl Localizer {
         along: Vector2<f64>,
         probes: &Probes,
     ) -> bool {
+        if probes.probes_nothing() {
+            return true;
+        }
         let (t, heading) = (pose.translation.vector, pose_theta(pose));
         let moved = [
             Pose::new(t + along * probes.position, heading),
